@@ -1,0 +1,171 @@
+"""The occupancy grid a user hands to jaco.
+
+Cells are ``(row, col)`` with row 0 at the top, as an image is shown; the flat index of a cell is
+``row * W + col`` (thesis eq. 3-1). Cells are unit squares: ``cell_size`` only scales the lengths
+jaco reports (the thesis uses 10). Maps read from ROS map_server files also carry ``resolution``
+(metres per cell) and ``origin`` (x, y, yaw of the lower-left corner of the lower-left cell), so
+cells convert to world coordinates and back.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .errors import MapFormatError, ProblemError
+
+FREE_TEXT = "."
+BLOCKED_TEXT = "#@"
+
+
+@dataclass(frozen=True, eq=False)
+class Grid:
+    """A 2-D occupancy grid: ``free[row, col]`` is True where a robot may stand."""
+
+    free: np.ndarray
+    name: str = "grid"
+    cell_size: float = 1.0
+    resolution: float | None = None
+    origin: tuple[float, float, float] | None = None
+    meta: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        free = np.asarray(self.free)
+        if free.ndim != 2:
+            raise ProblemError(f"a grid needs a 2-D free mask, got shape {free.shape}")
+        if free.shape[0] < 1 or free.shape[1] < 1:
+            raise ProblemError(f"a grid needs at least one cell, got shape {free.shape}")
+        if free.dtype != np.bool_:
+            if free.dtype.kind not in "biu" or not np.isin(free, (0, 1)).all():
+                raise ProblemError(
+                    f"the free mask must be boolean (or 0/1 integers), got dtype {free.dtype}"
+                )
+            free = free.astype(bool)
+        if not np.isfinite(self.cell_size) or self.cell_size <= 0:
+            raise ProblemError(f"cell_size must be a positive number, got {self.cell_size}")
+        free = np.ascontiguousarray(free)
+        free.setflags(write=False)
+        object.__setattr__(self, "free", free)
+
+    # -- constructors ------------------------------------------------------------------------
+    @classmethod
+    def from_array(cls, free, **meta) -> "Grid":
+        """A grid from a boolean mask ``(H, W)``, True = free."""
+        return cls(np.asarray(free), **meta)
+
+    @classmethod
+    def from_rows(cls, rows, **meta) -> "Grid":
+        """A grid from text rows: ``.`` free, ``#`` or ``@`` blocked. All rows must be equally long."""
+        if isinstance(rows, str):
+            rows = [r for r in rows.strip("\n").splitlines()]
+        rows = [r.rstrip("\r") for r in rows]
+        if not rows:
+            raise MapFormatError("a text map needs at least one row")
+        width = len(rows[0])
+        for i, r in enumerate(rows):
+            if len(r) != width:
+                raise MapFormatError(f"row {i} has {len(r)} cells, row 0 has {width}")
+            bad = set(r) - set(FREE_TEXT + BLOCKED_TEXT)
+            if bad:
+                raise MapFormatError(
+                    f"unknown map symbol {sorted(bad)[0]!r} in row {i}; use '.' (free) or '#'/'@' (blocked)"
+                )
+        free = np.array([[ch == FREE_TEXT for ch in r] for r in rows], dtype=bool)
+        return cls(free, **meta)
+
+    # -- shape and indexing ------------------------------------------------------------------
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.free.shape
+
+    @property
+    def height(self) -> int:
+        return self.free.shape[0]
+
+    @property
+    def width(self) -> int:
+        return self.free.shape[1]
+
+    @property
+    def n_cells(self) -> int:
+        return self.free.size
+
+    @property
+    def n_free(self) -> int:
+        return int(self.free.sum())
+
+    def index(self, cell) -> int:
+        """Flat index ``row * W + col`` of a ``(row, col)`` cell."""
+        r, c = cell
+        return int(r) * self.width + int(c)
+
+    def cell(self, index: int) -> tuple[int, int]:
+        """``(row, col)`` of a flat index."""
+        return divmod(int(index), self.width)
+
+    def in_bounds(self, cell) -> bool:
+        r, c = cell
+        return 0 <= r < self.height and 0 <= c < self.width
+
+    def is_free(self, cell) -> bool:
+        return self.in_bounds(cell) and bool(self.free[cell[0], cell[1]])
+
+    def clearance(self) -> np.ndarray:
+        """Distance ``(H, W)`` from each cell centre to the nearest blocked cell centre, in cells.
+
+        The outside of the map counts as blocked (a robot cannot leave it), so a cell on the border
+        has clearance at most 1; blocked cells have 0. Computed once per grid and cached.
+        """
+        cached = self.meta.get("_clearance")
+        if cached is None:
+            from scipy.ndimage import distance_transform_edt
+
+            padded = np.pad(self.free, 1, constant_values=False)
+            cached = distance_transform_edt(padded)[1:-1, 1:-1].astype(np.float32)
+            cached.setflags(write=False)
+            self.meta["_clearance"] = cached
+        return cached
+
+    def to_rows(self) -> list[str]:
+        """The grid as text rows (``.`` free, ``@`` blocked)."""
+        return ["".join("." if f else "@" for f in row) for row in self.free]
+
+    def replace(self, **changes) -> "Grid":
+        return replace(self, **changes)
+
+    # -- world coordinates (ROS maps) ----------------------------------------------------------
+    def _frame(self):
+        if self.resolution is None:
+            raise ProblemError(
+                f"grid {self.name!r} has no resolution/origin: world coordinates need a ROS map"
+            )
+        ox, oy, yaw = self.origin if self.origin is not None else (0.0, 0.0, 0.0)
+        return float(self.resolution), float(ox), float(oy), float(yaw)
+
+    def cell_to_world(self, cells) -> np.ndarray:
+        """World ``(x, y)`` in metres of cell centres; ``cells`` is ``(row, col)`` or ``(K, 2)``.
+
+        Row 0 is the top of the image, i.e. the largest y, as map_server reads the image.
+        """
+        res, ox, oy, yaw = self._frame()
+        rc = np.asarray(cells, dtype=float)
+        r, c = rc[..., 0], rc[..., 1]
+        lx = (c + 0.5) * res
+        ly = (self.height - 1 - r + 0.5) * res
+        cs, sn = np.cos(yaw), np.sin(yaw)
+        return np.stack([ox + cs * lx - sn * ly, oy + sn * lx + cs * ly], axis=-1)
+
+    def world_to_cell(self, xy) -> np.ndarray:
+        """The ``(row, col)`` cell containing world point(s) ``(x, y)``; may be out of bounds."""
+        res, ox, oy, yaw = self._frame()
+        p = np.asarray(xy, dtype=float)
+        dx, dy = p[..., 0] - ox, p[..., 1] - oy
+        cs, sn = np.cos(yaw), np.sin(yaw)
+        lx, ly = cs * dx + sn * dy, -sn * dx + cs * dy
+        col = np.floor(lx / res).astype(int)
+        row = self.height - 1 - np.floor(ly / res).astype(int)
+        return np.stack([row, col], axis=-1)
+
+    def __repr__(self) -> str:
+        return f"Grid({self.name!r}, {self.height}x{self.width}, {self.n_free} free)"

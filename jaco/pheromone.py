@@ -1,0 +1,244 @@
+"""Pheromone rules as ``(init, update)`` pairs of pure functions, combined by :func:`chain`
+(DESIGN.md concept 3, in the manner of optax's gradient transformations).
+
+The pheromone is a flat vector ``tau`` of ``M`` elements: one per cell (``M = N``, the thesis's
+"node pheromone") or one per move (``M = 8N``, τ_ij of classic ACO). The engine turns every
+ant's steps into element indices (``Walks.targets``), so no piece below needs to know which.
+Padding steps point at index ``M`` and are dropped by the scatters.
+
+A piece's ``init(trail, problem, params)`` and ``update(trail, walks, problem, params)`` both
+return a new :class:`Trail`; ``chain`` threads the trail through its pieces in order. MMAS, for
+example, is ``chain(init_mmas(), evaporate(), deposit_iteration_best(), mmas_bounds(), clamp())``.
+"""
+
+from __future__ import annotations
+
+from typing import Callable, NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+
+class Trail(NamedTuple):
+    """Pheromone ``tau (M,)`` and its current bounds (``lo = 0``, ``hi = inf`` when unbounded)."""
+
+    tau: jax.Array
+    lo: jax.Array
+    hi: jax.Array
+
+
+class Walks(NamedTuple):
+    """What one iteration's colony did, step-major ``(S, A)``, plus the best-so-far path.
+
+    ``targets[t, a]``: pheromone element of ant a's step t (``M`` where it took no step);
+    ``step_len``: that step's length (0 where none); ``cost[a]``: the ant's cost (inf if it
+    failed); ``best_*``: the best-so-far ant (including this iteration), ``best_cost`` inf
+    while no ant has succeeded.
+    """
+
+    targets: jax.Array
+    step_len: jax.Array
+    cost: jax.Array
+    best_targets: jax.Array
+    best_step_len: jax.Array
+    best_cost: jax.Array
+
+
+class Rule(NamedTuple):
+    init: Callable
+    update: Callable
+
+
+def _keep_init(trail, problem, params):
+    return trail
+
+
+def _keep_update(trail, walks, problem, params):
+    return trail
+
+
+def chain(*rules: Rule) -> Rule:
+    """Apply rules one after the other, at initialisation and at every update."""
+
+    def init(trail, problem, params):
+        for r in rules:
+            trail = r.init(trail, problem, params)
+        return trail
+
+    def update(trail, walks, problem, params):
+        for r in rules:
+            trail = r.update(trail, walks, problem, params)
+        return trail
+
+    return Rule(init, update)
+
+
+def inverse(cost):
+    """1/cost for finite positive costs, 0 otherwise (failed ants and empty paths deposit nothing)."""
+    ok = jnp.isfinite(cost) & (cost > 0)
+    return jnp.where(ok, 1.0 / jnp.where(ok, cost, 1.0), 0.0)
+
+
+def _scatter_add(tau, targets, amounts):
+    return tau.at[targets.ravel()].add(amounts.ravel(), mode="drop")
+
+
+def _on_path(tau, targets):
+    """Mask ``(M,)`` of the elements a path uses."""
+    return jnp.zeros(tau.shape, bool).at[targets.ravel()].set(True, mode="drop")
+
+
+def octile(problem) -> jax.Array:
+    """Octile distance start→goal: the obstacle-free lower bound of the path length."""
+    d = jnp.abs(problem.xy[problem.start] - problem.xy[problem.goal])
+    return jnp.max(d) + (jnp.sqrt(2.0) - 1.0) * jnp.min(d)
+
+
+# -- initialisation ------------------------------------------------------------------------
+def init_constant() -> Rule:
+    """τ = τ0 everywhere, unbounded."""
+
+    def init(trail, problem, params):
+        return trail._replace(tau=jnp.full_like(trail.tau, params.tau0))
+
+    return Rule(init, _keep_update)
+
+
+def init_mmas() -> Rule:
+    """τ = τmax = Q/(ρ·L0) with L0 the octile start-goal distance (Stützle & Hoos 2000)."""
+
+    def init(trail, problem, params):
+        hi = params.q / (params.rho * jnp.maximum(octile(problem), 1.0))
+        return Trail(jnp.full_like(trail.tau, hi), hi * 0.0, hi)
+
+    return Rule(init, _keep_update)
+
+
+# -- evaporation and deposits --------------------------------------------------------------
+def evaporate() -> Rule:
+    """τ ← (1−ρ)τ on every element (thesis eq. 2-2; ρ is the evaporation rate)."""
+
+    def update(trail, walks, problem, params):
+        return trail._replace(tau=(1.0 - params.rho) * trail.tau)
+
+    return Rule(_keep_init, update)
+
+
+def deposit_all(amount: Callable) -> Rule:
+    """Every successful ant deposits ``amount(walks, params) (S, A)`` on each element it used."""
+
+    def update(trail, walks, problem, params):
+        return trail._replace(tau=_scatter_add(trail.tau, walks.targets, amount(walks, params)))
+
+    return Rule(_keep_init, update)
+
+
+def ant_cycle(walks, params):
+    """Δτ^k = Q/L_k on every step of ant k (thesis eq. 2-6)."""
+    return jnp.broadcast_to(params.q * inverse(walks.cost)[None, :], walks.targets.shape)
+
+
+def ant_density(walks, params):
+    """Δτ^k = Q on every step of a successful ant (thesis eq. 2-4)."""
+    per_ant = jnp.where(jnp.isfinite(walks.cost), params.q, 0.0)
+    return jnp.broadcast_to(per_ant[None, :], walks.targets.shape)
+
+
+def ant_quantity(walks, params):
+    """Δτ^k = Q/d_ij on every step of a successful ant (thesis eqs. 2-5, 4-4)."""
+    ok = jnp.isfinite(walks.cost)[None, :] & (walks.step_len > 0)
+    return jnp.where(ok, params.q / jnp.where(ok, walks.step_len, 1.0), 0.0)
+
+
+def deposit_best_so_far(weight: Callable = lambda params: 1.0) -> Rule:
+    """The best-so-far ant deposits ``weight(params)·Q/L*`` (elitist AS: weight σ, eq. 2-11..2-13)."""
+
+    def update(trail, walks, problem, params):
+        amount = weight(params) * params.q * inverse(walks.best_cost)
+        amounts = jnp.broadcast_to(amount, walks.best_targets.shape)
+        return trail._replace(tau=_scatter_add(trail.tau, walks.best_targets, amounts))
+
+    return Rule(_keep_init, update)
+
+
+def deposit_iteration_best() -> Rule:
+    """The iteration-best ant deposits Q/L_ib (MMAS, thesis eq. 2-17)."""
+
+    def update(trail, walks, problem, params):
+        b = jnp.argmin(walks.cost)
+        amount = params.q * inverse(walks.cost[b]) * jnp.ones_like(walks.step_len[:, b])
+        return trail._replace(tau=_scatter_add(trail.tau, walks.targets[:, b], amount))
+
+    return Rule(_keep_init, update)
+
+
+def deposit_ranked() -> Rule:
+    """Rank-based AS (Bullnheimer, Hartl & Strauss 1997): the r-th best of the w−1 best ants
+    deposits (w−r)·Q/L_r; the best-so-far deposits w·Q/L*. ``w`` is a traced float."""
+
+    def update(trail, walks, problem, params):
+        rank = jnp.argsort(jnp.argsort(walks.cost)) + 1  # 1 = best; failed ants sort last
+        per_ant = jnp.maximum(params.w - rank, 0.0) * params.q * inverse(walks.cost)
+        tau = _scatter_add(trail.tau, walks.targets, jnp.broadcast_to(per_ant[None, :], walks.targets.shape))
+        best = params.w * params.q * inverse(walks.best_cost)
+        tau = _scatter_add(tau, walks.best_targets, jnp.broadcast_to(best, walks.best_targets.shape))
+        return trail._replace(tau=tau)
+
+    return Rule(_keep_init, update)
+
+
+# -- ACS -------------------------------------------------------------------------------------
+def acs_local() -> Rule:
+    """ACS local update τ ← (1−ξ)τ + ξτ0 on every step of every ant (thesis eq. 2-16).
+
+    Ants walk in parallel here, so the updates of one iteration are applied together after the
+    walks: an element used k times becomes τ0 + (1−ξ)^k (τ−τ0), exactly what k sequential
+    updates give (each is a contraction toward τ0, so their order does not matter). What is
+    lost is only that an ant does not see the local updates of ants of its own iteration.
+    """
+
+    def update(trail, walks, problem, params):
+        k = jnp.zeros_like(trail.tau).at[walks.targets.ravel()].add(1.0, mode="drop")
+        decay = jnp.power(1.0 - params.xi, k)
+        return trail._replace(tau=params.tau0 + decay * (trail.tau - params.tau0))
+
+    return Rule(_keep_init, update)
+
+
+def acs_global() -> Rule:
+    """ACS global update on the global-best path only: τ ← (1−ρ)τ + ρ·Q/L_gb (thesis eq. 2-15)."""
+
+    def update(trail, walks, problem, params):
+        on = _on_path(trail.tau, walks.best_targets) & jnp.isfinite(walks.best_cost)
+        new = (1.0 - params.rho) * trail.tau + params.rho * params.q * inverse(walks.best_cost)
+        return trail._replace(tau=jnp.where(on, new, trail.tau))
+
+    return Rule(_keep_init, update)
+
+
+# -- bounds ----------------------------------------------------------------------------------
+def mmas_bounds() -> Rule:
+    """MMAS bounds from the best-so-far cost (Stützle & Hoos 2000, eqs. 11 and 13):
+    τmax = Q/(ρ·L_gb); τmin = τmax·(1 − p^(1/n)) / ((avg − 1)·p^(1/n)), n the number of steps
+    of the best path and avg the mean number of choices per decision (half the mean degree)."""
+
+    def update(trail, walks, problem, params):
+        found = jnp.isfinite(walks.best_cost)
+        hi = jnp.where(found, params.q * inverse(walks.best_cost) / params.rho, trail.hi)
+        n = jnp.maximum(jnp.sum(walks.best_step_len > 0), 1)
+        degree = jnp.sum(problem.nbr >= 0) / jnp.maximum(jnp.sum(jnp.any(problem.nbr >= 0, axis=1)), 1)
+        avg = jnp.maximum(degree / 2.0, 1.5)
+        root = jnp.power(params.p_best, 1.0 / n)
+        lo = jnp.minimum(hi * (1.0 - root) / ((avg - 1.0) * root), hi)
+        return Trail(trail.tau, jnp.where(found, lo, trail.lo), hi)
+
+    return Rule(_keep_init, update)
+
+
+def clamp() -> Rule:
+    """τ ← clip(τ, τmin, τmax)."""
+
+    def update(trail, walks, problem, params):
+        return trail._replace(tau=jnp.clip(trail.tau, trail.lo, trail.hi))
+
+    return Rule(_keep_init, update)

@@ -1,0 +1,353 @@
+"""The colony loop (DESIGN.md concept 5): ``make_run(variant, ...) -> run(key, problem, params)``.
+
+Iterations are a ``lax.scan``; the ants of an iteration walk together (vectorised over the ant
+axis, see :mod:`jaco.construct`); a sweep is ``jit(vmap(run))``. The key is always the first
+argument and is never stored in state, so the same key gives the same result bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .construct import pad_steps, walk
+from .errors import JacoError
+from .grid import Grid
+from .params import Params, check_values
+from .pheromone import Trail, Walks
+from .problem import Problem, make_problem
+from .variants import DEAD_END_POLICIES, Variant, get_variant
+
+
+class History(NamedTuple):
+    """Per iteration: best-so-far cost, the iteration's best and mean cost over successful ants
+    (inf when none succeeded) and its success rate."""
+
+    best: jax.Array
+    iteration_best: jax.Array
+    mean: jax.Array
+    success_rate: jax.Array
+
+
+class RunOutput(NamedTuple):
+    """Raw arrays of one run (or, under vmap, of a batch of runs)."""
+
+    best_cells: jax.Array  # (S,) cells entered by the best ant, -1 padded
+    best_cost: jax.Array
+    best_length: jax.Array
+    best_iteration: jax.Array  # -1 while no ant succeeded
+    history: History
+    coverage: jax.Array  # share of free cells visited by any ant
+    tau: jax.Array | None
+
+
+class _Best(NamedTuple):
+    cells: jax.Array
+    targets: jax.Array
+    step_len: jax.Array
+    cost: jax.Array
+    length: jax.Array
+    iteration: jax.Array
+
+
+def _move_weights(variant: Variant, trail: Trail, problem: Problem, params: Params, t, n_iters):
+    """W = τ^α η^β per move (N, 8), exactly 0 where the map forbids the move and in
+    [1e-30, 1e30] elsewhere, so the roulette never divides by zero or overflows."""
+    n = problem.nbr.shape[0]
+    valid = problem.nbr >= 0
+    if variant.pheromone_on == "cells":
+        tau = trail.tau[jnp.where(valid, problem.nbr, 0)]
+    else:
+        tau = trail.tau.reshape(n, 8)
+    eta = variant.heuristic(problem, params, t, n_iters)
+    w = jnp.power(tau, params.alpha) * jnp.power(eta, params.beta)
+    w = jnp.clip(jnp.nan_to_num(w, nan=1e-30, posinf=1e30), 1e-30, 1e30)
+    return jnp.where(valid, w, 0.0)
+
+
+def _targets(variant: Variant, tours, problem: Problem):
+    """Pheromone element of every step: the entered cell (cells) or ``from*8 + move`` (moves);
+    ``M`` (out of range, dropped by scatters) where no step was taken."""
+    n = problem.nbr.shape[0]
+    if variant.pheromone_on == "cells":
+        return jnp.where(tours.cells >= 0, tours.cells, n)
+    prev = jnp.concatenate(
+        [jnp.broadcast_to(problem.start, tours.cells[:1].shape), tours.cells[:-1]], axis=0
+    )
+    return jnp.where(tours.moves >= 0, prev * 8 + tours.moves, 8 * n)
+
+
+def make_run(variant, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromone: bool = False):
+    """Build ``run(key, problem, params) -> RunOutput`` for fixed shapes (not jitted here)."""
+    variant = get_variant(variant)
+    if variant.dead_end not in DEAD_END_POLICIES:
+        raise JacoError(f"dead-end policy {variant.dead_end!r} unknown; have {DEAD_END_POLICIES}")
+    s_pad = pad_steps(steplimit)
+    exploit = variant.transition == "pseudo-random"
+
+    def run(key, problem: Problem, params: Params) -> RunOutput:
+        n = problem.nbr.shape[0]
+        size = n if variant.pheromone_on == "cells" else 8 * n
+        trail = variant.rule.init(
+            Trail(jnp.zeros(size, jnp.float32), jnp.float32(0.0), jnp.float32(jnp.inf)), problem, params
+        )
+        best = _Best(
+            cells=jnp.full((s_pad,), -1, jnp.int32),
+            targets=jnp.full((s_pad,), size, jnp.int32),
+            step_len=jnp.zeros((s_pad,), jnp.float32),
+            cost=jnp.float32(jnp.inf),
+            length=jnp.float32(jnp.inf),
+            iteration=jnp.int32(-1),
+        )
+        # The trivial query: an ant standing on the goal has arrived with an empty path.
+        best = jax.tree.map(
+            lambda b, z: jnp.where(problem.start == problem.goal, z, b),
+            best,
+            best._replace(cost=jnp.float32(0.0), length=jnp.float32(0.0), iteration=jnp.int32(0)),
+        )
+
+        def iteration(carry, xs):
+            trail, best, seen = carry
+            key_t, t = xs
+            p = variant.schedule(params, t, n_iters)
+            weights = _move_weights(variant, trail, problem, p, t, n_iters)
+            u = jax.random.uniform(key_t, (s_pad, n_ants), jnp.float32)
+            tours = walk(problem, weights, u, p.q0, steplimit=steplimit, exploit=exploit)
+            cost = jnp.where(tours.arrived, variant.cost(tours, problem, p), jnp.inf)
+            targets = _targets(variant, tours, problem)
+            b = jnp.argmin(cost)
+            better = cost[b] < best.cost
+            candidate = _Best(tours.cells[:, b], targets[:, b], tours.step_len[:, b], cost[b], tours.length[b], t)
+            best = jax.tree.map(lambda new, old: jnp.where(better, new, old), candidate, best)
+            walks = Walks(targets, tours.step_len, cost, best.targets, best.step_len, best.cost)
+            trail = variant.rule.update(trail, walks, problem, p)
+            ok = jnp.isfinite(cost)
+            count = jnp.sum(ok)
+            mean = jnp.where(count > 0, jnp.sum(jnp.where(ok, cost, 0.0)) / jnp.maximum(count, 1), jnp.inf)
+            hist = History(best.cost, cost[b], mean, count / n_ants)
+            return (trail, best, seen | tours.visited), hist
+
+        seen = jnp.zeros((n,), bool)
+        xs = (jax.random.split(key, n_iters), jnp.arange(n_iters, dtype=jnp.int32))
+        (trail, best, seen), history = jax.lax.scan(iteration, (trail, best, seen), xs)
+        n_free = jnp.maximum(jnp.sum(problem.clearance > 0), 1)
+        return RunOutput(
+            best_cells=best.cells,
+            best_cost=best.cost,
+            best_length=best.length,
+            best_iteration=best.iteration,
+            history=history,
+            coverage=jnp.sum(seen & (problem.clearance > 0)) / n_free,
+            tau=trail.tau if keep_pheromone else None,
+        )
+
+    return run
+
+
+# -- compiled runs, cached so repeated calls of one shape never recompile -------------------
+_COMPILED: dict = {}
+
+
+def compiled_run(variant: Variant, n_ants: int, n_iters: int, steplimit: int, keep_pheromone: bool, batched: bool):
+    """The jitted run for these static choices (cached by variant identity and shapes).
+
+    ``batched``: ``run(keys (B,), problems (P, ...), params (B,))`` vmapped over configurations
+    × seeds (inner) and problems (outer) -> outputs ``(P, B, ...)``.
+    """
+    cache_key = (id(variant), n_ants, n_iters, steplimit, keep_pheromone, batched)
+    hit = _COMPILED.get(cache_key)
+    if hit is None:
+        run = make_run(variant, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, keep_pheromone=keep_pheromone)
+        if batched:
+            run = jax.vmap(jax.vmap(run, in_axes=(0, None, 0)), in_axes=(None, 0, None))
+        hit = (variant, jax.jit(run))  # keep the variant alive so its id is not reused
+        _COMPILED[cache_key] = hit
+    return hit[1]
+
+
+def default_steplimit(grid: Grid) -> int:
+    """Step limit when none is given: 4·(H + W), at most the number of free cells (a walk
+    with a tabu list can never be longer)."""
+    return int(max(1, min(4 * (grid.height + grid.width), grid.n_free)))
+
+
+def check_sizes(n_ants, n_iters, steplimit):
+    for name, v in (("n_ants", n_ants), ("n_iters", n_iters), ("steplimit", steplimit)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+            raise JacoError(f"{name} must be a positive integer, got {v!r}")
+
+
+def resolve_params(variant: Variant, values: dict, *, where: str) -> dict:
+    """Validated parameter values (numpy float arrays) over the variant's defaults."""
+    merged = {k: np.asarray(v, np.float64) for k, v in variant.default_params().to_dict().items()}
+    merged.update(check_values(values, variant.params, where))
+    return merged
+
+
+def params_from(values: dict, shape=()) -> Params:
+    return Params(**{k: np.broadcast_to(np.float32(v), shape) for k, v in values.items()})
+
+
+# -- results ------------------------------------------------------------------------------
+@dataclass
+class Result:
+    """The outcome of one run: the best path and how the colony got there.
+
+    ``path`` is a ``(K, 2)`` array of ``(row, col)`` (empty when no ant reached the goal);
+    ``length`` and ``optimal`` are in cell units times the grid's ``cell_size``; ``cost`` is the
+    variant's objective (the length in cell units unless the variant says otherwise).
+    """
+
+    variant: str
+    path: np.ndarray
+    length: float
+    success: bool
+    cost: float
+    optimal: float
+    gap: float
+    best_iteration: int
+    history: dict
+    coverage: float
+    seed: int
+    params: dict
+    n_ants: int
+    n_iters: int
+    steplimit: int
+    start: tuple
+    goal: tuple
+    grid: Grid | None = field(default=None, repr=False)
+    pheromone: np.ndarray | None = field(default=None, repr=False)
+
+    def metrics(self) -> dict:
+        """Length, turns, heading change, clearance, safety cost, any-angle length, gap."""
+        from .metrics import path_metrics
+
+        if not self.success:
+            return {"length": math.inf, "valid": False}
+        return path_metrics(self.grid, self.path, optimal=self.optimal)
+
+    def to_dict(self) -> dict:
+        """JSON-ready dict (no numpy types; inf written as None where JSON has no inf)."""
+
+        def num(x):
+            x = float(x)
+            return x if math.isfinite(x) else None
+
+        return {
+            "variant": self.variant,
+            "path": self.path.tolist(),
+            "length": num(self.length),
+            "success": bool(self.success),
+            "cost": num(self.cost),
+            "optimal": num(self.optimal),
+            "gap": num(self.gap),
+            "best_iteration": int(self.best_iteration),
+            "coverage": float(self.coverage),
+            "seed": int(self.seed),
+            "params": {k: float(v) for k, v in self.params.items()},
+            "n_ants": self.n_ants,
+            "n_iters": self.n_iters,
+            "steplimit": self.steplimit,
+            "start": list(self.start),
+            "goal": list(self.goal),
+            "map": None if self.grid is None else self.grid.name,
+            "history": {k: [num(x) for x in v] for k, v in self.history.items()},
+        }
+
+
+def path_cells(grid: Grid, start, best_cells) -> np.ndarray:
+    """``(K, 2)`` path from the start cell and the best ant's entered cells."""
+    cells = np.asarray(best_cells)
+    flat = np.concatenate([[grid.index(start)], cells[cells >= 0]])
+    return np.stack(np.divmod(flat, grid.width), axis=1).astype(np.int64)
+
+
+def gap(length, optimal) -> float:
+    if not math.isfinite(length):
+        return math.inf
+    return 0.0 if optimal == 0 else (length - optimal) / optimal
+
+
+def to_result(out, *, grid, variant, start, goal, optimal, seed, params, n_ants, n_iters, steplimit) -> Result:
+    """Convert one (unbatched) :class:`RunOutput` to a :class:`Result`."""
+    success = bool(np.isfinite(out.best_cost))
+    length = float(out.best_length) * grid.cell_size if success else math.inf
+    opt = float(optimal) * grid.cell_size
+    return Result(
+        variant=variant.name,
+        path=path_cells(grid, start, out.best_cells) if success else np.empty((0, 2), np.int64),
+        length=length,
+        success=success,
+        cost=float(out.best_cost),
+        optimal=opt,
+        gap=gap(length, opt),
+        best_iteration=int(out.best_iteration),
+        history={k: np.asarray(v) for k, v in out.history._asdict().items()},
+        coverage=float(out.coverage),
+        seed=int(seed),
+        params={k: float(params[k]) for k in variant.params},
+        n_ants=n_ants,
+        n_iters=n_iters,
+        steplimit=steplimit,
+        start=tuple(int(v) for v in start),
+        goal=tuple(int(v) for v in goal),
+        grid=grid,
+        pheromone=None if out.tau is None else np.asarray(out.tau),
+    )
+
+
+def solve(
+    grid: Grid,
+    start,
+    goal,
+    variant="mmas",
+    *,
+    seed: int = 0,
+    n_ants: int = 50,
+    n_iters: int = 100,
+    steplimit: int | None = None,
+    connectivity: int = 8,
+    keep_pheromone: bool = False,
+    **params,
+) -> Result:
+    """Plan a path from ``start`` to ``goal`` (``(row, col)`` cells) with one ACO variant.
+
+    Everything is validated before anything compiles: the map, start and goal (and that the goal
+    is reachable), the sizes, and every parameter (unknown names list the valid ones).
+
+    >>> import jaco
+    >>> grid = jaco.Grid.from_rows(["....", ".##.", "...."])
+    >>> r = jaco.solve(grid, (0, 0), (2, 3), "mmas", seed=1, n_ants=8, n_iters=5)
+    >>> r.success, round(r.length, 3), round(r.optimal, 3)
+    (True, 3.828, 3.828)
+    """
+    variant = get_variant(variant)
+    steplimit = default_steplimit(grid) if steplimit is None else steplimit
+    check_sizes(n_ants, n_iters, steplimit)
+    if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool):
+        raise JacoError(f"seed must be an integer, got {seed!r}")
+    values = resolve_params(variant, params, where=f"variant {variant.name!r}")
+    for k, v in values.items():
+        if v.ndim:
+            raise JacoError(f"solve takes one value per parameter; {k!r} has {v.size} (use jaco.sweep)")
+    problem = make_problem(grid, start, goal, connectivity=connectivity)
+    run = compiled_run(variant, n_ants, n_iters, steplimit, keep_pheromone, batched=False)
+    out = run(jax.random.key(seed), problem, params_from(values))
+    return to_result(
+        jax.device_get(out),
+        grid=grid,
+        variant=variant,
+        start=start,
+        goal=goal,
+        optimal=problem.optimal,
+        seed=seed,
+        params=values,
+        n_ants=n_ants,
+        n_iters=n_iters,
+        steplimit=steplimit,
+    )

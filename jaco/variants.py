@@ -1,0 +1,168 @@
+"""Planners as data: a :class:`Variant` is a NamedTuple of pure functions and small static
+choices (DESIGN.md concept 4), and :data:`VARIANTS` is the registry every test iterates over.
+
+To change a piece of a planner, replace it: ``VARIANTS["as"]._replace(heuristic=inverse_step)``
+is textbook AS with η = 1/d_ij.
+"""
+
+from __future__ import annotations
+
+from types import MappingProxyType
+from typing import Callable, Mapping, NamedTuple
+
+from . import heuristics
+from . import pheromone as ph
+from .errors import JacoError
+from .params import Params, param_names
+
+
+def constant(params: Params, t, n_iters) -> Params:
+    """No schedule: the same parameters at every iteration."""
+    return params
+
+
+def path_length(tours, problem, params):
+    """Cost = path length (thesis eq. 3-2); multi-objective costs replace this function."""
+    return tours.length
+
+
+class Variant(NamedTuple):
+    """One planner. ``params`` names the :class:`Params` fields it reads; ``defaults`` overrides
+    the dataclass defaults; ``pheromone_on`` is ``"moves"`` (τ_ij) or ``"cells"`` (τ_j);
+    ``transition`` is ``"roulette"`` or ``"pseudo-random"`` (q0 rule, eq. 2-14);
+    ``schedule(params, t, n_iters)`` gives the parameters of iteration t (branch-free);
+    ``dead_end`` is what an ant with no allowed move does (``"die"``)."""
+
+    name: str
+    source: str
+    doc: str
+    params: tuple
+    defaults: Mapping
+    heuristic: Callable
+    rule: ph.Rule
+    pheromone_on: str = "moves"
+    transition: str = "roulette"
+    schedule: Callable = constant
+    cost: Callable = path_length
+    dead_end: str = "die"
+
+    def default_params(self) -> Params:
+        return Params(**dict(self.defaults))
+
+    def describe(self) -> str:
+        values = self.default_params().to_dict()
+        shown = ", ".join(f"{k}={values[k]:g}" for k in self.params)
+        return f"{self.name:12s} {self.source}  [{shown}]"
+
+
+DEAD_END_POLICIES = ("die",)
+BASE = ("alpha", "beta", "rho", "q", "tau0")
+
+
+def _variant(name, source, doc, params, defaults, rule, **kw) -> Variant:
+    assert set(params) <= set(param_names()) and set(defaults) <= set(params), name
+    return Variant(
+        name=name,
+        source=source,
+        doc=doc,
+        params=tuple(params),
+        defaults=MappingProxyType(dict(defaults)),
+        heuristic=kw.pop("heuristic", heuristics.inverse_goal_distance),
+        rule=rule,
+        **kw,
+    )
+
+
+_CLASSIC_NOTE = (
+    " Heuristic: η = 1/(distance of the candidate to the goal) (thesis eq. 3-7), because the "
+    "textbook η = 1/d_ij is 1 or 1/√2 on a grid and gives no guidance; replace `heuristic` with "
+    "`jaco.heuristics.inverse_step` for the textbook form. Pheromone on moves (τ_ij)."
+)
+
+AS = _variant(
+    "as",
+    "Dorigo, Maniezzo & Colorni 1996; thesis eqs. 2-1, 2-2, 2-3, 2-6",
+    "Ant System, ant-cycle: τ ← (1−ρ)τ + Σ_k Q/L_k on ant k's path." + _CLASSIC_NOTE,
+    BASE,
+    dict(alpha=1.0, beta=4.0, rho=0.3, q=1.0, tau0=0.1),
+    ph.chain(ph.init_constant(), ph.evaporate(), ph.deposit_all(ph.ant_cycle)),
+)
+
+AS_DENSITY = _variant(
+    "as-density",
+    "Dorigo, Maniezzo & Colorni 1996; thesis eq. 2-4",
+    "Ant System, ant-density: every successful ant deposits Q on each element it used." + _CLASSIC_NOTE,
+    BASE,
+    dict(alpha=1.0, beta=4.0, rho=0.3, q=0.01, tau0=0.1),
+    ph.chain(ph.init_constant(), ph.evaporate(), ph.deposit_all(ph.ant_density)),
+)
+
+AS_QUANTITY = _variant(
+    "as-quantity",
+    "Dorigo, Maniezzo & Colorni 1996; thesis eqs. 2-5, 4-4",
+    "Ant System, ant-quantity: every successful ant deposits Q/d_ij on each step i→j." + _CLASSIC_NOTE,
+    BASE,
+    dict(alpha=1.0, beta=4.0, rho=0.3, q=0.01, tau0=0.1),
+    ph.chain(ph.init_constant(), ph.evaporate(), ph.deposit_all(ph.ant_quantity)),
+)
+
+EAS = _variant(
+    "eas",
+    "Dorigo 1992; thesis eqs. 2-11, 2-12, 2-13",
+    "Elitist Ant System: ant-cycle AS plus σ·Q/L* on the best-so-far path." + _CLASSIC_NOTE,
+    BASE + ("sigma",),
+    dict(alpha=1.0, beta=4.0, rho=0.3, q=1.0, tau0=0.1, sigma=5.0),
+    ph.chain(
+        ph.init_constant(),
+        ph.evaporate(),
+        ph.deposit_all(ph.ant_cycle),
+        ph.deposit_best_so_far(lambda p: p.sigma),
+    ),
+)
+
+RAS = _variant(
+    "ras",
+    "Bullnheimer, Hartl & Strauss 1997 (thesis ref. 1)",
+    "Rank-based Ant System: the w−1 best ants of the iteration deposit (w−r)·Q/L_r, the "
+    "best-so-far deposits w·Q/L*." + _CLASSIC_NOTE,
+    BASE + ("w",),
+    dict(alpha=1.0, beta=4.0, rho=0.3, q=1.0, tau0=0.1, w=6.0),
+    ph.chain(ph.init_constant(), ph.evaporate(), ph.deposit_ranked()),
+)
+
+ACS = _variant(
+    "acs",
+    "Dorigo & Gambardella 1997; thesis eqs. 2-14, 2-15, 2-16",
+    "Ant Colony System: pseudo-random proportional rule (argmax of τ^α η^β with probability "
+    "q0, else roulette), local update τ ← (1−ξ)τ + ξτ0 on every step (applied after the "
+    "iteration's walks, see jaco.pheromone.acs_local), global update on the global-best path "
+    "only, τ ← (1−ρ)τ + ρQ/L_gb." + _CLASSIC_NOTE,
+    BASE + ("q0", "xi"),
+    dict(alpha=1.0, beta=4.0, rho=0.1, q=1.0, tau0=0.01, q0=0.5, xi=0.1),
+    ph.chain(ph.init_constant(), ph.acs_local(), ph.acs_global()),
+    transition="pseudo-random",
+)
+
+MMAS = _variant(
+    "mmas",
+    "Stützle & Hoos 2000; thesis eq. 2-17",
+    "MAX-MIN Ant System: τ initialised to τmax, only the iteration-best ant deposits "
+    "Q/L_ib, τ clamped to [τmin, τmax] with τmax = Q/(ρ·L_gb) and τmin from p_best "
+    "(see jaco.pheromone.mmas_bounds)." + _CLASSIC_NOTE,
+    BASE[:4] + ("p_best",),
+    dict(alpha=1.0, beta=4.0, rho=0.1, q=1.0, p_best=0.05),
+    ph.chain(ph.init_mmas(), ph.evaporate(), ph.deposit_iteration_best(), ph.mmas_bounds(), ph.clamp()),
+)
+
+VARIANTS: dict[str, Variant] = {
+    v.name: v for v in (AS, AS_DENSITY, AS_QUANTITY, EAS, RAS, ACS, MMAS)
+}
+
+
+def get_variant(variant) -> Variant:
+    """A registered variant by name, or a :class:`Variant` as it is."""
+    if isinstance(variant, Variant):
+        return variant
+    if variant not in VARIANTS:
+        raise JacoError(f"unknown variant {variant!r}; registered: {', '.join(sorted(VARIANTS))}")
+    return VARIANTS[variant]

@@ -1,0 +1,166 @@
+"""Tests of jaco.plot: every figure renders headless to a valid PNG and shows the right data."""
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import math  # noqa: E402
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+from matplotlib.colors import LogNorm  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+from jaco.grid import Grid  # noqa: E402
+from jaco.plot import plot_convergence, plot_map, plot_paths, plot_pheromone, save  # noqa: E402
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+GRID = Grid.from_rows([
+    "......",
+    ".##...",
+    "...#..",
+    "......",
+])
+START, GOAL = (0, 0), (3, 5)
+P1 = np.array([(0, 0), (0, 1), (0, 2), (0, 3), (1, 4), (2, 5), (3, 5)])
+P2 = np.array([(0, 0), (1, 0), (2, 0), (3, 1), (3, 2), (3, 3), (3, 4), (3, 5)])
+P3 = [(0, 0), (1, 0), (2, 1), (2, 2), (3, 3), (3, 4), (3, 5)]
+
+
+def _assert_png(path):
+    assert path.exists() and path.stat().st_size > 0
+    assert path.read_bytes()[:8] == PNG_MAGIC
+
+
+def test_plot_map(tmp_path):
+    fig = plot_map(GRID, start=START, goal=GOAL, title="map")
+    assert isinstance(fig, Figure)
+    ax = fig.axes[0]
+    assert len(ax.images) == 1
+    np.testing.assert_array_equal(np.asarray(ax.images[0].get_array()), GRID.free.astype(np.uint8))
+    assert len(ax.collections) == 2  # start and goal markers
+    # Start marker at x = col, y = row; row 0 at the top (y axis inverted).
+    np.testing.assert_array_equal(ax.collections[1].get_offsets()[0], [GOAL[1], GOAL[0]])
+    assert ax.get_ylim()[0] > ax.get_ylim()[1]
+    assert ax.get_title() == "map"
+    out = save(fig, tmp_path / "sub" / "map.png")
+    _assert_png(out)
+
+
+def test_plot_paths_three_labelled(tmp_path):
+    fig = plot_paths(GRID, [P1, P2, P3], labels=["a", "b", "c"], start=START, goal=GOAL)
+    ax = fig.axes[0]
+    assert len(ax.lines) == 3
+    legend = ax.get_legend()
+    assert legend is not None and [t.get_text() for t in legend.get_texts()] == ["a", "b", "c"]
+    # Lines go through cell centres: x = col, y = row.
+    np.testing.assert_array_equal(ax.lines[0].get_xdata(), P1[:, 1])
+    np.testing.assert_array_equal(ax.lines[0].get_ydata(), P1[:, 0])
+    _assert_png(save(fig, tmp_path / "paths.png"))
+
+
+def test_plot_paths_single_dict_and_missing(tmp_path):
+    fig = plot_paths(GRID, P1)
+    assert len(fig.axes[0].lines) == 1 and fig.axes[0].get_legend() is None
+    fig = plot_paths(GRID, P3)  # a list of tuples is one path, not seven
+    assert len(fig.axes[0].lines) == 1
+    np.testing.assert_array_equal(fig.axes[0].lines[0].get_xdata(), [c for _, c in P3])
+    fig = plot_paths(GRID, {"ACS": P1, "MMAS": P2, "failed": None})
+    ax = fig.axes[0]
+    assert len(ax.lines) == 3
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["ACS", "MMAS", "failed (no path)"]
+    _assert_png(save(fig, tmp_path / "dict.png"))
+    with pytest.raises(ValueError):
+        plot_paths(GRID, [P1, P2], labels=["only one"])
+
+
+def test_draw_into_existing_axes(tmp_path):
+    fig = Figure(figsize=(8, 4))
+    ax1, ax2 = fig.subplots(1, 2)
+    assert plot_paths(GRID, [P1, P2], ax=ax1) is fig
+    assert plot_map(GRID, ax=ax2) is fig
+    assert len(ax1.lines) == 2 and len(ax2.lines) == 0
+    _assert_png(save(fig, tmp_path / "two.png"))
+
+
+def _per_move_tau():
+    rng = np.random.default_rng(0)
+    n = GRID.n_cells
+    tau = rng.uniform(0.1, 2.0, size=(n, 8))
+    tau[3, 2] = np.inf  # some layouts mark impossible moves this way: ignored in the sum
+    return tau
+
+
+def test_plot_pheromone_per_move_sums(tmp_path):
+    tau = _per_move_tau()
+    fig = plot_pheromone(GRID, tau, path=P1)
+    ax = fig.axes[0]
+    assert len(fig.axes) == 2  # the map and its colorbar
+    assert len(ax.images) == 1
+    shown = ax.images[0].get_array()
+    expected = np.where(np.isfinite(tau), tau, 0.0).sum(axis=1).reshape(GRID.shape)
+    free = GRID.free
+    np.testing.assert_allclose(np.asarray(shown)[free], expected[free])
+    np.testing.assert_array_equal(np.ma.getmaskarray(shown), ~free)  # obstacles masked
+    assert len(ax.lines) == 1
+    _assert_png(save(fig, tmp_path / "tau_moves.png"))
+
+
+def test_plot_pheromone_shapes_agree_and_log(tmp_path):
+    per_cell = np.arange(GRID.n_cells, dtype=float)
+    a = plot_pheromone(GRID, per_cell).axes[0].images[0].get_array()
+    b = plot_pheromone(GRID, per_cell.reshape(GRID.shape)).axes[0].images[0].get_array()
+    np.testing.assert_array_equal(np.asarray(a)[GRID.free], np.asarray(b)[GRID.free])
+    np.testing.assert_array_equal(np.asarray(a)[GRID.free], per_cell.reshape(GRID.shape)[GRID.free])
+    fig = plot_pheromone(GRID, per_cell, log=True)
+    im = fig.axes[0].images[0]
+    assert isinstance(im.norm, LogNorm)
+    assert np.ma.getmaskarray(im.get_array())[0, 0]  # cell 0 holds 0: not shown on a log scale
+    _assert_png(save(fig, tmp_path / "tau_log.png"))
+    with pytest.raises(ValueError):
+        plot_pheromone(GRID, np.ones(GRID.n_cells + 1))
+
+
+def test_plot_convergence_masks_inf(tmp_path):
+    best = np.array([np.inf, np.inf, 30.0, 31.0, 28.0, 28.5, 27.0])
+    mean = np.array([np.inf, np.inf, 35.0, np.nan, 33.0, 32.0, 30.0])
+    rate = np.array([0.0, 0.0, 0.1, 0.2, 0.4, 0.5, 0.7])
+    fig = plot_convergence({"best": best, "mean": mean, "success_rate": rate}, optimal=26.0, label="ACS")
+    ax = fig.axes[0]
+    assert len(fig.axes) == 2  # twin axis for the success rate
+    best_line, mean_line, opt_line = ax.lines
+    y = best_line.get_ydata()
+    assert np.ma.getmaskarray(y).tolist() == [True, True, False, False, False, False, False]
+    np.testing.assert_array_equal(np.ma.compressed(y), [30.0, 30.0, 28.0, 28.0, 27.0])  # best so far
+    assert np.ma.getmaskarray(mean_line.get_ydata()).tolist() == [True, True, False, True, False, False, False]
+    assert opt_line.get_ydata()[0] == 26.0 and opt_line.get_linestyle() == "--"
+    legend = fig.axes[1].get_legend()  # on the twin, which is drawn on top
+    assert [t.get_text() for t in legend.get_texts()] == [
+        "ACS best so far", "ACS iteration mean", "optimum 26", "ACS success rate"]
+    _assert_png(save(fig, tmp_path / "conv.png"))
+
+
+def test_plot_convergence_several_runs(tmp_path):
+    runs = [
+        {"best": [10.0, 9.0, 9.0], "mean": [12.0, 11.0, 10.0]},
+        {"best": [math.inf, 11.0, 8.0], "mean": [math.inf, 13.0, 9.0]},
+    ]
+    fig = plot_convergence(runs, label=["AS", "MMAS"])
+    ax = fig.axes[0]
+    assert len(fig.axes) == 1 and len(ax.lines) == 4
+    texts = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert texts == ["AS best so far", "AS iteration mean", "MMAS best so far", "MMAS iteration mean"]
+    _assert_png(save(fig, tmp_path / "runs.png"))
+    with pytest.raises(ValueError):
+        plot_convergence({"mean": [1.0]})
+
+
+def test_no_pyplot_figures_are_left_open():
+    before = set(plt.get_fignums())
+    plot_map(GRID)
+    plot_paths(GRID, P1)
+    plot_pheromone(GRID, np.ones(GRID.shape))
+    plot_convergence({"best": [1.0], "mean": [1.0]})
+    assert set(plt.get_fignums()) == before
