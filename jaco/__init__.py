@@ -2,22 +2,48 @@
 
 >>> import jaco
 >>> grid = jaco.maps.named("demo")
->>> result = jaco.solve(grid, grid.meta["start"], grid.meta["goal"], "acs", seed=0)
+>>> result = jaco.solve(grid, grid.meta["start"], grid.meta["goal"], "mmas", seed=0, n_iters=20)
+>>> result.success and result.length >= result.optimal - 1e-4
+True
+
+Submodules and the heavy parts (jax, pandas, matplotlib) load on first use, so that
+``import jaco`` and ``jaco --help`` stay fast.
 """
 
-from . import exact, heuristics, maps, metrics, pheromone, plot
+from importlib import import_module
+
 from .errors import JacoError, MapFormatError, ParamError, ProblemError
 from .grid import Grid
-from .params import Params
-from .problem import Problem, make_problem
-from .run import Result, make_run, solve
-from .sweep import summarize, sweep
-from .variants import VARIANTS, Variant
 
 __version__ = "0.1.0"
-__all__ = [
-    "Grid", "Params", "Problem", "Result", "Variant", "VARIANTS",
-    "JacoError", "MapFormatError", "ParamError", "ProblemError",
-    "make_problem", "make_run", "solve", "sweep", "summarize",
-    "exact", "heuristics", "maps", "metrics", "pheromone", "plot",
-]
+
+_LAZY = {
+    "Params": "params",
+    "Problem": "problem",
+    "make_problem": "problem",
+    "Result": "run",
+    "make_run": "run",
+    "solve": "run",
+    "sweep": "sweep",
+    "summarize": "sweep",
+    "VARIANTS": "variants",
+    "Variant": "variants",
+}
+_SUBMODULES = {"construct", "exact", "heuristics", "maps", "metrics", "params", "pheromone", "plot", "problem", "run", "sweep", "variants", "cli"}
+
+__all__ = ["Grid", "JacoError", "MapFormatError", "ParamError", "ProblemError", *_LAZY, *sorted(_SUBMODULES)]
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        value = getattr(import_module(f".{_LAZY[name]}", __name__), name)
+    elif name in _SUBMODULES:
+        value = import_module(f".{name}", __name__)
+    else:
+        raise AttributeError(f"module 'jaco' has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

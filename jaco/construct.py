@@ -76,7 +76,7 @@ def walk(problem, weights, u, q0, *, steplimit: int, exploit: bool) -> Tours:
         cur, visited, running = carry
         u_t, t = xs
         # Neighbours by index arithmetic; off-map moves have weight 0, so clipping is harmless.
-        nb = jnp.clip(cur[:, None] + offsets, 0, n_cells - 1)
+        nb = jnp.clip(cur[:, None] + offsets[None, :], 0, n_cells - 1)
         w = jnp.where(visited[lanes[:, None], nb], 0.0, weights[cur])
         ok = running & (jnp.sum(w, axis=-1) > 0) & (t < steplimit)
         k = choose(w, u_t, q0, exploit)
@@ -112,7 +112,8 @@ def walk(problem, weights, u, q0, *, steplimit: int, exploit: bool) -> Tours:
         step_len=step_len,
         arrived=cur == goal,
         n_steps=jnp.sum(took, axis=0),
-        length=jnp.sum(step_len, axis=0),
+        # Integer counts, so a length is bit-identical however the runs are batched.
+        length=jnp.sum(took & (moves < 4), axis=0) + jnp.sqrt(jnp.float32(2)) * jnp.sum(moves >= 4, axis=0),
         visited=jnp.any(visited, axis=0),
     )
 

@@ -20,7 +20,7 @@ def _targets_xy(problem: Problem):
 
 def goal_distance(problem: Problem) -> jnp.ndarray:
     """Euclidean distance ``(N, 8)`` from each move's target cell to the goal."""
-    d = _targets_xy(problem) - problem.xy[problem.goal]
+    d = _targets_xy(problem) - problem.xy[problem.goal][None, None, :]
     return jnp.sqrt(jnp.sum(d * d, axis=-1))
 
 

@@ -109,7 +109,7 @@ def sweep(
     for c in bar:
         idx = np.minimum(np.arange(c * chunk, (c + 1) * chunk), n_rows - 1)  # pad the last chunk
         out = run(make_keys(seed_arr[idx]), batch, params_from({k: v[idx] for k, v in table.items()}, (chunk,)))
-        out = jax.device_get((out.best_cost, out.best_length, out.best_iteration, out.coverage))
+        out = jax.device_get((out.best_cost, out.best_length, out.best_iteration, out.covered))
         outs.append([np.asarray(a)[:, : min(chunk, n_rows - c * chunk)] for a in out])
     cost, length, best_iter, coverage = (np.concatenate(parts, axis=1) for parts in zip(*outs))
 
@@ -129,7 +129,7 @@ def sweep(
                 best_iteration=int(best_iter[q, i]),
                 optimal=optimal,
                 gap=gap(L, optimal),
-                coverage=float(coverage[q, i]),
+                coverage=int(coverage[q, i]) / g.n_free,
             )
             records.append(rec)
     return pd.DataFrame.from_records(records)

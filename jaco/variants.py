@@ -138,7 +138,7 @@ ACS = _variant(
     "iteration's walks, see jaco.pheromone.acs_local), global update on the global-best path "
     "only, τ ← (1−ρ)τ + ρQ/L_gb." + _CLASSIC_NOTE,
     BASE + ("q0", "xi"),
-    dict(alpha=1.0, beta=4.0, rho=0.1, q=1.0, tau0=0.01, q0=0.5, xi=0.1),
+    dict(alpha=1.0, beta=4.0, rho=0.3, q=1.0, tau0=0.01, q0=0.8, xi=0.1),
     ph.chain(ph.init_constant(), ph.acs_local(), ph.acs_global()),
     transition="pseudo-random",
 )
@@ -150,7 +150,7 @@ MMAS = _variant(
     "Q/L_ib, τ clamped to [τmin, τmax] with τmax = Q/(ρ·L_gb) and τmin from p_best "
     "(see jaco.pheromone.mmas_bounds)." + _CLASSIC_NOTE,
     BASE[:4] + ("p_best",),
-    dict(alpha=1.0, beta=4.0, rho=0.1, q=1.0, p_best=0.05),
+    dict(alpha=2.0, beta=8.0, rho=0.05, q=1.0, p_best=0.05),
     ph.chain(ph.init_mmas(), ph.evaporate(), ph.deposit_iteration_best(), ph.mmas_bounds(), ph.clamp()),
 )
 

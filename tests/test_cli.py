@@ -1,0 +1,245 @@
+"""Tests of the ``jaco`` command line: in-process through ``main([...])`` (the JIT cache is shared,
+so runs of one shape compile once) plus one real subprocess of the installed console script."""
+
+import csv
+import json
+import re
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import jaco
+from jaco.cli import main
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+SMALL = ["--ants", "10", "--iters", "10"]
+MAP = str(jaco.maps.bundled("random-32-32-10.map"))
+SCEN = str(jaco.maps.bundled("random-32-32-10-even-10.scen"))
+
+
+def run(capsys, *argv):
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def assert_user_error(code, err, *needles):
+    """Exit 2, exactly one 'jaco: error: ...' line, no traceback, and the given words in it."""
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("jaco: error: ")
+    assert "Traceback" not in err
+    for needle in needles:
+        assert needle in lines[0], (needle, lines[0])
+
+
+def reported_lengths(out):
+    """(length, exact optimum) from the 'length ... (exact optimum ...)' report line."""
+    m = re.search(r"^length\s+([\d.]+) \(exact optimum ([\d.]+), gap ([+-][\d.]+)%\)", out, re.M)
+    assert m, out
+    return float(m.group(1)), float(m.group(2))
+
+
+def test_demo_writes_png_and_reports_length_vs_optimum(tmp_path, capsys):
+    png = tmp_path / "sub" / "demo.png"
+    code, out, err = run(capsys, "demo", "--out", str(png), *SMALL)
+    assert code == 0, err
+    assert png.read_bytes()[:8] == PNG_MAGIC
+    length, optimum = reported_lengths(out)
+    grid = jaco.maps.named("demo")
+    exact, _ = jaco.exact.shortest_path(grid, grid.meta["start"], grid.meta["goal"])
+    assert optimum == pytest.approx(exact, abs=1e-3)
+    assert length >= optimum - 1e-6
+    assert "demo (20x30" in out
+    assert re.search(r"^variant\s+mmas ", out, re.M)
+    assert re.search(r"^success\s+yes", out, re.M)
+    assert re.search(r"^best at\s+iteration \d+", out, re.M)
+    assert re.search(r"^cells\s+\d+", out, re.M)
+    assert re.search(r"^time\s+[\d.]+ s", out, re.M)
+    assert f"wrote {png}" in out
+
+
+def test_solve_scenario_prints_optimum_and_writes_valid_json(tmp_path, capsys):
+    k = 5
+    sc = jaco.maps.load_scenarios(SCEN)[k]
+    out_json = tmp_path / "r.json"
+    out_png = tmp_path / "r.png"
+    code, out, err = run(capsys, "solve", MAP, "--scen", SCEN, "--index", str(k), *SMALL,
+                         "--seed", "3", "--json", str(out_json), "--plot", str(out_png))
+    assert code == 0, err
+    assert f"optimal length {sc.optimal:.4f}" in out
+    length, optimum = reported_lengths(out)
+    assert optimum == pytest.approx(sc.optimal, abs=1e-3)
+
+    def no_constants(name):  # strict JSON: no NaN / Infinity
+        raise AssertionError(f"non-standard JSON constant {name}")
+
+    doc = json.loads(out_json.read_text(), parse_constant=no_constants)
+    path = doc["path"]
+    assert isinstance(path, list) and all(isinstance(p, list) and len(p) == 2 for p in path)
+    assert tuple(path[0]) == sc.start and tuple(path[-1]) == sc.goal
+    grid = jaco.maps.load(MAP)
+    assert all(grid.free[r, c] for r, c in path)
+    assert doc["success"] is True
+    assert doc["length"] >= sc.optimal - 1e-6
+    assert doc["length"] == pytest.approx(length, abs=1e-3)
+    assert doc["optimal"] == pytest.approx(sc.optimal, abs=1e-4)
+    assert doc["seed"] == 3 and doc["n_ants"] == 10 and doc["n_iters"] == 10
+    assert doc["metrics"]["valid"] is True
+    assert doc["metrics"]["length"] == pytest.approx(doc["length"], abs=1e-4)
+    assert doc["scenario"]["optimal"] == pytest.approx(sc.optimal)
+    assert out_png.read_bytes()[:8] == PNG_MAGIC
+
+
+def test_solve_named_map_with_params_and_explicit_start_goal(tmp_path, capsys):
+    out_json = tmp_path / "r.json"
+    code, out, err = run(capsys, "solve", "demo", "--start", "17,2", "--goal", " 2, 27", *SMALL,
+                         "--param", "alpha=1.5", "--param", "rho=0.2", "--json", str(out_json))
+    assert code == 0, err
+    doc = json.loads(out_json.read_text())
+    assert doc["params"]["alpha"] == 1.5 and doc["params"]["rho"] == pytest.approx(0.2)
+    assert doc["start"] == [17, 2] and doc["goal"] == [2, 27]
+    assert "alpha=1.5" in out
+
+
+def test_failed_run_gives_null_not_infinity_in_json(tmp_path, capsys):
+    out_json = tmp_path / "fail.json"
+    code, out, err = run(capsys, "solve", "demo", *SMALL, "--steplimit", "2", "--json", str(out_json))
+    assert code == 0, err
+    assert re.search(r"^success\s+no", out, re.M)
+    text = out_json.read_text()
+    assert "Infinity" not in text and "NaN" not in text
+    doc = json.loads(text)
+    assert doc["success"] is False and doc["length"] is None and doc["path"] == []
+    assert doc["metrics"]["length"] is None
+
+
+def test_unknown_param_lists_valid_names(capsys):
+    code, _, err = run(capsys, "solve", "demo", *SMALL, "--param", "gamma=1")
+    assert_user_error(code, err, "gamma")
+    for name in jaco.VARIANTS["mmas"].params:
+        assert name in err
+
+
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["--param", "alpha=-1"], "alpha"),  # out of range
+        (["--param", "alpha=abc"], "not a number"),
+        (["--param", "alpha"], "NAME=VALUE"),
+        (["--param", "alpha=1,2"], "sweep"),
+        (["--variant", "nope"], "nope"),
+        (["--ants", "0"], "--ants"),
+        (["--start", "99,0"], "outside"),
+        (["--index", "2"], "--scen"),
+    ],
+)
+def test_user_mistakes_are_one_line_exit_2(capsys, args, needle):
+    code, _, err = run(capsys, "solve", "demo", *SMALL, *args)
+    assert_user_error(code, err, needle)
+
+
+def test_start_on_obstacle_is_a_clear_error(capsys):
+    grid = jaco.maps.named("demo")
+    r, c = (int(v) for v in np.argwhere(~grid.free)[0])
+    code, out, err = run(capsys, "solve", "demo", *SMALL, "--start", f"{r},{c}")
+    assert_user_error(code, err, "start", f"({r}, {c})", "obstacle")
+    assert out == ""
+
+
+@pytest.mark.parametrize("bad", ["3", "3,x", "1,2,3", ""])
+def test_malformed_cell_exits_2(capsys, bad):
+    code, _, err = run(capsys, "solve", "demo", *SMALL, "--start", bad)
+    assert_user_error(code, err, "--start", "ROW,COL")
+
+
+def test_unreachable_goal_and_file_errors(tmp_path, capsys):
+    split = tmp_path / "split.txt"
+    split.write_text("..#..\n..#..\n..#..\n")
+    code, _, err = run(capsys, "solve", str(split), "--start", "0,0", "--goal", "0,4", *SMALL)
+    assert_user_error(code, err, "cannot be reached")
+    code, _, err = run(capsys, "solve", str(split), *SMALL)  # a file map has no default start/goal
+    assert_user_error(code, err, "--start")
+    code, _, err = run(capsys, "solve", str(tmp_path / "missing.map"), *SMALL)
+    assert_user_error(code, err, "missing.map", "not found")
+    code, _, err = run(capsys, "solve", "no-such-map", *SMALL)
+    assert_user_error(code, err, "no-such-map", "demo")  # lists the named maps
+    code, _, err = run(capsys, "solve", MAP, "--scen", str(tmp_path / "none.scen"), *SMALL)
+    assert_user_error(code, err, "none.scen")
+    code, _, err = run(capsys, "solve", MAP, "--scen", SCEN, "--index", "100000", *SMALL)
+    assert_user_error(code, err, "--index", "out of range")
+    code, _, err = run(capsys, "solve", "demo", "--scen", SCEN, *SMALL)  # scenario for another map
+    assert_user_error(code, err, "32x32")
+    code, _, err = run(capsys, "bogus")
+    assert_user_error(code, err, "bogus")
+
+
+def test_sweep_writes_tidy_csv_and_prints_best(tmp_path, capsys):
+    out_csv = tmp_path / "sweep.csv"
+    code, out, err = run(capsys, "sweep", "demo", "--variant", "mmas", "--param", "alpha=0.5:2:2",
+                         "--seeds", "2", *SMALL, "--csv", str(out_csv))
+    assert code == 0, err
+    with out_csv.open() as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 4
+    expected = set(jaco.VARIANTS["mmas"].params) | {
+        "seed", "success", "length", "cost", "best_iteration", "optimal", "gap", "coverage"}
+    assert expected <= set(rows[0])
+    assert sorted({float(r["alpha"]) for r in rows}) == [0.5, 2.0]
+    assert sorted({int(r["seed"]) for r in rows}) == [0, 1]
+    assert all(float(r["length"]) >= float(r["optimal"]) - 1e-4 for r in rows if r["success"] == "True")
+    assert "best: mmas alpha=" in out
+    assert "top 2 of 2 configurations" in out
+
+
+def test_sweep_value_syntax_errors(capsys):
+    for value, needle in [("alpha=1:2", "START:STOP:COUNT"), ("alpha=1:2:0", "COUNT"),
+                          ("alpha=0:30:3", "out of range"), ("zeta=1,2", "zeta")]:
+        code, _, err = run(capsys, "sweep", "demo", "--param", value, "--seeds", "1", *SMALL)
+        assert_user_error(code, err, needle)
+
+
+def test_variants_lists_every_registered_variant(capsys):
+    code, out, _ = run(capsys, "variants")
+    assert code == 0
+    lines = out.strip().splitlines()
+    assert len(lines) == len(jaco.VARIANTS)
+    for line, (name, variant) in zip(lines, jaco.VARIANTS.items()):
+        assert line.split()[0] == name
+        assert variant.source in line
+
+
+def test_maps_lists_named_and_bundled(capsys):
+    code, out, _ = run(capsys, "maps")
+    assert code == 0
+    for name in list(jaco.maps.NAMED) + list(jaco.maps.BUNDLED):
+        assert name in out
+
+
+def test_help_returns_zero(capsys):
+    assert main(["--help"]) == 0
+    assert "solve" in capsys.readouterr().out
+    assert main(["sweep", "--help"]) == 0
+    assert "a:b:n" in capsys.readouterr().out
+
+
+def test_console_script_variants_subprocess():
+    exe = shutil.which("jaco")
+    cmd = [exe, "variants"] if exe else [sys.executable, "-m", "jaco.cli", "variants"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    names = [line.split()[0] for line in proc.stdout.strip().splitlines()]
+    assert names == list(jaco.VARIANTS)
+
+
+def test_console_script_user_error_subprocess():
+    exe = shutil.which("jaco")
+    cmd = [exe] if exe else [sys.executable, "-m", "jaco.cli"]
+    proc = subprocess.run(cmd + ["solve", "demo", "--start", "3"], capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 2
+    assert proc.stderr.strip().startswith("jaco: error:") and "Traceback" not in proc.stderr

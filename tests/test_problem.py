@@ -1,0 +1,85 @@
+"""Grid -> problem: neighbour table, no corner cutting, and validation errors before any compile."""
+
+import math
+
+import numpy as np
+import pytest
+
+import jaco
+from jaco.problem import MOVES, make_problem, neighbour_table, stack
+
+
+def test_neighbour_table_forbids_corner_cuts_and_leaving_the_map():
+    grid = jaco.Grid.from_rows(["...", ".#.", "..."])
+    nbr, step = neighbour_table(grid.free)
+    centre_left = grid.index((1, 0))
+    # From (1,0): up (0,0), down (2,0) allowed; right is the obstacle; left leaves the map.
+    allowed = {tuple(MOVES[k]) for k in range(8) if nbr[centre_left, k] >= 0}
+    assert allowed == {(-1, 0), (1, 0)}  # both diagonals pass the obstacle's corner
+    corner = grid.index((0, 0))
+    assert {tuple(MOVES[k]) for k in range(8) if nbr[corner, k] >= 0} == {(0, 1), (1, 0)}
+    assert set(np.unique(step[nbr >= 0])) <= {1.0, math.sqrt(2)}
+    assert (nbr[grid.index((1, 1))] == -1).all()  # an obstacle has no moves
+
+
+def test_four_connectivity_keeps_fixed_degree_with_straight_moves_only():
+    grid = jaco.Grid.from_rows(["...", "...", "..."])
+    nbr, _ = neighbour_table(grid.free, connectivity=4)
+    assert nbr.shape == (9, 8)
+    assert (nbr[:, 4:] == -1).all() and (nbr[grid.index((1, 1)), :4] >= 0).all()
+
+
+def test_problem_carries_optimum_and_offsets_match_the_table():
+    grid = jaco.maps.named("utrap-15")
+    p = make_problem(grid, grid.meta["start"], grid.meta["goal"])
+    assert float(p.optimal) == pytest.approx(jaco.exact.shortest_path(grid, grid.meta["start"], grid.meta["goal"])[0], rel=1e-6)
+    i = np.arange(grid.n_cells)[:, None]
+    ok = p.nbr >= 0
+    assert (p.nbr[ok] == (i + p.offsets[None, :])[ok]).all()
+
+
+@pytest.mark.parametrize(
+    "start,goal,match",
+    [
+        ((-1, 0), (2, 3), "outside"),
+        ((0, 0), (3, 9), "outside"),
+        ((1, 1), (2, 3), "obstacle"),
+        ((0, 0), (1, 2), "obstacle"),
+        ((0, 0), (0, 3), "cannot be reached"),
+        (("a", 0), (2, 3), "pair of integers"),
+        ((0.5, 0), (2, 3), "pair of integers"),
+    ],
+)
+def test_bad_queries_are_clear_errors(start, goal, match):
+    grid = jaco.Grid.from_rows(["..#.", ".##.", "...#"])
+    with pytest.raises(jaco.ProblemError, match=match):
+        make_problem(grid, start, goal)
+
+
+def test_bad_grids_are_clear_errors():
+    with pytest.raises(jaco.ProblemError, match="2-D"):
+        jaco.Grid(np.ones(4, bool))
+    with pytest.raises(jaco.ProblemError, match="boolean"):
+        jaco.Grid(np.full((2, 2), 0.5))
+    with pytest.raises(jaco.ProblemError, match="no free cell"):
+        make_problem(jaco.Grid(np.zeros((2, 2), bool)), (0, 0), (1, 1))
+    with pytest.raises(jaco.MapFormatError, match="unknown map symbol"):
+        jaco.Grid.from_rows(["..x"])
+    assert issubclass(jaco.ProblemError, ValueError)
+
+
+def test_problems_of_one_shape_stack_and_other_shapes_do_not():
+    a = jaco.Grid.from_rows(["...", "..."])
+    b = jaco.Grid.from_rows(["..#", "..."])
+    batch = stack([make_problem(a, (0, 0), (1, 2)), make_problem(b, (0, 0), (1, 2))])
+    assert batch.nbr.shape == (2, 6, 8) and batch.start.shape == (2,)
+    with pytest.raises(jaco.ProblemError, match="one map shape"):
+        stack([make_problem(a, (0, 0), (1, 2)), make_problem(jaco.Grid.from_rows([".."]), (0, 0), (0, 1))])
+
+
+def test_world_coordinates_round_trip():
+    grid = jaco.Grid(np.ones((4, 6), bool), resolution=0.5, origin=(-1.0, 2.0, 0.0))
+    xy = grid.cell_to_world((3, 0))
+    assert xy == pytest.approx([-0.75, 2.25])  # the bottom-left cell's centre
+    cells = np.array([(0, 0), (3, 5), (2, 1)])
+    assert (grid.world_to_cell(grid.cell_to_world(cells)) == cells).all()
