@@ -24,12 +24,12 @@ _LAZY = {
     "Result": "run",
     "make_run": "run",
     "solve": "run",
-    "sweep": "sweep",
-    "summarize": "sweep",
+    "sweep": "sweeps",
+    "summarize": "sweeps",
     "VARIANTS": "variants",
     "Variant": "variants",
 }
-_SUBMODULES = {"construct", "exact", "heuristics", "maps", "metrics", "params", "pheromone", "plot", "problem", "run", "sweep", "variants", "cli"}
+_SUBMODULES = {"construct", "exact", "heuristics", "maps", "metrics", "params", "pheromone", "plot", "problem", "run", "sweeps", "variants", "cli"}
 
 __all__ = ["Grid", "JacoError", "MapFormatError", "ParamError", "ProblemError", *_LAZY, *sorted(_SUBMODULES)]
 

@@ -1,4 +1,4 @@
-"""Hyperparameter sweeps: the product configurations × seeds × queries as ONE jitted call.
+"""Hyperparameter sweeps (``jaco.sweep``): the product configurations × seeds × queries as ONE jitted call.
 
 The run is ``jit(vmap(vmap(run)))``: the inner vmap goes over configurations × seeds (one
 flat axis), the outer over queries (start/goal pairs, or maps of one shape). Every row of the
