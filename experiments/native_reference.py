@@ -60,6 +60,15 @@ def as_colony(nbr, weights_eta, start, goal, alpha, beta, rho, q, tau0, n_ants, 
     ``best_length = inf``, when no ant ever arrived); ``real_steps`` counts the steps ants
     actually took (a dead or arrived ant takes no more).
     """
+    L, path, steps, _ = as_colony_stats(
+        nbr, weights_eta, start, goal, alpha, beta, rho, q, tau0, n_ants, n_iters, steplimit, seed
+    )
+    return L, path, steps
+
+
+@numba.njit(cache=False, nogil=True)
+def as_colony_stats(nbr, weights_eta, start, goal, alpha, beta, rho, q, tau0, n_ants, n_iters, steplimit, seed):
+    """:func:`as_colony` plus the number of ant walks that reached the goal (of ``n_ants * n_iters``)."""
     np.random.seed(seed)
     n = nbr.shape[0]
     tau = np.full((n, 8), tau0)
@@ -83,6 +92,7 @@ def as_colony(nbr, weights_eta, start, goal, alpha, beta, rho, q, tau0, n_ants, 
         best_length = 0.0
         best_path = np.full(1, start, np.int64)
     real_steps = 0
+    arrivals = 0
 
     for it in range(n_iters):
         # move weights, once per iteration
@@ -133,6 +143,7 @@ def as_colony(nbr, weights_eta, start, goal, alpha, beta, rho, q, tau0, n_ants, 
             n_steps[a] = s
             length[a] = L
             arrived[a] = cur == goal
+            arrivals += arrived[a]
             real_steps += s
         # evaporation, then every successful ant deposits q/L on every move it used
         keep = 1.0 - rho
@@ -147,7 +158,7 @@ def as_colony(nbr, weights_eta, start, goal, alpha, beta, rho, q, tau0, n_ants, 
                 if length[a] < best_length:
                     best_length = length[a]
                     best_path = cells[a, : n_steps[a] + 1].copy()
-    return best_length, best_path, real_steps
+    return best_length, best_path, real_steps, arrivals
 
 
 @numba.njit(cache=False, nogil=True)
@@ -156,7 +167,7 @@ def _sweep(nbr, eta, start, goal, configs, q, tau0, n_ants, n_iters, steplimit, 
     lengths = np.empty(c)
     steps = np.empty(c, np.int64)
     for i in range(c):
-        L, _, s = as_colony(
+        L, _, s, _ = as_colony_stats(
             nbr, eta, start, goal, configs[i, 0], configs[i, 1], configs[i, 2],
             q, tau0, n_ants, n_iters, steplimit, seed + i,
         )

@@ -89,7 +89,7 @@ def walk(problem, weights, u, q0, *, steplimit: int, exploit: bool) -> Tours:
     def chunk(state):
         t0, carry, moves = state
         xs = (jax.lax.dynamic_slice_in_dim(u, t0, CHUNK), t0 + jnp.arange(CHUNK))
-        carry, m = jax.lax.scan(step, carry, xs)
+        carry, m = jax.lax.scan(step, carry, xs, unroll=True)
         return t0 + CHUNK, carry, jax.lax.dynamic_update_slice_in_dim(moves, m, t0, axis=0)
 
     def more(state):

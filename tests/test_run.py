@@ -1,0 +1,96 @@
+"""solve / sweep API: validation before compiling, results, batching of queries, chunking."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import jaco
+from jaco.run import TRACES
+
+GRID = jaco.Grid.from_rows(["......", ".##...", "...#..", "......"])
+
+
+@pytest.mark.parametrize(
+    "kw,match",
+    [
+        (dict(alpha=float("nan")), "NaN"),
+        (dict(rho=0.0), "out of range"),
+        (dict(rho=1.5), "out of range"),
+        (dict(q0=-0.1), "unknown parameter 'q0'"),  # mmas has no q0
+        (dict(betta=2.0), "valid: alpha, beta"),
+        (dict(beta="x"), "must be a number"),
+        (dict(beta=[1.0, 2.0]), "use jaco.sweep"),
+        (dict(n_ants=0), "n_ants must be a positive integer"),
+        (dict(n_iters=2.5), "n_iters must be a positive integer"),
+        (dict(seed="a"), "seed must be an integer"),
+    ],
+)
+def test_bad_parameters_are_clear_errors_before_compiling(kw, match):
+    before = sum(TRACES.values())
+    with pytest.raises(jaco.JacoError, match=match):
+        jaco.solve(GRID, (0, 0), (3, 5), "mmas", **kw)
+    assert sum(TRACES.values()) == before
+
+
+def test_unknown_variant_lists_the_registered_ones():
+    with pytest.raises(jaco.JacoError, match="registered: acs, as"):
+        jaco.solve(GRID, (0, 0), (3, 5), "nope")
+
+
+def test_result_fields_and_json():
+    r = jaco.solve(GRID, (0, 0), (3, 5), "acs", seed=2, n_ants=10, n_iters=8)
+    assert r.path[0].tolist() == [0, 0] and r.path[-1].tolist() == [3, 5]
+    assert r.length == pytest.approx(jaco.metrics.path_length(r.path))
+    assert r.optimal == pytest.approx(jaco.exact.shortest_path(GRID, (0, 0), (3, 5))[0])
+    assert set(r.history) == {"best", "iteration_best", "mean", "success_rate"}
+    assert all(len(v) == 8 for v in r.history.values())
+    assert 0 < r.coverage <= 1
+    d = json.loads(json.dumps(r.to_dict(), allow_nan=False))
+    assert d["path"][-1] == [3, 5] and d["variant"] == "acs" and d["params"]["q0"] == pytest.approx(0.8)
+
+
+def test_cell_size_scales_reported_lengths_only():
+    big = GRID.replace(cell_size=10.0)
+    a = jaco.solve(GRID, (0, 0), (3, 5), "as", seed=0, n_ants=10, n_iters=5)
+    b = jaco.solve(big, (0, 0), (3, 5), "as", seed=0, n_ants=10, n_iters=5)
+    assert np.array_equal(a.path, b.path)
+    assert b.length == pytest.approx(10 * a.length) and b.optimal == pytest.approx(10 * a.optimal)
+
+
+def test_sweep_over_several_queries_and_maps_in_one_batch():
+    other = jaco.Grid.from_rows(["......", "...#..", "...#..", "......"])
+    table = jaco.sweep([GRID, other], (0, 0), [(3, 5), (0, 5)], "as", params={"beta": [1.0, 3.0]}, seeds=2, n_ants=8, n_iters=5)
+    assert len(table) == 2 * 2 * 2
+    assert set(table["map"]) == {GRID.name, other.name} or len(set(table["goal"])) == 2
+    for _, row in table.iterrows():
+        g = GRID if row.goal == (3, 5) else other
+        r = jaco.solve(g, row.start, row.goal, "as", seed=int(row.seed), beta=row.beta, n_ants=8, n_iters=5)
+        assert r.length == row.length
+
+
+def test_sweep_chunks_under_a_small_memory_budget_and_matches_one_chunk():
+    kw = dict(params={"alpha": [0.5, 1.0, 2.0]}, seeds=3, n_ants=8, n_iters=4)
+    whole = jaco.sweep(GRID, (0, 0), (3, 5), "ras", **kw)
+    chunked = jaco.sweep(GRID, (0, 0), (3, 5), "ras", memory_budget=1, **kw)  # one run per chunk
+    assert whole.equals(chunked)
+
+
+def test_sweep_validates_values_and_shapes():
+    with pytest.raises(jaco.ParamError, match="out of range"):
+        jaco.sweep(GRID, (0, 0), (3, 5), "as", params={"rho": [0.5, 2.0]}, seeds=1)
+    with pytest.raises(jaco.JacoError, match="one shape"):
+        jaco.sweep([GRID, jaco.Grid.from_rows(["..", ".."])], (0, 0), (1, 1), "as")
+    with pytest.raises(jaco.JacoError, match="expected 1 or 3"):
+        jaco.sweep(GRID, [(0, 0), (0, 1)], [(3, 5), (3, 4), (3, 3)], "as")
+
+
+def test_summarize_aggregates_over_seeds():
+    table = jaco.sweep(GRID, (0, 0), (3, 5), "as", params={"beta": [1.0, 3.0]}, seeds=3, n_ants=8, n_iters=4)
+    summary = jaco.summarize(table)
+    assert len(summary) == 2 and (summary["runs"] == 3).all()
+    first = table[table.beta == 1.0]
+    assert summary.loc[0, "length_min"] == pytest.approx(first.length.min())
+    assert summary.loc[0, "success_rate"] == pytest.approx(first.success.mean())
+    assert math.isfinite(summary.loc[0, "gap_mean"])
