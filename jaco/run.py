@@ -16,13 +16,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .construct import pad_steps, walk
 from .errors import JacoError
 from .grid import Grid
 from .params import Params, check_values
 from .pheromone import Trail, Walks
 from .problem import Problem, make_problem
-from .variants import DEAD_END_POLICIES, Variant, get_variant
+from .variants import Variant, get_variant
 
 
 class History(NamedTuple):
@@ -57,40 +56,9 @@ class _Best(NamedTuple):
     iteration: jax.Array
 
 
-def _move_weights(variant: Variant, trail: Trail, problem: Problem, params: Params, t, n_iters):
-    """W = τ^α η^β per move (N, 8), exactly 0 where the map forbids the move and in
-    [1e-30, 1e30] elsewhere, so the roulette never divides by zero or overflows."""
-    n = problem.nbr.shape[0]
-    valid = problem.nbr >= 0
-    if variant.pheromone_on == "cells":
-        tau = trail.tau[jnp.where(valid, problem.nbr, 0)]
-    else:
-        tau = trail.tau.reshape(n, 8)
-    eta = variant.heuristic(problem, params, t, n_iters)
-    w = jnp.power(tau, params.alpha) * jnp.power(eta, params.beta)
-    w = jnp.clip(jnp.nan_to_num(w, nan=1e-30, posinf=1e30), 1e-30, 1e30)
-    return jnp.where(valid, w, 0.0)
-
-
-def _targets(variant: Variant, tours, problem: Problem):
-    """Pheromone element of every step: the entered cell (cells) or ``from*8 + move`` (moves);
-    ``M`` (out of range, dropped by scatters) where no step was taken."""
-    n = problem.nbr.shape[0]
-    if variant.pheromone_on == "cells":
-        return jnp.where(tours.cells >= 0, tours.cells, n)
-    prev = jnp.concatenate(
-        [jnp.broadcast_to(problem.start, tours.cells[:1].shape), tours.cells[:-1]], axis=0
-    )
-    return jnp.where(tours.moves >= 0, prev * 8 + tours.moves, 8 * n)
-
-
 def make_run(variant, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromone: bool = False):
     """Build ``run(key, problem, params) -> RunOutput`` for fixed shapes (not jitted here)."""
     variant = get_variant(variant)
-    if variant.dead_end not in DEAD_END_POLICIES:
-        raise JacoError(f"dead-end policy {variant.dead_end!r} unknown; have {DEAD_END_POLICIES}")
-    s_pad = pad_steps(steplimit)
-    exploit = variant.transition == "pseudo-random"
 
     def run(key, problem: Problem, params: Params) -> RunOutput:
         TRACES[variant.name] += 1  # Python side effect: runs once per trace, never when cached
@@ -99,41 +67,41 @@ def make_run(variant, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromo
         trail = variant.rule.init(
             Trail(jnp.zeros(size, jnp.float32), jnp.float32(0.0), jnp.float32(jnp.inf)), problem, params
         )
+
+        def construct(trail, t, key):
+            p = variant.schedule(params, t, n_iters)
+            trail, colony = variant.construct(
+                variant, problem, trail, p, t, n_iters, key, n_ants=n_ants, steplimit=steplimit
+            )
+            return p, trail, colony
+
+        # The candidates' path buffer length is the construct step's own (two colonies: longer).
+        path_len = jax.eval_shape(construct, trail, jnp.int32(0), key)[2].cells.shape[0]
+        trivial = problem.start == problem.goal  # an ant on the goal has arrived, path empty
         best = _Best(
-            cells=jnp.full((s_pad,), -1, jnp.int32),
-            targets=jnp.full((s_pad,), size, jnp.int32),
-            step_len=jnp.zeros((s_pad,), jnp.float32),
-            cost=jnp.float32(jnp.inf),
-            length=jnp.float32(jnp.inf),
-            iteration=jnp.int32(-1),
-        )
-        # The trivial query: an ant standing on the goal has arrived with an empty path.
-        best = jax.tree.map(
-            lambda b, z: jnp.where(problem.start == problem.goal, z, b),
-            best,
-            best._replace(cost=jnp.float32(0.0), length=jnp.float32(0.0), iteration=jnp.int32(0)),
+            cells=jnp.full((path_len,), -1, jnp.int32),
+            targets=jnp.full((path_len,), size, jnp.int32),
+            step_len=jnp.zeros((path_len,), jnp.float32),
+            cost=jnp.where(trivial, 0.0, jnp.inf).astype(jnp.float32),
+            length=jnp.where(trivial, 0.0, jnp.inf).astype(jnp.float32),
+            iteration=jnp.where(trivial, 0, -1).astype(jnp.int32),
         )
 
         def iteration(carry, xs):
             trail, best, seen, steps = carry
             key_t, t = xs
-            p = variant.schedule(params, t, n_iters)
-            weights = _move_weights(variant, trail, problem, p, t, n_iters)
-            u = jax.random.uniform(key_t, (s_pad, n_ants), jnp.float32)
-            tours = walk(problem, weights, u, p.q0, steplimit=steplimit, exploit=exploit)
-            cost = jnp.where(tours.arrived, variant.cost(tours, problem, p), jnp.inf)
-            targets = _targets(variant, tours, problem)
-            b = jnp.argmin(cost)
-            better = cost[b] < best.cost
-            candidate = _Best(tours.cells[:, b], targets[:, b], tours.step_len[:, b], cost[b], tours.length[b], t)
+            p, trail, col = construct(trail, t, key_t)
+            b = jnp.argmin(col.cost)
+            better = col.cost[b] < best.cost
+            candidate = _Best(col.cells[:, b], col.targets[:, b], col.step_len[:, b], col.cost[b], col.length[b], t)
             best = jax.tree.map(lambda new, old: jnp.where(better, new, old), candidate, best)
-            walks = Walks(targets, tours.step_len, cost, best.targets, best.step_len, best.cost)
+            walks = Walks(col.targets, col.step_len, col.cost, best.targets, best.step_len, best.cost)
             trail = variant.rule.update(trail, walks, problem, p)
-            ok = jnp.isfinite(cost)
+            ok = jnp.isfinite(col.cost)
             count = jnp.sum(ok)
-            mean = jnp.where(count > 0, jnp.sum(jnp.where(ok, cost, 0.0)) / jnp.maximum(count, 1), jnp.inf)
-            hist = History(best.cost, cost[b], mean, count / n_ants)
-            return (trail, best, seen | tours.visited, steps + jnp.sum(tours.n_steps)), hist
+            mean = jnp.where(count > 0, jnp.sum(jnp.where(ok, col.cost, 0.0)) / jnp.maximum(count, 1), jnp.inf)
+            hist = History(best.cost, col.cost[b], mean, count / col.cost.shape[0])
+            return (trail, best, seen | col.visited, steps + jnp.sum(col.n_steps)), hist
 
         seen = jnp.zeros((n,), bool)
         xs = (jax.random.split(key, n_iters), jnp.arange(n_iters, dtype=jnp.int32))

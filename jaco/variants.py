@@ -12,6 +12,7 @@ from typing import Callable, Mapping, NamedTuple
 
 from . import heuristics
 from . import pheromone as ph
+from .colony import single_colony
 from .errors import JacoError
 from .params import Params, param_names
 
@@ -31,7 +32,8 @@ class Variant(NamedTuple):
     the dataclass defaults; ``pheromone_on`` is ``"moves"`` (τ_ij) or ``"cells"`` (τ_j);
     ``transition`` is ``"roulette"`` or ``"pseudo-random"`` (q0 rule, eq. 2-14);
     ``schedule(params, t, n_iters)`` gives the parameters of iteration t (branch-free);
-    ``dead_end`` is what an ant with no allowed move does (``"die"``)."""
+    ``construct`` builds an iteration's candidate paths (:mod:`jaco.colony`: one colony of ants
+    that die at dead ends by default)."""
 
     name: str
     source: str
@@ -44,7 +46,7 @@ class Variant(NamedTuple):
     transition: str = "roulette"
     schedule: Callable = constant
     cost: Callable = path_length
-    dead_end: str = "die"
+    construct: Callable = single_colony
 
     def default_params(self) -> Params:
         return Params(**dict(self.defaults))
@@ -55,7 +57,6 @@ class Variant(NamedTuple):
         return f"{self.name:12s} {self.source}  [{shown}]"
 
 
-DEAD_END_POLICIES = ("die",)
 BASE = ("alpha", "beta", "rho", "q", "tau0")
 
 

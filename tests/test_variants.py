@@ -114,3 +114,15 @@ def test_every_variant_is_documented(name):
     assert v.source and v.doc and set(v.defaults) <= set(v.params)
     assert set(v.default_params().to_dict()) >= set(v.params)
     assert math.isfinite(sum(v.default_params().to_dict()[k] for k in v.params))
+
+
+def test_pheromone_on_cells_is_supported():
+    grid = jaco.maps.random_map(12, 0.2, seed=3)
+    on_cells = jaco.VARIANTS["as"]._replace(name="as-cells", pheromone_on="cells")
+    r = jaco.solve(grid, (0, 0), (11, 11), on_cells, seed=0, n_ants=16, n_iters=10, keep_pheromone=True)
+    assert r.success and validate_path(grid, r.path, (0, 0), (11, 11)) == []
+    assert r.pheromone.shape == (grid.n_cells,)
+    # Cells on the best path received deposits on top of the evaporated τ0.
+    tau = r.pheromone.reshape(grid.shape)
+    on_path = tau[r.path[1:, 0], r.path[1:, 1]]
+    assert on_path.mean() > np.median(tau[grid.free])

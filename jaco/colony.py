@@ -1,0 +1,69 @@
+"""One iteration's construction step: the candidate paths a colony offers to the pheromone rule.
+
+A variant's ``construct`` is a pure function
+``(variant, problem, trail, params, t, n_iters, key, *, n_ants, steplimit) -> (trail, Colony)``.
+The default, :func:`single_colony`, walks one colony from start to goal; variants with two
+colonies and path crossover, or with backtracking ants that update the pheromone while they walk,
+provide their own. Everything after construction (best-so-far, pheromone rule, history) is shared.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from .construct import pad_steps, walk
+
+
+class Colony(NamedTuple):
+    """Candidate paths of one iteration, step-major ``(S, C)`` for C candidates.
+
+    ``cells[t, c]``: the cell candidate c entered at step t (-1 when none); ``targets``: the
+    pheromone element of that step (``M``, dropped by scatters, when none); ``step_len``: its
+    length; ``cost[c]``: the objective (inf for a failed candidate); ``length[c]``: path length;
+    ``n_steps[c]``; ``visited (N,)``: cells visited by any ant (coverage).
+    """
+
+    cells: jax.Array
+    targets: jax.Array
+    step_len: jax.Array
+    cost: jax.Array
+    length: jax.Array
+    n_steps: jax.Array
+    visited: jax.Array
+
+
+def move_weights(variant, trail, problem, params, t, n_iters):
+    """W = τ^α η^β per move (N, 8), exactly 0 where the map forbids the move and in
+    [1e-30, 1e30] elsewhere, so the roulette never divides by zero or overflows."""
+    n = problem.nbr.shape[0]
+    valid = problem.nbr >= 0
+    if variant.pheromone_on == "cells":
+        tau = trail.tau[jnp.where(valid, problem.nbr, 0)]
+    else:
+        tau = trail.tau.reshape(n, 8)
+    eta = variant.heuristic(problem, params, t, n_iters)
+    w = jnp.power(tau, params.alpha) * jnp.power(eta, params.beta)
+    w = jnp.clip(jnp.nan_to_num(w, nan=1e-30, posinf=1e30), 1e-30, 1e30)
+    return jnp.where(valid, w, 0.0)
+
+
+def step_targets(pheromone_on: str, cells, moves, start, n_cells: int):
+    """Pheromone element of every step: the entered cell (cells) or ``from·8 + move`` (moves);
+    out of range (``N`` or ``8N``) where no step was taken."""
+    if pheromone_on == "cells":
+        return jnp.where(cells >= 0, cells, n_cells)
+    prev = jnp.concatenate([jnp.broadcast_to(start, cells[:1].shape), cells[:-1]], axis=0)
+    return jnp.where(moves >= 0, prev * 8 + moves, 8 * n_cells)
+
+
+def single_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
+    """One colony walks start → goal with the random-proportional (or q0) rule; dead ants fail."""
+    weights = move_weights(variant, trail, problem, params, t, n_iters)
+    u = jax.random.uniform(key, (pad_steps(steplimit), n_ants), jnp.float32)
+    tours = walk(problem, weights, u, params.q0, steplimit=steplimit, exploit=variant.transition == "pseudo-random")
+    cost = jnp.where(tours.arrived, variant.cost(tours, problem, params), jnp.inf)
+    targets = step_targets(variant.pheromone_on, tours.cells, tours.moves, problem.start, problem.nbr.shape[0])
+    return trail, Colony(tours.cells, targets, tours.step_len, cost, tours.length, tours.n_steps, tours.visited)
