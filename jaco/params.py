@@ -34,6 +34,27 @@ class Params:
     sigma: float = 5.0
     w: float = 6.0
     p_best: float = 0.05
+    # Fixed MMAS-style bounds (IDACA 3.4.2, IACA 4.2.3)
+    tau_min: float = 0.01
+    tau_max: float = 20.0
+    # IDACA schedules (thesis eqs. 3-8, 3-9, 3-10)
+    alpha_slope: float = 0.03
+    alpha_end: float = 2.5
+    beta_start: float = 3.0
+    beta_slope: float = 0.015
+    beta_end: float = 2.0
+    break_iter: float = 83.0
+    rho_min: float = 0.3
+    rho_decay: float = 2.0
+    # IACA (thesis chapter 4)
+    k_init: float = 10.0
+    rho_local: float = 0.1
+    q1: float = 1.0
+    q2: float = 5.0
+    q3: float = 15.0
+    rho1: float = 0.7
+    rho2: float = 0.2
+    q_step: float = 0.5
 
     def replace(self, **changes) -> "Params":
         return replace(self, **changes)
@@ -77,7 +98,28 @@ SPECS: dict[str, Spec] = {
     "sigma": Spec(0, 1000, "elitist weight σ (number of elite ants) on the best-so-far path"),
     "w": Spec(1, 1000, "rank-based AS: the w−1 best ants deposit, plus the best-so-far with weight w"),
     "p_best": Spec(0, 1, "MMAS: probability of building the best path at convergence (sets τmin)", lo_open=True, hi_open=True),
+    "tau_min": Spec(0, INF, "lower pheromone bound τmin (fixed bounds)", hi_open=True),
+    "tau_max": Spec(0, INF, "upper pheromone bound τmax (fixed bounds)", lo_open=True, hi_open=True),
+    "alpha_slope": Spec(0, 10, "IDACA eq. 3-8: α(i) = alpha_slope·i up to break_iter"),
+    "alpha_end": Spec(0, 20, "IDACA eq. 3-8: α after break_iter"),
+    "beta_start": Spec(0, 20, "IDACA eq. 3-9: β(0)"),
+    "beta_slope": Spec(0, 10, "IDACA eq. 3-9: β(i) = beta_start − beta_slope·i up to break_iter"),
+    "beta_end": Spec(0, 20, "IDACA eq. 3-9: β after break_iter"),
+    "break_iter": Spec(0, 1e6, "IDACA eqs. 3-8, 3-9: iteration where α and β switch to their plateaus"),
+    "rho_min": Spec(0, 1, "IDACA eq. 3-10: floor of the decaying evaporation rate", lo_open=True),
+    "rho_decay": Spec(1, 1000, "IDACA eq. 3-10: ρ(t+1) = ρ(t)·a^(−t/Nc), a = rho_decay > 1"),
+    "k_init": Spec(0, INF, "IACA 4.2.3: initial pheromone K·η_goal(j)", lo_open=True, hi_open=True),
+    "rho_local": Spec(0, 1, "IACA eqs. 4-2..4-4: local update τ ← (1−ρ)τ + Q/d_ij while walking"),
+    "q1": Spec(0, INF, "IACA eq. 4-6: threshold Q1", hi_open=True),
+    "q2": Spec(0, INF, "IACA eq. 4-6: threshold Q2 (> Q1)", hi_open=True),
+    "q3": Spec(0, INF, "IACA eq. 4-6: threshold Q3 (> Q2)", hi_open=True),
+    "rho1": Spec(0, 1, "IACA eq. 4-6: factor for Q1 < P ≤ Q2 (ρ1 > ρ2)", lo_open=True),
+    "rho2": Spec(0, 1, "IACA eq. 4-6: factor for Q2 < P ≤ Q3", lo_open=True),
+    "q_step": Spec(0, INF, "IACA eq. 4-6: increment q for P ≤ Q1, decrement for P > Q3", hi_open=True),
 }
+
+# Pairs (a, b) that must satisfy a < b (or a > b) when both are used: checked like ranges.
+ORDERED = (("tau_min", "tau_max"), ("q1", "q2"), ("q2", "q3"), ("rho2", "rho1"), ("rho_min", "rho"))
 
 
 def param_names() -> tuple[str, ...]:
@@ -112,3 +154,13 @@ def check_values(values: dict, allowed: tuple[str, ...], where: str) -> dict:
             )
         out[name] = a
     return out
+
+
+def check_order(values: dict, used: tuple[str, ...]) -> None:
+    """Relations between parameters (τmin < τmax, Q1 < Q2 < Q3, ρ2 < ρ1, ρmin < ρ) on the
+    merged values of a variant; values may be sweep axes (checked for every combination)."""
+    for lo, hi in ORDERED:
+        if lo in used and hi in used:
+            a, b = np.atleast_1d(values[lo]), np.atleast_1d(values[hi])
+            if not a.max() < b.min():  # every combination of a sweep must hold
+                raise ParamError(f"parameters need {lo} < {hi}, got {lo} = {a.max():g}, {hi} = {b.min():g}")

@@ -18,7 +18,7 @@ import numpy as np
 
 from .errors import JacoError
 from .grid import Grid
-from .params import Params, check_values
+from .params import Params, check_order, check_values
 from .pheromone import Trail, Walks
 from .problem import Problem, make_problem
 from .variants import Variant, get_variant
@@ -159,6 +159,7 @@ def resolve_params(variant: Variant, values: dict, *, where: str) -> dict:
     """Validated parameter values (numpy float arrays) over the variant's defaults."""
     merged = {k: np.asarray(v, np.float64) for k, v in variant.default_params().to_dict().items()}
     merged.update(check_values(values, variant.params, where))
+    check_order(merged, variant.params)
     return merged
 
 
