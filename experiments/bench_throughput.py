@@ -56,7 +56,7 @@ SECTION = "bench_throughput"
 FULL = dict(
     side=30, p=0.25, map_seed=0, n_ants=50, n_iters=100,
     axes={"alpha": [0.5, 1.0, 2.0, 4.0], "beta": [1.0, 2.0, 4.0, 8.0], "rho": [0.1, 0.3, 0.5, 0.7]},
-    reps=3, latency_calls=20,
+    reps=5, latency_calls=20,
     sides=[16, 32, 64, 128, 256], ants=[10, 50, 200, 800], batches=[1, 8, 64, 256],
     scale_iters=20, scale_reps=3,
 )
@@ -132,7 +132,18 @@ def machine() -> dict:
                 break
     except OSError:
         pass
+    import subprocess
+
+    def git(*a):
+        try:
+            return subprocess.run(["git", *a], cwd=ROOT, capture_output=True, text=True, timeout=10).stdout.strip()
+        except (OSError, subprocess.SubprocessError):
+            return ""
+
+    commit = git("rev-parse", "--short", "HEAD") or "?"
+    dirty = bool(git("status", "--porcelain", "--", "jaco"))
     return {
+        "commit": commit + (" + uncommitted changes in jaco/" if dirty else ""),
         "nproc": os.cpu_count(),
         "affinity": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None,
         "cpu": model,
@@ -182,7 +193,7 @@ def split_axes(axes: dict, n: int):
 def run_benchmark(args) -> dict:
     cfg = SMOKE if args.smoke else FULL
     import jax
-    import jax.numpy as jnp  # noqa: F401
+    import jax.numpy as jnp
     import numpy as np
 
     import jaco
@@ -318,8 +329,8 @@ def run_benchmark(args) -> dict:
         steps = native_steps if k == "native" else jaco_steps
         rate = steps / w
         figures[k] = dict(wall_s=w, cpu_s=c, configs_per_s=n_cfg / w, steps=steps, steps_per_s=rate,
-                          vs_native=rate / nat_rate, all_wall_s=[t[0] for t in times[k]])
-        rows.append([labels[k], w, c, n_cfg / w, steps, rate, rate / nat_rate])
+                          steps_per_cpu_s=steps / c, vs_native=rate / nat_rate, all_wall_s=[t[0] for t in times[k]])
+        rows.append([labels[k], w, c, n_cfg / w, steps, rate, steps / c, rate / nat_rate])
     R["throughput"] = figures
     best_jaco = max((k for k in figures if k != "native"), key=lambda k: figures[k]["steps_per_s"])
     R["ratio"] = figures[best_jaco]["vs_native"]
@@ -327,7 +338,8 @@ def run_benchmark(args) -> dict:
     R["best_jaco"] = labels[best_jaco]
     R["sweep_first_call_s"] = first[0]
     R["throughput_table"] = table(
-        ["engine", "wall s (best)", "CPU s", "configs/s", "real ant-steps", "ant-steps/s", "× native (steps/s)"], rows
+        ["engine", "wall s (best)", "CPU s", "configs/s", "real ant-steps", "ant-steps/s", "ant-steps per CPU s",
+         "× native (steps/s)"], rows
     )
     succ_j = float(np.mean(np.isfinite(ref_table["cost"].to_numpy())))
     succ_n = float(np.mean(np.isfinite(native_lengths)))
@@ -339,6 +351,23 @@ def run_benchmark(args) -> dict:
         native_steps_per_ant_iter=native_steps / (n_cfg * n_ants * n_iters),
         optimal=float(problems.optimal[0]),
     )
+    # -- where part of the time goes: uniforms drawn for every step slot, used or not ------------
+    from jaco.construct import pad_steps
+
+    s_pad = pad_steps(steplimit)
+
+    @jax.jit
+    def draw(keys):
+        def one(k):
+            body = lambda c, kt: (c + jnp.sum(jax.random.uniform(kt, (s_pad, n_ants), jnp.float32)), None)  # noqa: E731
+            return jax.lax.scan(body, jnp.float32(0), jax.random.split(k, n_iters))[0]
+
+        return jax.vmap(one)(keys)
+
+    draw(keys).block_until_ready()
+    w_draw = best_of(lambda: draw(keys), cfg["reps"])[0]
+    R["rng"] = dict(drawn=n_cfg * n_iters * s_pad * n_ants, used=jaco_steps, seconds=w_draw,
+                    share_of_sweep=w_draw / figures["jaco_1"]["wall_s"])
     R["rss_after_sweep_mib"] = peak_rss_mib()
     print(R["throughput_table"], flush=True)
     print(f"ratio jaco/native (real ant-steps/s, {R['best_jaco']}): {R['ratio']:.3f}x", flush=True)
@@ -486,7 +515,7 @@ def report(R: dict, command: str) -> str:
     lines = [
         "## Throughput: jaco against a native AS loop (`experiments/bench_throughput.py`)",
         "",
-        f"Command: `{command}` (run {R['date']}, {R['total_s']:.0f} s in all).",
+        f"Command: `{command}` (run {R['date']}, {R['total_s']:.0f} s in all; jaco at commit {m['commit']}).",
         "",
         f"Machine: {m['nproc']} CPUs ({m['affinity']} usable), {m['cpu']}; {m['platform']}; Python {m['python']}, "
         f"jax {m['jax']} / jaxlib {m['jaxlib']}, numba {m['numba']}; {m['xla_devices']} XLA host device(s). "
@@ -507,12 +536,22 @@ def report(R: dict, command: str) -> str:
         "",
         f"**Ratio jaco / native: {R['ratio']:.2f}×** in real ant-steps/s ({R['ratio_configs']:.2f}× in configs/s), "
         f"best jaco row: {R['best_jaco']}. First `jaco.sweep` call (trace + compile + run): "
-        f"{R['sweep_first_call_s']:.1f} s; numba compile of the reference: {R['native_compile_s']:.1f} s.",
+        f"{R['sweep_first_call_s']:.1f} s; numba compile of the reference: {R['native_compile_s']:.1f} s. "
+        "Wall s is the best of the repetitions (all: see `--json`), CPU s the process CPU time of that repetition "
+        "(above the wall time where more than one core worked); ant-steps per CPU s is the per-core rate, which "
+        "other processes on the machine disturb least.",
         "",
         f"Same work, different random numbers: jaco {qa['jaco_steps_per_ant_iter']:.1f} and native "
         f"{qa['native_steps_per_ant_iter']:.1f} real steps per ant and iteration; success (share of configurations "
         f"that found a path) {qa['jaco_success']:.2f} / {qa['native_success']:.2f}; median best length "
         f"{qa['jaco_median_length']:.1f} / {qa['native_median_length']:.1f} (optimum {qa['optimal']:.1f}).",
+        "",
+    ]
+    rng = R["rng"]
+    lines += [
+        f"Random numbers: jaco draws one uniform per ant and step slot of every iteration, "
+        f"{rng['drawn']:,} for this sweep, of which ants use {rng['used']:,} ({100 * rng['used'] / rng['drawn']:.0f} %); "
+        f"drawing them alone takes {rng['seconds']:.2f} s, {100 * rng['share_of_sweep']:.0f} % of the 1-device sweep.",
         "",
     ]
     if "multi_device_equal" in R:

@@ -1,0 +1,166 @@
+"""The throughput benchmark runs (at --smoke size) and its native reference is a correct AS.
+
+No test here asserts a time: figures only have to be present, finite and positive.
+"""
+
+import json
+import math
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import jaco
+
+numba = pytest.importorskip("numba")
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "experiments"))
+
+import native_reference as nr  # noqa: E402
+
+NUMBER = re.compile(r"^-?[\d,]*\.?\d+(e[+-]?\d+)?$")
+
+
+def numbers(cells):
+    """The numeric cells of a markdown table row (thousands separators allowed)."""
+    return [float(c.replace(",", "")) for c in cells if NUMBER.match(c)]
+
+
+def table_row(text, label):
+    for line in text.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if line.startswith("|") and cells[0].startswith(label):
+            return cells
+    raise AssertionError(f"no table row starting with {label!r}")
+
+
+@pytest.fixture(scope="module")
+def smoke(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("bench")
+    md, js = tmp / "BENCHMARKS.md", tmp / "bench.json"
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "experiments" / "bench_throughput.py"), "--smoke", "--out", str(md), "--json", str(js)],
+        cwd=ROOT, capture_output=True, text=True, timeout=900,
+    )
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    return proc.stdout, md.read_text(), json.loads(js.read_text())
+
+
+def test_smoke_writes_the_throughput_table(smoke):
+    stdout, md, _ = smoke
+    assert "<!-- bench_throughput:start -->" in md and "<!-- bench_throughput:end -->" in md
+    assert "Command: `python experiments/bench_throughput.py --smoke" in md
+    for label in (
+        "native (numba loop, 1 core)",
+        "jaco, 1 device",
+        "jaco, 2 devices: threads",
+        "jaco, 2 devices: sharded",
+    ):
+        row = table_row(md, label)
+        vals = numbers(row[1:])
+        assert len(vals) == 7, row  # wall, CPU, configs/s, steps, steps/s, steps per CPU s, x native
+        assert all(math.isfinite(v) and v > 0 for v in vals), row
+        assert label in stdout
+    assert re.search(r"\*\*Ratio jaco / native: [\d.]+×\*\*", md)
+    assert "threads yes, sharding yes" in md  # multi-device results equal 1-device ones
+
+
+def test_smoke_reports_solve_scaling_and_targets(smoke):
+    _, md, _ = smoke
+    for label in ("first `solve` call", "compile time", "`solve` latency after compile", "compiled run alone"):
+        vals = numbers(table_row(md, label)[1:])
+        assert vals and all(math.isfinite(v) and v > 0 for v in vals), label
+    for label in ("8x8", "12x12"):  # the grid-side table at smoke size
+        vals = numbers(table_row(md, label)[1:])
+        assert len(vals) >= 9 and all(math.isfinite(v) and v > 0 for v in vals), label
+    assert "### Targets" in md and "Peak memory" in md
+    assert md.count("**met**") + md.count("**not met**") == 3
+
+
+def test_smoke_json_figures(smoke):
+    _, _, R = smoke
+    for k, fig in R["throughput"].items():
+        for f in ("wall_s", "configs_per_s", "steps", "steps_per_s", "steps_per_cpu_s", "vs_native"):
+            assert math.isfinite(fig[f]) and fig[f] > 0, (k, f)
+    assert R["multi_device_equal"] == {"threads": True, "sharding": True}
+    assert R["machine"]["xla_devices"] == 2
+    assert R["solve"]["median_ms"] > 0 and R["rss_peak_mib"] > 0
+    assert 0 < R["rng"]["used"] <= R["rng"]["drawn"]
+
+
+# -- the native reference -------------------------------------------------------------------------
+def check_path(grid, nbr, start, goal, length, cells):
+    cells = np.asarray(cells)
+    assert cells[0] == start and cells[-1] == goal
+    assert len(set(cells.tolist())) == len(cells)  # tabu list: no cell twice
+    total = 0.0
+    for a, b in zip(cells[:-1], cells[1:]):
+        k = np.flatnonzero(nbr[a] == b)
+        assert k.size == 1, (a, b)  # an allowed move (8-connected, no corner cutting)
+        total += nr.MOVE_LENGTHS[k[0]]
+    assert length == pytest.approx(total)
+
+
+def test_native_finds_a_valid_path_no_shorter_than_the_optimum():
+    grid = jaco.maps.random_map(14, 0.25, seed=3)
+    start, goal = (0, 0), (13, 13)
+    nbr, eta, s, g = nr.problem_arrays(grid, start, goal)
+    steplimit = 4 * (14 + 14)
+    optimum, _ = jaco.exact.shortest_path(grid, start, goal)
+    length, cells, steps = nr.as_colony(nbr, eta, s, g, 1.0, 4.0, 0.3, 1.0, 0.1, 20, 30, steplimit, 0)
+    assert math.isfinite(length)
+    check_path(grid, nbr, s, g, length, cells)
+    assert length >= optimum - 1e-9
+    assert length <= 2 * optimum  # AS with beta = 4 does not wander that far
+    assert 0 < steps <= 20 * 30 * steplimit
+    # reproducible with numba's own seeded generator
+    again = nr.as_colony(nbr, eta, s, g, 1.0, 4.0, 0.3, 1.0, 0.1, 20, 30, steplimit, 0)
+    assert again[0] == length and np.array_equal(again[1], cells) and again[2] == steps
+
+
+def test_native_heuristic_matches_jaco():
+    grid = jaco.maps.random_map(9, 0.2, seed=1)
+    nbr, eta, s, g = nr.problem_arrays(grid, (0, 0), (8, 8))
+    problem = jaco.make_problem(grid, (0, 0), (8, 8))
+    want = np.asarray(jaco.heuristics.inverse_goal_distance(jaco.problem.to_device(problem), None, 0, 1))
+    np.testing.assert_allclose(eta, want, rtol=1e-6)
+    np.testing.assert_array_equal(nbr, problem.nbr)
+
+
+def test_native_on_an_open_map_most_ants_arrive():
+    grid = jaco.Grid(np.ones((10, 10), bool))
+    nbr, eta, s, g = nr.problem_arrays(grid, (0, 0), (9, 9))
+    n_ants, n_iters = 20, 10
+    length, cells, steps, arrivals = nr.as_colony_stats(nbr, eta, s, g, 1.0, 4.0, 0.3, 1.0, 0.1, n_ants, n_iters, 80, 1)
+    assert arrivals >= 0.9 * n_ants * n_iters
+    assert length == pytest.approx(9 * math.sqrt(2))  # the diagonal is found
+    check_path(grid, nbr, s, g, length, cells)
+    assert steps >= arrivals * 9  # every arriving ant took at least the 9 diagonal steps
+
+
+def test_native_corridor_and_trivial_query():
+    # a winding corridor: the only path is found
+    grid = jaco.Grid.from_rows(["....", ".###", "....", "###."])
+    nbr, eta, s, g = nr.problem_arrays(grid, (0, 3), (3, 3))
+    length, cells, steps, arrivals = nr.as_colony_stats(nbr, eta, s, g, 1.0, 1.0, 0.3, 1.0, 0.1, 10, 5, 30, 0)
+    optimum, _ = jaco.exact.shortest_path(grid, (0, 3), (3, 3))
+    assert length == pytest.approx(optimum)
+    assert 0 < arrivals <= 50
+    # start on the goal: length 0, no steps
+    length, cells, steps = nr.as_colony(nbr, eta, g, g, 1.0, 1.0, 0.3, 1.0, 0.1, 5, 3, 30, 0)
+    assert length == 0.0 and list(cells) == [g] and steps == 0
+
+
+def test_sweep_native_runs_every_configuration():
+    grid = jaco.maps.random_map(10, 0.2, seed=2)
+    nbr, eta, s, g = nr.problem_arrays(grid, (0, 0), (9, 9))
+    configs = [(a, b, r) for a in (1.0, 2.0) for b in (2.0, 4.0) for r in (0.3,)]
+    lengths, steps = nr.sweep_native(configs, nbr, eta, s, g, n_ants=10, n_iters=5, steplimit=40, seed=7)
+    assert lengths.shape == (4,) and steps.shape == (4,)
+    assert (steps > 0).all()
+    single = nr.as_colony(nbr, eta, s, g, 2.0, 4.0, 0.3, 1.0, 0.1, 10, 5, 40, 7 + 3)
+    assert lengths[3] == single[0] and steps[3] == single[2]
