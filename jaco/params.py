@@ -119,7 +119,7 @@ SPECS: dict[str, Spec] = {
 }
 
 # Pairs (a, b) that must satisfy a < b (or a > b) when both are used: checked like ranges.
-ORDERED = (("tau_min", "tau_max"), ("q1", "q2"), ("q2", "q3"), ("rho2", "rho1"), ("rho_min", "rho"))
+ORDERED = (("tau_min", "tau_max"), ("q1", "q2"), ("q2", "q3"), ("rho2", "rho1"))
 
 
 def param_names() -> tuple[str, ...]:
@@ -157,7 +157,7 @@ def check_values(values: dict, allowed: tuple[str, ...], where: str) -> dict:
 
 
 def check_order(values: dict, used: tuple[str, ...]) -> None:
-    """Relations between parameters (τmin < τmax, Q1 < Q2 < Q3, ρ2 < ρ1, ρmin < ρ) on the
+    """Relations between parameters (τmin < τmax, Q1 < Q2 < Q3, ρ2 < ρ1) on the
     merged values of a variant; values may be sweep axes (checked for every combination)."""
     for lo, hi in ORDERED:
         if lo in used and hi in used:

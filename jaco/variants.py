@@ -159,6 +159,13 @@ VARIANTS: dict[str, Variant] = {
     v.name: v for v in (AS, AS_DENSITY, AS_QUANTITY, EAS, RAS, ACS, MMAS)
 }
 
+# The thesis's planners live in their own modules (they bring their own construct steps);
+# imported here, after Variant and _variant exist, so that they can build on them.
+from .double import DACA, IDACA  # noqa: E402
+from .iaca import IACA  # noqa: E402
+
+VARIANTS.update({v.name: v for v in (DACA, IDACA, IACA)})
+
 
 def get_variant(variant) -> Variant:
     """A registered variant by name, or a :class:`Variant` as it is."""

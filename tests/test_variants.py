@@ -65,11 +65,11 @@ def test_same_seed_identical_different_seeds_differ(name, maps_):
 
 def test_sweep_rows_equal_solve(name, maps_):
     grid = maps_[1]
-    values = jaco.VARIANTS[name].default_params().to_dict()
-    table = jaco.sweep(grid, *_ends(grid), name, params={"alpha": [0.5, values["alpha"]]}, seeds=[0, 3], **SMALL)
+    q = jaco.VARIANTS[name].default_params().q  # every variant has a deposit constant Q
+    table = jaco.sweep(grid, *_ends(grid), name, params={"q": [0.5 * q, q]}, seeds=[0, 3], **SMALL)
     assert len(table) == 4
     for _, row in table.iterrows():
-        r = jaco.solve(grid, *_ends(grid), name, seed=int(row.seed), alpha=row.alpha, **SMALL)
+        r = jaco.solve(grid, *_ends(grid), name, seed=int(row.seed), q=row.q, **SMALL)
         assert row.length == r.length and row.best_iteration == r.best_iteration
         assert row.coverage == pytest.approx(r.coverage, abs=0)
 
@@ -79,7 +79,7 @@ def test_compiles_once_for_repeated_calls_of_one_shape(name):
     b = jaco.maps.random_map(10, 0.1, seed=2)
     jaco.solve(a, (0, 0), (9, 9), name, seed=0, n_ants=8, n_iters=3)
     before = TRACES[name]
-    jaco.solve(a, (0, 0), (9, 9), name, seed=1, n_ants=8, n_iters=3, alpha=2.0)
+    jaco.solve(a, (0, 0), (9, 9), name, seed=1, n_ants=8, n_iters=3, q=2.0)
     jaco.solve(b, (0, 0), (9, 9), name, seed=2, n_ants=8, n_iters=3)  # other map, same shape
     jaco.solve(b, (9, 9), (0, 0), name, seed=3, n_ants=8, n_iters=3)  # other query
     assert TRACES[name] == before

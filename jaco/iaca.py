@@ -1,0 +1,314 @@
+"""IACA: the improved ant colony algorithm with backtracking ants (Hua Lu 2011, thesis chapter 4).
+
+Hua Lu, *Research on path planning based on ant colony algorithm*, MSc thesis, Nanchang Hangkong
+University, 2011, chapter 4: the node-selection rule (4-1) with the detour heuristic (4-5), ranked
+("sorted") selection of the next cell (4.2.2), pheromone initialised from the goal distance
+(4.2.3), the local update while walking (4-2..4-4) bounded to [τmin, τmax], the piecewise update
+of infeasible paths (4-6, 4.2.4) and the ant backtracking strategy (4.3); the step list of 4.4.
+
+Pheromone lives on cells (τ_j, the thesis's "node pheromone"). Unlike the classic family, an
+ant's weights depend on the pheromone *as it is during the walk* (the local update changes it
+after every step) and on its own tabu list (the heuristic 4-5 normalises over the allowed
+neighbours), so :func:`iaca_colony` replaces the engine's :func:`jaco.colony.single_colony`:
+it carries τ through the walk and computes each ant's 8 weights per step.
+
+Interpretations (ALGORITHMS.md §4; also in ``docs/variants_iaca.md``):
+
+* **Heuristic (4-5)** ``η_B = 1 − (d_AB + d_BE) / Σ_{C∈M_A} (d_AC + d_CE)``, Euclidean
+  distances, ``M_A`` = the moves the map allows from A minus the ant's tabu list. With a single
+  allowed neighbour the formula gives 0, which would forbid the only move: η is 1 there (its
+  probability is 1 anyway); η is also floored at 1e-6.
+* **Ranked selection (4.2.2)** = the engine's pseudo-random proportional rule: with probability
+  ``q0`` (the thesis's ranked choice, q_r) the most probable candidate (ties: lowest move index),
+  else roulette.
+* **Initialisation (4.2.3)** ``τ0_j = K·η_goal(j)``, ``η_goal(j) = 1 − d_jE / max_free d_jE``
+  (Euclidean), clamped to [τmin, τmax]; set for every cell at the start instead of "when a cell
+  is first a candidate" (the only difference: the global evaporation also acts on cells that no
+  ant has considered yet).
+* **Local update (4-2..4-4)** on each forward step i→j: ``τ_j ← (1−ρ_l)τ_j + Q/d_ij`` then clamp.
+  Ants walk in parallel: after each step, the updates of all ants that stepped are applied
+  together. A cell entered by k ants in the same step receives all k updates, in the closed form
+  averaged over the k! orders: ``τ ← (1−ρ_l)^k τ + (Σ Q/d)·(1 − (1−ρ_l)^k)/(k ρ_l)`` (exact when
+  the k steps have one length), then one clamp. An ant sees the updates of earlier steps of all
+  ants of its iteration, never those of the same step. Back-steps do not update.
+* **Backtracking (4.3)** an ant with no allowed move keeps its cell in its tabu list (marked
+  infeasible), pops it from its path stack and returns to the previous cell, where it chooses
+  again among the remaining moves at its next step. Every action (forward step or back-step)
+  counts toward ``steplimit``. An ant back at the start with nothing left dies (only possible
+  when the goal is unreachable, since the walk is then a depth-first search); an ant out of steps
+  has failed. The path is the stack: the cells from start to goal without the dead branches.
+* **Infeasible update (4-6)** after the walks, once per iteration, on the *infeasible cells*:
+  every cell visited by an ant that failed, plus every cell popped by backtracking (by any ant),
+  minus the cells on the final path of an ant that arrived in this iteration. Applied inside
+  :func:`iaca_colony` (the engine's ``Walks`` carry the final paths only), before the global
+  update. ``P + q`` for P ≤ Q1, ``ρ1·P`` for Q1 < P ≤ Q2, ``ρ2·P`` for Q2 < P ≤ Q3, ``P − q`` above
+  Q3, then clamp to [τmin, τmax].
+* **Global update** after each iteration, MMAS-style (the thesis's step list has none beyond the
+  local update and 4-6; 4.2.3 says "use the MMAS idea to control the pheromone"): evaporation
+  ``(1−ρ)τ`` of every cell, the best-so-far ant deposits ``σ·Q/L*`` on its cells, clamp to
+  [τmin, τmax]. Without it nothing rewards short paths (the local update rewards every visit).
+* ``Colony.n_steps`` counts all actions (forward steps and back-steps): the work done.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from . import pheromone as ph
+from .colony import Colony, step_targets
+from .construct import CHUNK, Tours, choose, pad_steps
+from .heuristics import goal_distance
+from .problem import MOVE_LENGTHS, MOVES
+
+ETA_FLOOR = 1e-6
+
+# Move index of a (d_row, d_col) step, looked up at (d_row + 1)·3 + (d_col + 1); -1: no move.
+_MOVE_OF = np.full(9, -1, np.int32)
+for _k, (_dr, _dc) in enumerate(MOVES):
+    _MOVE_OF[(_dr + 1) * 3 + (_dc + 1)] = _k
+
+
+# -- heuristic (4-5) -------------------------------------------------------------------------
+def detour(problem) -> jax.Array:
+    """``d_AB + d_BE`` for every move A→B ``(N, 8)`` (Euclidean; 0 where the map forbids it)."""
+    return jnp.where(problem.nbr >= 0, problem.step + goal_distance(problem), 0.0)
+
+
+def eta_45(r, allowed) -> jax.Array:
+    """Eq. (4-5) on rows ``r (..., 8)`` of :func:`detour` over the ``allowed`` moves:
+    ``η_B = 1 − r_B / Σ_{C allowed} r_C``; 1 when B is the only allowed move; floored at
+    :data:`ETA_FLOOR`; 0 where not allowed."""
+    r = jnp.where(allowed, r, 0.0)
+    total = jnp.sum(r, axis=-1, keepdims=True)
+    single = jnp.sum(allowed, axis=-1, keepdims=True) == 1
+    eta = jnp.where(single, 1.0, 1.0 - r / jnp.maximum(total, 1e-12))
+    return jnp.where(allowed, jnp.maximum(eta, ETA_FLOOR), 0.0)
+
+
+def iaca_heuristic(problem, params, t, n_iters) -> jax.Array:
+    """Eq. (4-5) with ``M_A`` = every move the map allows (no tabu list): the static form, for
+    tools that want one ``(N, 8)`` table. The IACA walk recomputes it per step with the tabu."""
+    return eta_45(detour(problem), problem.nbr >= 0)
+
+
+# -- pheromone pieces ------------------------------------------------------------------------
+def goal_closeness(problem) -> jax.Array:
+    """``η_goal(j) = 1 − d_jE / max_j d_jE`` over free cells (Euclidean; 4.2.3), 0 on obstacles."""
+    d = jnp.sqrt(jnp.sum((problem.xy - problem.xy[problem.goal][None, :]) ** 2, axis=-1))
+    free = problem.clearance > 0
+    dmax = jnp.max(jnp.where(free, d, 0.0))
+    return jnp.where(free, 1.0 - d / jnp.maximum(dmax, 1e-12), 0.0)
+
+
+def iaca_init() -> ph.Rule:
+    """τ0_j = K·η_goal(j) clamped to [τmin, τmax]; fixed bounds ``Trail(lo=τmin, hi=τmax)`` (4.2.3)."""
+
+    def init(trail, problem, params):
+        lo, hi = jnp.float32(params.tau_min), jnp.float32(params.tau_max)
+        tau = jnp.clip(params.k_init * goal_closeness(problem), lo, hi).astype(trail.tau.dtype)
+        return ph.Trail(tau, lo, hi)
+
+    return ph.Rule(init, ph._keep_update)
+
+
+def infeasible_update(tau, params):
+    """Eq. (4-6) on pheromone values ``P``: ``P + q`` (P ≤ Q1), ``ρ1·P`` (Q1 < P ≤ Q2),
+    ``ρ2·P`` (Q2 < P ≤ Q3), ``P − q`` (P > Q3); no clamp here."""
+    return jnp.where(
+        tau <= params.q1,
+        tau + params.q_step,
+        jnp.where(tau <= params.q2, params.rho1 * tau, jnp.where(tau <= params.q3, params.rho2 * tau, tau - params.q_step)),
+    )
+
+
+def local_update(tau, lo, hi, cells, amount, params):
+    """Eqs. (4-2..4-4) for the forward steps of one walk step, all ants together.
+
+    ``cells (A,)``: the cell each ant entered (``N`` for none); ``amount (A,)``: its Q/d_ij. A
+    cell entered by k ants gets the k sequential updates averaged over their orders:
+    ``(1−ρ)^k τ + (Σ Q/d)(1 − (1−ρ)^k)/(kρ)``; then it is clamped to [lo, hi].
+    """
+    n = tau.shape[0]
+    k = jnp.zeros((n,), tau.dtype).at[cells].add(1.0, mode="drop")
+    s = jnp.zeros((n,), tau.dtype).at[cells].add(amount, mode="drop")
+    keep = 1.0 - params.rho_local
+    decay = jnp.power(keep, k)
+    rho = params.rho_local
+    # (1 − keep^k)/(kρ) → 1 as ρ → 0; k ≥ 1 wherever it is used.
+    mean_decay = jnp.where(rho > 1e-6, (1.0 - decay) / jnp.maximum(k * rho, 1e-12), 1.0)
+    new = jnp.clip(decay * tau + s * mean_decay, lo, hi)
+    return jnp.where(k > 0, new, tau)
+
+
+# -- the backtracking walk --------------------------------------------------------------------
+def backtrack_walk(problem, trail, params, u, *, steplimit: int, exploit: bool = True):
+    """Walk ``A = u.shape[1]`` backtracking ants (thesis 4.3) with the local update (4-2..4-4).
+
+    Returns ``(tau, stack (A, steplimit+1), sp (A,), arrived (A,), n_actions (A,), tabu (A, N))``:
+    ``stack[a, :sp[a]+1]`` is ant a's path from the start (``stack[a, 0]``) with the dead branches
+    removed; ``tabu`` every cell the ant entered (dead branches included).
+    """
+    s_pad, n_ants = u.shape
+    n_cells = problem.nbr.shape[0]
+    depth = steplimit + 1
+    lanes = jnp.arange(n_ants)
+    offsets = problem.offsets
+    start, goal = problem.start, problem.goal
+    lo, hi = trail.lo, trail.hi
+    rows = detour(problem)
+    valid_rows = problem.nbr >= 0
+    lengths = jnp.asarray(MOVE_LENGTHS, jnp.float32)
+
+    def step(carry, xs):
+        tau, cur, sp, stack, tabu, running, actions = carry
+        u_t, t = xs
+        nb = jnp.clip(cur[:, None] + offsets[None, :], 0, n_cells - 1)
+        allowed = valid_rows[cur] & ~tabu[lanes[:, None], nb]
+        live = running & (t < steplimit)
+        has = jnp.any(allowed, axis=-1)
+        eta = eta_45(rows[cur], allowed)
+        w = jnp.power(tau[nb], params.alpha) * jnp.power(eta, params.beta)  # Eq. (4-1)
+        w = jnp.where(allowed, jnp.clip(jnp.nan_to_num(w, nan=1e-30, posinf=1e30), 1e-30, 1e30), 0.0)
+        k = choose(w, u_t, params.q0, exploit)
+        fwd = live & has
+        back = live & ~has & (sp > 0)  # 4.3: the dead-end cell stays tabu; return one cell
+        nxt = cur + offsets[k]
+        prev = stack[lanes, jnp.maximum(sp - 1, 0)]
+        cur = jnp.where(fwd, nxt, jnp.where(back, prev, cur))
+        sp = sp + fwd.astype(jnp.int32) - back.astype(jnp.int32)
+        stack = stack.at[lanes, sp].set(cur, indices_are_sorted=True, unique_indices=True)
+        tabu = tabu.at[lanes, cur].set(True, indices_are_sorted=True, unique_indices=True)
+        amount = params.q / lengths[k]  # Eq. (4-4): Q/d_ij
+        tau = local_update(tau, lo, hi, jnp.where(fwd, cur, n_cells), amount, params)
+        actions = actions + (fwd | back).astype(jnp.int32)
+        # Back at the start with nothing left (~has, sp == 0): dead; at the goal: arrived.
+        running = (fwd & (cur != goal)) | back
+        return (tau, cur, sp, stack, tabu, running, actions), None
+
+    def chunk(state):
+        t0, carry = state
+        xs = (jax.lax.dynamic_slice_in_dim(u, t0, CHUNK), t0 + jnp.arange(CHUNK))
+        carry, _ = jax.lax.scan(step, carry, xs)  # not unrolled: compiles 2x faster, runs no slower
+        return t0 + CHUNK, carry
+
+    def more(state):
+        t0, carry = state
+        return (t0 < steplimit) & jnp.any(carry[5])
+
+    stack = jnp.full((n_ants, depth), -1, jnp.int32).at[:, 0].set(start)
+    tabu = jnp.zeros((n_ants, n_cells), bool).at[:, start].set(True)
+    carry = (
+        trail.tau,
+        jnp.full((n_ants,), start, jnp.int32),
+        jnp.zeros((n_ants,), jnp.int32),
+        stack,
+        tabu,
+        jnp.full((n_ants,), start != goal),
+        jnp.zeros((n_ants,), jnp.int32),
+    )
+    _, (tau, cur, sp, stack, tabu, _, actions) = jax.lax.while_loop(more, chunk, (jnp.int32(0), carry))
+    del s_pad
+    return tau, stack, sp, cur == goal, actions, tabu
+
+
+def stack_tours(problem, stack, sp, arrived, actions, tabu, s_pad: int) -> Tours:
+    """Step-major :class:`~jaco.construct.Tours` ``(s_pad, A)`` of the final stacks."""
+    n_ants, depth = stack.shape
+    idx = jnp.arange(depth)[None, :]
+    path = jnp.where(idx <= sp[:, None], stack, -1)
+    cells = jnp.full((s_pad, n_ants), -1, jnp.int32).at[: depth - 1].set(path[:, 1:].T)
+    took = cells >= 0
+    prev = jnp.concatenate([jnp.full((1, n_ants), problem.start, jnp.int32), cells[:-1]], axis=0)
+    d = (problem.xy[jnp.where(took, cells, 0)] - problem.xy[jnp.where(took, prev, 0)]).astype(jnp.int32)
+    moves = jnp.where(took, jnp.asarray(_MOVE_OF)[jnp.clip((d[..., 0] + 1) * 3 + d[..., 1] + 1, 0, 8)], -1)
+    diag = took & (moves >= 4)
+    straight = took & (moves >= 0) & (moves < 4)
+    return Tours(
+        cells=cells,
+        moves=moves,
+        step_len=jnp.where(diag, jnp.sqrt(jnp.float32(2)), jnp.where(straight, 1.0, 0.0)).astype(jnp.float32),
+        arrived=arrived,
+        n_steps=actions,
+        # Integer counts, so a length is bit-identical however the runs are batched.
+        length=jnp.sum(straight, axis=0) + jnp.sqrt(jnp.float32(2)) * jnp.sum(diag, axis=0),
+        visited=jnp.any(tabu, axis=0),
+    )
+
+
+def infeasible_cells(stack, sp, arrived, tabu) -> jax.Array:
+    """Cells ``(N,)`` for eq. (4-6): visited by a failed ant or popped by backtracking, and on no
+    arrived ant's final path."""
+    n_ants, depth = stack.shape
+    n_cells = tabu.shape[1]
+    kept = jnp.where(jnp.arange(depth)[None, :] <= sp[:, None], stack, n_cells)
+    on_path = jnp.zeros((n_ants, n_cells), bool).at[jnp.arange(n_ants)[:, None], kept].set(True, mode="drop")
+    bad = jnp.any(tabu & (~on_path | ~arrived[:, None]), axis=0)
+    good = jnp.any(on_path & arrived[:, None], axis=0)
+    return bad & ~good
+
+
+def iaca_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
+    """One IACA iteration (thesis 4.4, Steps 2–5): backtracking walks with the local update, then
+    the infeasible-path update (4-6). Returns the updated trail and the final stacks as a
+    :class:`~jaco.colony.Colony`; the variant's ``rule.update`` (global update) follows."""
+    s_pad = pad_steps(steplimit)
+    u = jax.random.uniform(key, (s_pad, n_ants), jnp.float32)
+    exploit = variant.transition == "pseudo-random"
+    tau, stack, sp, arrived, actions, tabu = backtrack_walk(problem, trail, params, u, steplimit=steplimit, exploit=exploit)
+    bad = infeasible_cells(stack, sp, arrived, tabu)
+    tau = jnp.where(bad, jnp.clip(infeasible_update(tau, params), trail.lo, trail.hi), tau)  # Eq. (4-6)
+    tours = stack_tours(problem, stack, sp, arrived, actions, tabu, s_pad)
+    cost = jnp.where(arrived, variant.cost(tours, problem, params), jnp.inf)
+    targets = step_targets("cells", tours.cells, tours.moves, problem.start, problem.nbr.shape[0])
+    colony = Colony(tours.cells, targets, tours.step_len, cost, tours.length, tours.n_steps, tours.visited)
+    return trail._replace(tau=tau), colony
+
+
+IACA_PARAMS = (
+    "alpha", "beta", "rho", "q", "sigma", "q0", "tau_min", "tau_max", "k_init", "rho_local",
+    "q1", "q2", "q3", "rho1", "rho2", "q_step",
+)
+
+
+def _build():
+    """The :data:`IACA` variant (module attribute, built on first access: see ``__getattr__``)."""
+    from .variants import _variant
+
+    return _variant(
+        "iaca",
+        "Hua Lu 2011 thesis, chapter 4: eqs. 4-1..4-6, 4.2.2, 4.2.3, 4.3",
+        "Hua Lu 2011, MSc thesis, chapter 4 (eqs. 4-1..4-6, sections 4.2.2, 4.2.3, 4.3, 4.4): improved "
+        "ACO with backtracking ants. Pheromone on cells, initialised to K·(1 − d_jE/max d) (4.2.3) "
+        "within [τmin, τmax]; heuristic (4-5) η_B = 1 − (d_AB + d_BE)/Σ_{C∈M_A}(d_AC + d_CE) over the "
+        "allowed, non-tabu neighbours (η = 1 for a single one); ranked selection = argmax with "
+        "probability q0, else roulette (4.2.2); local update τ_j ← (1−ρ_local)τ_j + Q/d_ij on every "
+        "step of all ants (4-2..4-4), applied after each parallel step; ants at a dead end step back "
+        "along their path (4.3), back-steps count toward the step limit and the path is the stack "
+        "without dead branches; after the walks, the piecewise rule (4-6) on the cells of failed "
+        "ants and of popped dead branches; then, MMAS-style, evaporation (1−ρ), a deposit σ·Q/L* on "
+        "the best-so-far path and the clamp to [τmin, τmax]. See jaco.iaca for every interpretation.",
+        IACA_PARAMS,
+        dict(
+            alpha=1.0, beta=8.0, rho=0.05, q=0.1, sigma=1000.0, q0=0.9, tau_min=0.01, tau_max=20.0, k_init=10.0,
+            rho_local=0.1, q1=1.0, q2=5.0, q3=15.0, rho1=0.7, rho2=0.2, q_step=0.5,
+        ),
+        ph.chain(iaca_init(), ph.evaporate(), ph.deposit_best_so_far(lambda p: p.sigma), ph.clamp()),
+        heuristic=iaca_heuristic,
+        pheromone_on="cells",
+        transition="pseudo-random",
+        construct=iaca_colony,
+    )
+
+
+def __getattr__(name):
+    """:data:`IACA` is built on first access (PEP 562), so that this module and
+    :mod:`jaco.variants` (which registers it and defines :class:`~jaco.variants.Variant`) can be
+    imported in either order without a circular import."""
+    if name == "IACA":
+        variant = _build()
+        # Building imports jaco.variants, whose registry reads IACA (re-entering here): keep
+        # the first object built, so that the registry and this module share one Variant.
+        return globals().setdefault("IACA", variant)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
