@@ -61,6 +61,7 @@ from .colony import Colony, step_targets
 from .construct import CHUNK, Tours, choose, pad_steps
 from .heuristics import goal_distance
 from .problem import MOVE_LENGTHS, MOVES
+from .variant import make_variant
 
 ETA_FLOOR = 1e-6
 
@@ -272,43 +273,27 @@ IACA_PARAMS = (
 )
 
 
-def _build():
-    """The :data:`IACA` variant (module attribute, built on first access: see ``__getattr__``)."""
-    from .variants import _variant
-
-    return _variant(
-        "iaca",
-        "Hua Lu 2011 thesis, chapter 4: eqs. 4-1..4-6, 4.2.2, 4.2.3, 4.3",
-        "Hua Lu 2011, MSc thesis, chapter 4 (eqs. 4-1..4-6, sections 4.2.2, 4.2.3, 4.3, 4.4): improved "
-        "ACO with backtracking ants. Pheromone on cells, initialised to K·(1 − d_jE/max d) (4.2.3) "
-        "within [τmin, τmax]; heuristic (4-5) η_B = 1 − (d_AB + d_BE)/Σ_{C∈M_A}(d_AC + d_CE) over the "
-        "allowed, non-tabu neighbours (η = 1 for a single one); ranked selection = argmax with "
-        "probability q0, else roulette (4.2.2); local update τ_j ← (1−ρ_local)τ_j + Q/d_ij on every "
-        "step of all ants (4-2..4-4), applied after each parallel step; ants at a dead end step back "
-        "along their path (4.3), back-steps count toward the step limit and the path is the stack "
-        "without dead branches; after the walks, the piecewise rule (4-6) on the cells of failed "
-        "ants and of popped dead branches; then, MMAS-style, evaporation (1−ρ), a deposit σ·Q/L* on "
-        "the best-so-far path and the clamp to [τmin, τmax]. See jaco.iaca for every interpretation.",
-        IACA_PARAMS,
-        dict(
-            alpha=1.0, beta=8.0, rho=0.05, q=0.1, sigma=1000.0, q0=0.9, tau_min=0.01, tau_max=20.0, k_init=10.0,
-            rho_local=0.1, q1=1.0, q2=5.0, q3=15.0, rho1=0.7, rho2=0.2, q_step=0.5,
-        ),
-        ph.chain(iaca_init(), ph.evaporate(), ph.deposit_best_so_far(lambda p: p.sigma), ph.clamp()),
-        heuristic=iaca_heuristic,
-        pheromone_on="cells",
-        transition="pseudo-random",
-        construct=iaca_colony,
-    )
-
-
-def __getattr__(name):
-    """:data:`IACA` is built on first access (PEP 562), so that this module and
-    :mod:`jaco.variants` (which registers it and defines :class:`~jaco.variants.Variant`) can be
-    imported in either order without a circular import."""
-    if name == "IACA":
-        variant = _build()
-        # Building imports jaco.variants, whose registry reads IACA (re-entering here): keep
-        # the first object built, so that the registry and this module share one Variant.
-        return globals().setdefault("IACA", variant)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+IACA = make_variant(
+    "iaca",
+    "Hua Lu 2011 thesis, chapter 4: eqs. 4-1..4-6, 4.2.2, 4.2.3, 4.3",
+    "Hua Lu 2011, MSc thesis, chapter 4 (eqs. 4-1..4-6, sections 4.2.2, 4.2.3, 4.3, 4.4): improved "
+    "ACO with backtracking ants. Pheromone on cells, initialised to K·(1 − d_jE/max d) (4.2.3) "
+    "within [τmin, τmax]; heuristic (4-5) η_B = 1 − (d_AB + d_BE)/Σ_{C∈M_A}(d_AC + d_CE) over the "
+    "allowed, non-tabu neighbours (η = 1 for a single one); ranked selection = argmax with "
+    "probability q0, else roulette (4.2.2); local update τ_j ← (1−ρ_local)τ_j + Q/d_ij on every "
+    "step of all ants (4-2..4-4), applied after each parallel step; ants at a dead end step back "
+    "along their path (4.3), back-steps count toward the step limit and the path is the stack "
+    "without dead branches; after the walks, the piecewise rule (4-6) on the cells of failed "
+    "ants and of popped dead branches; then, MMAS-style, evaporation (1−ρ), a deposit σ·Q/L* on "
+    "the best-so-far path and the clamp to [τmin, τmax]. See jaco.iaca for every interpretation.",
+    IACA_PARAMS,
+    dict(
+        alpha=1.0, beta=8.0, rho=0.05, q=0.1, sigma=1000.0, q0=0.9, tau_min=0.01, tau_max=20.0, k_init=10.0,
+        rho_local=0.1, q1=1.0, q2=5.0, q3=15.0, rho1=0.7, rho2=0.2, q_step=0.5,
+    ),
+    ph.chain(iaca_init(), ph.evaporate(), ph.deposit_best_so_far(lambda p: p.sigma), ph.clamp()),
+    heuristic=iaca_heuristic,
+    pheromone_on="cells",
+    transition="pseudo-random",
+    construct=iaca_colony,
+)

@@ -7,72 +7,14 @@ is textbook AS with η = 1/d_ij.
 
 from __future__ import annotations
 
-from types import MappingProxyType
-from typing import Callable, Mapping, NamedTuple
-
-from . import heuristics
 from . import pheromone as ph
-from .colony import single_colony
+from .double import DACA, IDACA
 from .errors import JacoError
-from .params import Params, param_names
-
-
-def constant(params: Params, t, n_iters) -> Params:
-    """No schedule: the same parameters at every iteration."""
-    return params
-
-
-def path_length(tours, problem, params):
-    """Cost = path length (thesis eq. 3-2); multi-objective costs replace this function."""
-    return tours.length
-
-
-class Variant(NamedTuple):
-    """One planner. ``params`` names the :class:`Params` fields it reads; ``defaults`` overrides
-    the dataclass defaults; ``pheromone_on`` is ``"moves"`` (τ_ij) or ``"cells"`` (τ_j);
-    ``transition`` is ``"roulette"`` or ``"pseudo-random"`` (q0 rule, eq. 2-14);
-    ``schedule(params, t, n_iters)`` gives the parameters of iteration t (branch-free);
-    ``construct`` builds an iteration's candidate paths (:mod:`jaco.colony`: one colony of ants
-    that die at dead ends by default)."""
-
-    name: str
-    source: str
-    doc: str
-    params: tuple
-    defaults: Mapping
-    heuristic: Callable
-    rule: ph.Rule
-    pheromone_on: str = "moves"
-    transition: str = "roulette"
-    schedule: Callable = constant
-    cost: Callable = path_length
-    construct: Callable = single_colony
-
-    def default_params(self) -> Params:
-        return Params(**dict(self.defaults))
-
-    def describe(self) -> str:
-        values = self.default_params().to_dict()
-        shown = ", ".join(f"{k}={values[k]:g}" for k in self.params)
-        return f"{self.name:12s} {self.source}  [{shown}]"
+from .iaca import IACA
+from .variant import Variant, constant, make_variant, path_length  # noqa: F401 (re-exported)
 
 
 BASE = ("alpha", "beta", "rho", "q", "tau0")
-
-
-def _variant(name, source, doc, params, defaults, rule, **kw) -> Variant:
-    assert set(params) <= set(param_names()) and set(defaults) <= set(params), name
-    return Variant(
-        name=name,
-        source=source,
-        doc=doc,
-        params=tuple(params),
-        defaults=MappingProxyType(dict(defaults)),
-        heuristic=kw.pop("heuristic", heuristics.inverse_goal_distance),
-        rule=rule,
-        **kw,
-    )
-
 
 _CLASSIC_NOTE = (
     " Heuristic: η = 1/(distance of the candidate to the goal) (thesis eq. 3-7), because the "
@@ -80,7 +22,7 @@ _CLASSIC_NOTE = (
     "`jaco.heuristics.inverse_step` for the textbook form. Pheromone on moves (τ_ij)."
 )
 
-AS = _variant(
+AS = make_variant(
     "as",
     "Dorigo, Maniezzo & Colorni 1996; thesis eqs. 2-1, 2-2, 2-3, 2-6",
     "Ant System, ant-cycle: τ ← (1−ρ)τ + Σ_k Q/L_k on ant k's path." + _CLASSIC_NOTE,
@@ -89,7 +31,7 @@ AS = _variant(
     ph.chain(ph.init_constant(), ph.evaporate(), ph.deposit_all(ph.ant_cycle)),
 )
 
-AS_DENSITY = _variant(
+AS_DENSITY = make_variant(
     "as-density",
     "Dorigo, Maniezzo & Colorni 1996; thesis eq. 2-4",
     "Ant System, ant-density: every successful ant deposits Q on each element it used." + _CLASSIC_NOTE,
@@ -98,7 +40,7 @@ AS_DENSITY = _variant(
     ph.chain(ph.init_constant(), ph.evaporate(), ph.deposit_all(ph.ant_density)),
 )
 
-AS_QUANTITY = _variant(
+AS_QUANTITY = make_variant(
     "as-quantity",
     "Dorigo, Maniezzo & Colorni 1996; thesis eqs. 2-5, 4-4",
     "Ant System, ant-quantity: every successful ant deposits Q/d_ij on each step i→j." + _CLASSIC_NOTE,
@@ -107,7 +49,7 @@ AS_QUANTITY = _variant(
     ph.chain(ph.init_constant(), ph.evaporate(), ph.deposit_all(ph.ant_quantity)),
 )
 
-EAS = _variant(
+EAS = make_variant(
     "eas",
     "Dorigo 1992; thesis eqs. 2-11, 2-12, 2-13",
     "Elitist Ant System: ant-cycle AS plus σ·Q/L* on the best-so-far path." + _CLASSIC_NOTE,
@@ -121,7 +63,7 @@ EAS = _variant(
     ),
 )
 
-RAS = _variant(
+RAS = make_variant(
     "ras",
     "Bullnheimer, Hartl & Strauss 1997 (thesis ref. 1)",
     "Rank-based Ant System: the w−1 best ants of the iteration deposit (w−r)·Q/L_r, the "
@@ -131,7 +73,7 @@ RAS = _variant(
     ph.chain(ph.init_constant(), ph.evaporate(), ph.deposit_ranked()),
 )
 
-ACS = _variant(
+ACS = make_variant(
     "acs",
     "Dorigo & Gambardella 1997; thesis eqs. 2-14, 2-15, 2-16",
     "Ant Colony System: pseudo-random proportional rule (argmax of τ^α η^β with probability "
@@ -144,7 +86,7 @@ ACS = _variant(
     transition="pseudo-random",
 )
 
-MMAS = _variant(
+MMAS = make_variant(
     "mmas",
     "Stützle & Hoos 2000; thesis eq. 2-17",
     "MAX-MIN Ant System: τ initialised to τmax, only the iteration-best ant deposits "
@@ -156,15 +98,9 @@ MMAS = _variant(
 )
 
 VARIANTS: dict[str, Variant] = {
-    v.name: v for v in (AS, AS_DENSITY, AS_QUANTITY, EAS, RAS, ACS, MMAS)
+    v.name: v for v in (AS, AS_DENSITY, AS_QUANTITY, EAS, RAS, ACS, MMAS, DACA, IDACA, IACA)
 }
 
-# The thesis's planners live in their own modules (they bring their own construct steps);
-# imported here, after Variant and _variant exist, so that they can build on them.
-from .double import DACA, IDACA  # noqa: E402
-from .iaca import IACA  # noqa: E402
-
-VARIANTS.update({v.name: v for v in (DACA, IDACA, IACA)})
 
 
 def get_variant(variant) -> Variant:

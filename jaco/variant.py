@@ -1,0 +1,71 @@
+"""What a planner is: a :class:`Variant`, a NamedTuple of pure functions and small static
+choices (DESIGN.md concept 4). Kept apart from the registry (:mod:`jaco.variants`) so that the
+modules defining variants (``double``, ``iaca``) and the registry import it without a cycle.
+"""
+
+from __future__ import annotations
+
+from types import MappingProxyType
+from typing import Callable, Mapping, NamedTuple
+
+from . import heuristics
+from . import pheromone as ph
+from .colony import single_colony
+from .params import Params, param_names
+
+
+def constant(params: Params, t, n_iters) -> Params:
+    """No schedule: the same parameters at every iteration."""
+    return params
+
+
+def path_length(tours, problem, params):
+    """Cost = path length (thesis eq. 3-2); multi-objective costs replace this function."""
+    return tours.length
+
+
+class Variant(NamedTuple):
+    """One planner. ``params`` names the :class:`Params` fields it reads; ``defaults`` overrides
+    the dataclass defaults; ``pheromone_on`` is ``"moves"`` (τ_ij) or ``"cells"`` (τ_j);
+    ``transition`` is ``"roulette"`` or ``"pseudo-random"`` (q0 rule, eq. 2-14);
+    ``schedule(params, t, n_iters)`` gives the parameters of iteration t (branch-free);
+    ``construct`` builds an iteration's candidate paths (:mod:`jaco.colony`: one colony of ants
+    that die at dead ends by default)."""
+
+    name: str
+    source: str
+    doc: str
+    params: tuple
+    defaults: Mapping
+    heuristic: Callable
+    rule: ph.Rule
+    pheromone_on: str = "moves"
+    transition: str = "roulette"
+    schedule: Callable = constant
+    cost: Callable = path_length
+    construct: Callable = single_colony
+
+    def default_params(self) -> Params:
+        return Params(**dict(self.defaults))
+
+    def describe(self) -> str:
+        values = self.default_params().to_dict()
+        shown = ", ".join(f"{k}={values[k]:g}" for k in self.params)
+        return f"{self.name:12s} {self.source}  [{shown}]"
+
+
+
+
+def make_variant(name, source, doc, params, defaults, rule, **kw) -> Variant:
+    """A :class:`Variant` with checked parameter names; ``heuristic`` defaults to η = 1/L_goal."""
+    assert set(params) <= set(param_names()) and set(defaults) <= set(params), name
+    return Variant(
+        name=name,
+        source=source,
+        doc=doc,
+        params=tuple(params),
+        defaults=MappingProxyType(dict(defaults)),
+        heuristic=kw.pop("heuristic", heuristics.inverse_goal_distance),
+        rule=rule,
+        **kw,
+    )
