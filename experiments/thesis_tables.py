@@ -2,7 +2,7 @@
 """Reproduce the layout of the thesis's tables 3-2 and 4-2 (ACA, DACA, IDACA, IACA), and add what
 the thesis could not: the exact optimum, the gap, the success rate and the indices E0, Et, Er.
 
-    python experiments/thesis_tables.py                      # full run -> docs/results_thesis.md + figures
+    python experiments/thesis_tables.py                      # full run -> docs/results.md (its section) + figures
     python experiments/thesis_tables.py --smoke --out DIR    # tiny sizes, for the tests
 
 For every map and planner, R independent runs (seeds 0..R-1) go through ONE ``jaco.sweep`` call
@@ -67,6 +67,19 @@ def run_cell(grid, variant, runs, n_ants, n_iters, steplimit):
     assert not problems, (grid.name, variant.name, problems)
     return dict(best=idx["c_best"], mean=idx["c_mean"], optimal=optimal, success=idx["success_rate"],
                 E0=idx["E0"], Et=idx["Et"], Er=idx["Er"], time=per_run, result=r)
+
+
+def write_section(path: Path, tag: str, body: str) -> None:
+    """Replace the text between ``<!-- tag:start -->`` and ``<!-- tag:end -->`` in ``path`` (append
+    the section when it is not there), so hand-written notes around it survive a re-run."""
+    start, end = f"<!-- {tag}:start -->", f"<!-- {tag}:end -->"
+    text = path.read_text() if path.exists() else ""
+    block = f"{start}\n{body}{end}\n"
+    if start in text and end in text:
+        text = text[: text.index(start)] + block + text[text.index(end) + len(end) + 1 :]
+    else:
+        text = text + ("\n" if text else "") + block
+    path.write_text(text)
 
 
 def fmt(x, digits=2):
@@ -140,8 +153,8 @@ def main(argv=None):
             ordering.append(b["IACA"] <= b["IDACA"] + 1e-9 <= b["ACA"] + 2e-9)
     if ordering:
         lines += ["", f"The thesis's ordering IACA ≤ IDACA ≤ ACA (best length) holds on {sum(ordering)} of {len(ordering)} maps."]
-    out = args.out / ("results_thesis_smoke.md" if args.smoke else "results_thesis.md")
-    out.write_text("\n".join(lines) + "\n")
+    out = args.out / ("results_thesis_smoke.md" if args.smoke else "results.md")
+    write_section(out, "thesis_tables", "\n".join(lines[1:]) + "\n")
     print(f"wrote {out} and figures in {figdir}")
     return 0
 

@@ -316,7 +316,7 @@ DACA = _variant(
     "τ ← (1−ρ)τ + Σ_k Q/L_k over the best population's feasible candidates (eqs. 3-4..3-6), "
     "τ0 constant, no schedules. Ref. 58's own heuristic is not given in the thesis." + _DOUBLE_NOTE,
     ("alpha", "beta", "rho", "q", "tau0"),
-    dict(alpha=1.0, beta=1.0, rho=0.3, q=1.0, tau0=0.1),
+    dict(alpha=1.0, beta=1.0, rho=0.6, q=10.0, tau0=0.1),
     daca_rule(),
     heuristic=heuristics.inverse_step,
     pheromone_on="cells",
