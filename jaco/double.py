@@ -39,7 +39,6 @@ from . import schedules
 from .colony import Colony, move_weights, step_targets
 from .construct import Tours, pad_steps, walk
 from .problem import MOVES
-from .variant import Variant
 from .variant import make_variant as _variant
 
 SQRT2 = np.float32(np.sqrt(2.0))
