@@ -239,8 +239,10 @@ def run_benchmark(args) -> dict:
     R["native_compile_s"] = time.perf_counter() - t0
 
     # -- jaco: one device, through jaco.sweep ---------------------------------------------------
-    def sweep(ax):
-        return jaco.sweep(grid, start, goal, "as", ax, seeds=1, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit)
+    def sweep(ax, devices=1):
+        # devices=1: one XLA device; the threads below pass None, i.e. the thread's default device
+        return jaco.sweep(grid, start, goal, "as", ax, seeds=1, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,
+                          devices=devices)
 
     first = timed(lambda: sweep(axes))
     ref_table = first[2]
@@ -265,7 +267,7 @@ def run_benchmark(args) -> dict:
     def threads():
         def work(i):
             with jax.default_device(devices[i]):
-                results[i] = sweep(parts[i])
+                results[i] = sweep(parts[i], devices=None)
 
         ts = [threading.Thread(target=work, args=(i,)) for i in range(n_dev)]
         for t in ts:

@@ -26,10 +26,17 @@ _LAZY = {
     "solve": "run",
     "sweep": "sweeps",
     "summarize": "sweeps",
+    # sweeps at scale (issue 6)
+    "plan_sweep": "sweeps",
     "VARIANTS": "variants",
     "Variant": "variants",
+    # records (run records, issue 6)
+    "load_run": "records",
+    # tuning with optax (the module is jaco.tuning: jaco.tune is the function)
+    "tune": "tuning",
+    "TuneResult": "tuning",
 }
-_SUBMODULES = {"construct", "exact", "heuristics", "maps", "metrics", "params", "pheromone", "plot", "problem", "run", "sweeps", "variants", "cli"}
+_SUBMODULES = {"apf", "chaos", "construct", "designs", "exact", "heuristics", "iaaco", "maps", "metrics", "params", "pheromone", "plot", "problem", "records", "run", "sweeps", "variants", "waypoints", "cli", "pg", "tuning"}
 
 __all__ = ["Grid", "JacoError", "MapFormatError", "ParamError", "ProblemError", *_LAZY, *sorted(_SUBMODULES)]
 

@@ -1,4 +1,4 @@
-"""Command line interface: ``jaco demo | solve | sweep | variants | maps``.
+"""Command line interface: ``jaco demo | solve | sweep | rerun | variants | maps``.
 
 Run ``jaco --help`` or ``jaco COMMAND --help`` for the options. Every user mistake (bad argument,
 unknown map / variant / parameter, missing file, blocked or unreachable start/goal, out-of-range
@@ -47,6 +47,22 @@ def _cell(text: str) -> tuple[int, int]:
     except ValueError:
         raise argparse.ArgumentTypeError(
             f"expected a cell as ROW,COL (two integers, e.g. 3,7), got {text!r}"
+        ) from None
+
+
+def _xy(text: str) -> tuple[float, float]:
+    """``"X,Y"`` (metres) -> ``(X, Y)``; finite numbers only."""
+    parts = text.replace(" ", "").split(",")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        x, y = float(parts[0]), float(parts[1])
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise ValueError
+        return x, y
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a world point as X,Y in metres (two finite numbers, e.g. 1.5,-0.25), got {text!r}"
         ) from None
 
 
@@ -170,6 +186,7 @@ def resolve_query(grid, args):
     the map's own ``meta``."""
     from . import maps
 
+    _world_query(grid, args)  # --start-xy / --goal-xy -> --start / --goal cells
     scen = getattr(args, "scen", None)
     if scen is None:
         if args.index is not None:
@@ -199,6 +216,74 @@ def resolve_query(grid, args):
             f"but map {grid.name!r} is {grid.height}x{grid.width}"
         )
     return sc.start, sc.goal, sc, f"{path.name} #{k}"
+
+
+# -- world coordinates (ROS maps): --start-xy / --goal-xy (records feature, issue 5) ------------
+def _map_extent(grid) -> tuple[float, float, float, float]:
+    """``(xmin, xmax, ymin, ymax)`` in metres of the map's outer corners."""
+    import numpy as np
+
+    res, (ox, oy, yaw) = float(grid.resolution), grid.origin or (0.0, 0.0, 0.0)
+    lx = np.array([0.0, grid.width, 0.0, grid.width]) * res
+    ly = np.array([0.0, 0.0, grid.height, grid.height]) * res
+    xs = ox + np.cos(yaw) * lx - np.sin(yaw) * ly
+    ys = oy + np.sin(yaw) * lx + np.cos(yaw) * ly
+    return float(xs.min()), float(xs.max()), float(ys.min()), float(ys.max())
+
+
+def world_cell(grid, xy, flag: str) -> tuple[int, int]:
+    """The free cell containing world point ``xy`` (metres), or a :class:`UsageError` saying why
+    not: the map has no resolution/origin, the point is off the map, or its cell is not free."""
+    cell_flag = flag[: -len("-xy")]
+    if grid.resolution is None:
+        raise UsageError(
+            f"{flag} needs a map with a resolution and origin (a ROS map .yaml); map {grid.name!r} "
+            f"has none: give {cell_flag} ROW,COL instead"
+        )
+    cell = tuple(int(v) for v in grid.world_to_cell(xy))
+    shown = f"({xy[0]:g}, {xy[1]:g}) m"
+    if not grid.in_bounds(cell):
+        x0, x1, y0, y1 = _map_extent(grid)
+        raise UsageError(
+            f"{flag} {shown} is outside map {grid.name!r}, which covers x {x0:g}..{x1:g} m and "
+            f"y {y0:g}..{y1:g} m"
+        )
+    if not grid.free[cell]:
+        occ = grid.meta.get("occupancy")
+        what = "unknown (unmapped)" if occ is not None and occ[cell] == -1 else "an obstacle"
+        raise UsageError(f"{flag} {shown} lies in cell {cell} of map {grid.name!r}, which is {what}")
+    return cell
+
+
+def _world_query(grid, args) -> None:
+    """Turn ``--start-xy`` / ``--goal-xy`` into ``args.start`` / ``args.goal`` cells."""
+    pairs = [("--start", "start", getattr(args, "start_xy", None)),
+             ("--goal", "goal", getattr(args, "goal_xy", None))]
+    if getattr(args, "scen", None) is not None and any(xy is not None for *_, xy in pairs):
+        raise UsageError("give either --start-xy/--goal-xy or --scen/--index, not both")
+    for flag, attr, xy in pairs:
+        if xy is None:
+            continue
+        if getattr(args, attr, None) is not None:
+            raise UsageError(f"give either {flag} ROW,COL or {flag}-xy X,Y, not both")
+        setattr(args, attr, world_cell(grid, xy, f"{flag}-xy"))
+
+
+def _world_doc(grid, result) -> dict:
+    """World-frame fields for ``--json`` on a ROS map (metres, cell centres)."""
+    from .records import _metres
+
+    start, goal = (grid.cell_to_world(c) for c in (result.start, result.goal))
+    return {
+        "frame": "map",
+        "units": "m",
+        "resolution": grid.resolution,
+        "origin": list(grid.origin or (0.0, 0.0, 0.0)),
+        "start_xy": [_metres(v) for v in start],
+        "goal_xy": [_metres(v) for v in goal],
+        "length_m": result.length / grid.cell_size * grid.resolution if result.success else None,
+        "path_xy": [[_metres(x), _metres(y)] for x, y in result.to_world()],
+    }
 
 
 # -- reporting ------------------------------------------------------------------------------------
@@ -269,14 +354,20 @@ def _plot(grid, result, exact_path, exact_length, out) -> Path:
 def _run_and_report(grid, start, goal, args, params, *, scenario=None, scen_label=None):
     from . import exact, solve
 
+    via = getattr(args, "waypoint", None)  # solve --waypoint R,C (several targets, jaco.waypoints)
     t0 = time.perf_counter()
     result = solve(
         grid, start, goal, args.variant,
         seed=args.seed, n_ants=args.ants, n_iters=args.iters,
-        steplimit=getattr(args, "steplimit", None), **params,
+        steplimit=getattr(args, "steplimit", None), waypoints=via, **params,
     )
     seconds = time.perf_counter() - t0
-    exact_length, exact_path = exact.shortest_path(grid, start, goal)
+    if via:
+        from .waypoints import exact_trip
+
+        exact_length, exact_path = exact_trip(grid, [start, *via, goal])
+    else:
+        exact_length, exact_path = exact.shortest_path(grid, start, goal)
     _report(grid, result, exact_length, seconds, scenario, scen_label)
     return result, exact_length, exact_path
 
@@ -294,27 +385,42 @@ def cmd_demo(args) -> int:
 
 def cmd_solve(args) -> int:
     params = parse_params(args.param)
+    if args.path_csv and Path(args.path_csv).suffix.lower() != ".csv":
+        raise UsageError(f"--path-csv writes CSV: give a file name ending in .csv, got {args.path_csv!r}")
     grid = load_map(args.map)
     start, goal, scenario, label = resolve_query(grid, args)
     result, exact_length, exact_path = _run_and_report(
         grid, start, goal, args, params, scenario=scenario, scen_label=label
     )
+    if grid.resolution is not None:  # ROS map: the query and length in metres too
+        sx, sy = grid.cell_to_world(result.start)
+        gx, gy = grid.cell_to_world(result.goal)
+        metres = f", length {result.length / grid.cell_size * grid.resolution:.3f} m" if result.success else ""
+        print(f"{'world':<9} start ({sx:.3f}, {sy:.3f}) m -> goal ({gx:.3f}, {gy:.3f}) m{metres}")
     if args.json:
         doc = result.to_dict()
         doc["metrics"] = result.metrics()
         if scenario is not None:
             doc["scenario"] = {"label": label, "optimal": scenario.optimal, "bucket": scenario.bucket}
+        if grid.resolution is not None:
+            doc["world"] = _world_doc(grid, result)
         path = Path(args.json)
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(_json_safe(doc), indent=2, allow_nan=False) + "\n")
         print(f"wrote {path}")
     if args.plot:
         print(f"wrote {_plot(grid, result, exact_path, exact_length, args.plot)}")
+    if args.path_csv:
+        print(f"wrote {result.save_path(args.path_csv, frame='world' if grid.resolution is not None else 'cells')}")
+    if args.record:
+        print(f"wrote {result.save(args.record)} (rerun it with 'jaco rerun {args.record}')")
     return 0
 
 
 def cmd_sweep(args) -> int:
     axes = parse_sweep_params(args.param)
+    if args.record and Path(args.record).suffix.lower() != ".csv":
+        raise UsageError(f"--record writes the table as CSV plus a .json sidecar: give a name ending in .csv, got {args.record!r}")
     grid = load_map(args.map)
     start, goal, scenario, label = resolve_query(grid, args)
     import pandas as pd
@@ -344,6 +450,14 @@ def cmd_sweep(args) -> int:
         path.parent.mkdir(parents=True, exist_ok=True)
         table.to_csv(path, index=False)
         print(f"wrote {path}")
+    if args.record:
+        from .records import save_sweep
+
+        sidecar = save_sweep(
+            table, args.record, grid, start, goal, variant, axes, args.seeds,
+            n_ants=args.ants, n_iters=args.iters, steplimit=args.steplimit,
+        )
+        print(f"wrote {args.record} and {sidecar} (rerun them with 'jaco rerun {sidecar}')")
     summary = summarize(table).sort_values(["gap_mean", "length_mean"], kind="stable").reset_index(drop=True)
     swept = [k for k in axes] or list(variant.params)
     cols = swept + ["length_mean", "length_std", "length_min", "success_rate", "gap_mean", "runs"]
@@ -361,6 +475,35 @@ def cmd_sweep(args) -> int:
         f"success {100 * best['success_rate']:.0f}% over {int(best['runs'])} seeds"
     )
     return 0
+
+
+def cmd_rerun(args) -> int:
+    """Rerun a record; exit 0 when it matched bit for bit, 1 when it did not."""
+    from .records import RunRecord, load_run
+
+    rec = load_run(args.record)
+    if isinstance(rec, RunRecord):
+        c, g = rec.call, rec.grid
+        print(
+            f"record   {rec.path.name}: {c['variant']} on {g.name} ({g.height}x{g.width}), start "
+            f"{tuple(c['start'])} -> goal {tuple(c['goal'])}, seed {c['seed']}, {c['n_ants']} ants x "
+            f"{c['n_iters']} iterations"
+        )
+    else:
+        c = rec.call
+        print(f"record   {rec.path.name}: sweep of {c['variant']}, {len(rec.table)} rows")
+    for w in rec.warnings:
+        print(f"jaco: warning: {_one_line(w)}", file=sys.stderr)
+    t0 = time.perf_counter()
+    rerun = rec.rerun(warn=False)
+    seconds = time.perf_counter() - t0
+    if rerun.matched:
+        print(f"rerun    matched the record bit for bit ({rerun.what}; {seconds:.2f} s)")
+        return 0
+    print(f"rerun    did NOT match the record ({len(rerun.differences)} difference(s)):")
+    for d in rerun.differences:
+        print(f"  {d}")
+    return 1
 
 
 def cmd_variants(args) -> int:
@@ -416,6 +559,10 @@ def _add_query_options(p) -> None:
     q = p.add_argument_group("start and goal (default: the named map's own)")
     q.add_argument("--start", type=_cell, metavar="R,C", help="start cell as ROW,COL")
     q.add_argument("--goal", type=_cell, metavar="R,C", help="goal cell as ROW,COL")
+    q.add_argument("--start-xy", type=_xy, metavar="X,Y",
+                   help="start as a world point in metres (ROS maps: from the yaml's resolution and "
+                   "origin), e.g. --start-xy -9.5,-9.5")
+    q.add_argument("--goal-xy", type=_xy, metavar="X,Y", help="goal as a world point in metres (ROS maps)")
     q.add_argument("--scen", metavar="FILE",
                    help="MovingAI .scen file (a path or a bundled file name): take start/goal from it")
     q.add_argument("--index", type=_nonneg_int, metavar="K", help="row of --scen to use (default 0)")
@@ -450,12 +597,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("map", metavar="MAP",
                    help="map file (.map .yaml .txt .npy .png .pgm ...), named map or bundled file; see 'jaco maps'")
     _add_query_options(p)
+    p.add_argument("--waypoint", action="append", type=_cell, metavar="R,C",
+                   help="visit this cell on the way to the goal (repeatable, visited in the order given)")
     _add_run_options(p, default_variant="mmas")
     p.add_argument("--seed", type=_nonneg_int, default=0, metavar="S", help="random seed (default 0)")
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="set a hyperparameter (repeatable), e.g. --param alpha=1.5 --param rho=0.2")
     p.add_argument("--json", metavar="OUT", help="write the result and its path metrics as JSON")
     p.add_argument("--plot", metavar="PNG", help="write a PNG of the map, the ACO path and the exact path")
+    p.add_argument("--path-csv", metavar="OUT",
+                   help="write the path as CSV: row,col and, on a ROS map, x,y in metres (cell centres)")
+    p.add_argument("--record", metavar="OUT",
+                   help="write a JSON run record (map embedded, versions) that 'jaco rerun OUT' reproduces")
     p.set_defaults(func=cmd_solve)
 
     p = sub.add_parser(
@@ -474,7 +627,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seeds", type=_pos_int, default=4, metavar="N",
                    help="seeds 0..N-1 per configuration (default 4)")
     p.add_argument("--csv", metavar="OUT", help="write the tidy table (one row per run) as CSV")
+    p.add_argument("--record", metavar="OUT.csv",
+                   help="write the table as CSV plus a JSON sidecar (OUT.json: arguments, maps, "
+                   "versions) that 'jaco rerun' reproduces")
     p.set_defaults(func=cmd_sweep)
+
+    p = sub.add_parser(
+        "rerun", help="rerun a run or sweep record and check it bit for bit",
+        description="Rerun a record written by 'jaco solve --record', 'jaco sweep --record', "
+        "Result.save or jaco.records.save_sweep, and compare path, length and history (or the "
+        "whole sweep table) bit for bit. Exit 0 when it matched, 1 when it did not; a record "
+        "written by other jaco/jax versions or on another backend gets a warning line first.",
+    )
+    p.add_argument("record", metavar="RECORD", help="run record .json, or a sweep's .csv or .json sidecar")
+    p.set_defaults(func=cmd_rerun)
 
     p = sub.add_parser("variants", help="list the registered ACO variants",
                        description="One line per variant: name, source, default parameters.")
@@ -485,6 +651,23 @@ def build_parser() -> argparse.ArgumentParser:
                        description="List the named maps and bundled map files.")
     p.set_defaults(func=cmd_maps)
     return parser
+
+
+def _join_negative_xy(argv):
+    """``--start-xy -9,-9`` -> ``--start-xy=-9,-9``: argparse would read ``-9,-9`` as an option,
+    and ROS maps often have a negative origin."""
+    import re
+
+    argv = list(sys.argv[1:] if argv is None else argv)
+    out, i = [], 0
+    while i < len(argv):
+        if argv[i] in ("--start-xy", "--goal-xy") and i + 1 < len(argv) and re.match(r"-[\d.]", argv[i + 1]):
+            out.append(f"{argv[i]}={argv[i + 1]}")
+            i += 2
+        else:
+            out.append(argv[i])
+            i += 1
+    return out
 
 
 def _one_line(text: str) -> str:
@@ -498,7 +681,7 @@ def main(argv=None) -> int:
     try:
         parser = build_parser()
         try:
-            args = parser.parse_args(argv)
+            args = parser.parse_args(_join_negative_xy(argv))
         except SystemExit as e:  # --help / --version
             return e.code if isinstance(e.code, int) else 0
         return args.func(args)

@@ -62,8 +62,14 @@ def step_targets(pheromone_on: str, cells, moves, start, n_cells: int):
 def single_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
     """One colony walks start → goal with the random-proportional (or q0) rule; dead ants fail."""
     weights = move_weights(variant, trail, problem, params, t, n_iters)
+    return trail, walk_colony(variant, problem, weights, params, key, n_ants=n_ants, steplimit=steplimit)
+
+
+def walk_colony(variant, problem, weights, params, key, *, n_ants: int, steplimit: int) -> Colony:
+    """The :class:`Colony` of ``n_ants`` ants walking start → goal on the move weights ``weights``
+    (``(N, 8)``, 0 exactly on forbidden moves), with the variant's transition rule and cost."""
     u = jax.random.uniform(key, (pad_steps(steplimit), n_ants), jnp.float32)
     tours = walk(problem, weights, u, params.q0, steplimit=steplimit, exploit=variant.transition == "pseudo-random")
     cost = jnp.where(tours.arrived, variant.cost(tours, problem, params), jnp.inf)
     targets = step_targets(variant.pheromone_on, tours.cells, tours.moves, problem.start, problem.nbr.shape[0])
-    return trail, Colony(tours.cells, targets, tours.step_len, cost, tours.length, tours.n_steps, tours.visited)
+    return Colony(tours.cells, targets, tours.step_len, cost, tours.length, tours.n_steps, tours.visited)

@@ -32,6 +32,8 @@ __all__ = [
     "turns",
     "heading_change",
     "clearance_stats",
+    "SAFETY_RADIUS",
+    "safety_terms",
     "safety_cost",
     "line_of_sight",
     "shortcut",
@@ -44,6 +46,13 @@ __all__ = [
 #: Default weights ``(a, b, c)`` of ``E = a*E0 + b*Et + c*Er``. The thesis does not print its
 #: values; quality (best and mean gap) counts twice as much as time, and best and mean equally.
 DEFAULT_WEIGHTS = (0.4, 0.2, 0.4)
+
+#: Default radius (cells) of the safety cost S (``ALGORITHMS.md`` §6.6), shared by
+#: :func:`safety_cost`, :func:`path_metrics` and the in-jit multi-objective cost
+#: (``jaco.iaaco.multi_objective``, ``Params.rs_cost``). Seed 002's Rs = 0.5 would score every free
+#: cell 0 (a free cell is at least 1 cell from an obstacle centre); with 1 a cell orthogonally next
+#: to an obstacle (or the map's edge) costs 0.5, a diagonal neighbour 1 − √2/2 ≈ 0.29, others 0.
+SAFETY_RADIUS = 1.0
 
 # Headings closer than this (radians) count as "no turn": guards float noise on long
 # any-angle segments, far below the smallest real turn on a grid (atan(1/H) for any sane H).
@@ -202,14 +211,23 @@ def clearance_stats(grid, path) -> tuple[float, float]:
     return (float(d.min()), float(d.mean()))
 
 
-def safety_cost(grid, path, rs: float = 0.5) -> float:
+def safety_terms(d_b, rs, xp=np):
+    """Per-cell safety cost ``max(0, 2*rs - d_b) / (2*rs)`` for clearances ``d_b`` (any shape).
+
+    The one formula of S: :func:`safety_cost` sums it with numpy, the in-jit multi-objective cost
+    with ``xp=jax.numpy``.
+    """
+    return xp.maximum(0.0, 2 * rs - d_b) / (2 * rs)
+
+
+def safety_cost(grid, path, rs: float = SAFETY_RADIUS) -> float:
     """Safety cost S = sum over path cells of ``max(0, 2*rs - d_b) / (2*rs)`` (``ALGORITHMS.md`` §6.6).
 
     ``d_b`` is ``grid.clearance()`` at the cell, the centre-to-centre distance in cells to the
     nearest blocked cell (the map's outside counts as blocked), and ``rs`` the safety radius in
     cells. Each cell adds a value in [0, 1]: 1 on an obstacle, 0 at ``2*rs`` or more from one.
-    Note that free cells have ``d_b >= 1``, so with the default ``rs = 0.5`` (seed 002's value)
-    a valid path always scores 0; take ``rs >= 1`` to tell paths hugging walls from others.
+    Note that free cells have ``d_b >= 1``, so with seed 002's ``rs = 0.5`` a valid path always
+    scores 0; the default is therefore :data:`SAFETY_RADIUS` = 1.
     """
     if not (np.isfinite(rs) and rs > 0):
         raise ParamError(f"safety radius rs must be a positive number, got {rs!r}")
@@ -217,7 +235,7 @@ def safety_cost(grid, path, rs: float = 0.5) -> float:
     if len(cells) == 0:
         return 0.0
     d = _clearance_at(grid, cells)
-    return float(np.sum(np.maximum(0.0, 2 * rs - d) / (2 * rs)))
+    return float(np.sum(safety_terms(d, rs)))
 
 
 # -- line of sight and any-angle shortcutting ----------------------------------------------------
@@ -321,7 +339,7 @@ def gap(length: float, optimal: float) -> float:
     return (length - optimal) / optimal
 
 
-def path_metrics(grid, path, optimal: float | None = None, rs: float = 0.5) -> dict:
+def path_metrics(grid, path, optimal: float | None = None, rs: float = SAFETY_RADIUS) -> dict:
     """Every single-path figure in one dict.
 
     Keys: ``length`` and ``any_angle_length`` (times ``grid.cell_size``), ``turns``,

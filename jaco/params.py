@@ -55,6 +55,27 @@ class Params:
     rho1: float = 0.7
     rho2: float = 0.2
     q_step: float = 0.5
+    # Chaos ACO (seed 004, ALGORITHMS.md §8)
+    gamma: float = 4.0
+    chaos_iters: float = 10.0
+    chaos_mu: float = 4.0
+    # IAACO (seed 002, Miao et al. 2021, ALGORITHMS.md §6) and the multi-objective cost
+    sigma1: float = 0.1
+    sigma2: float = 0.9
+    lam: float = 1.0
+    mu_min: float = 0.1
+    rs: float = 0.5
+    delta0: float = 0.15
+    k_rho: float = 0.3
+    k_len: float = 0.7
+    k_safe: float = 0.1
+    k_energy: float = 0.2
+    rs_cost: float = 1.0
+    # Policy-gradient ACO (pg-aco, ALGORITHMS.md §9; jaco.pg)
+    penalty: float = 0.3
+    # PF-ACO baseline of APF-ACO (seed 003, ALGORITHMS.md §7.6; jaco.apf): classic APF repulsion
+    k_rep: float = 100.0
+    d0: float = 3.0
 
     def replace(self, **changes) -> "Params":
         return replace(self, **changes)
@@ -116,6 +137,27 @@ SPECS: dict[str, Spec] = {
     "rho1": Spec(0, 1, "IACA eq. 4-6: factor for Q1 < P ≤ Q2 (ρ1 > ρ2)", lo_open=True),
     "rho2": Spec(0, 1, "IACA eq. 4-6: factor for Q2 < P ≤ Q3", lo_open=True),
     "q_step": Spec(0, INF, "IACA eq. 4-6: increment q for P ≤ Q1, decrement for P > Q3", hi_open=True),
+    # Chaos ACO (seed 004, ALGORITHMS.md §8)
+    "gamma": Spec(0, 20, "chaos ACO eq. 11: exponent γ of the selection function (P_free·P_θ)^γ"),
+    "chaos_iters": Spec(0, 1000, "chaos ACO eq. 14: Logistic iterations i_c (rounded to an integer)"),
+    "chaos_mu": Spec(0, 4, "chaos ACO: Logistic control parameter μ (4 = fully chaotic; ≤ 4 keeps h in [0, 1])"),
+    # IAACO (seed 002, Miao et al. 2021, ALGORITHMS.md §6) and the multi-objective cost
+    "sigma1": Spec(0, INF, "IAACO eq. 1: weight σ1 of the step length d_ij in η", hi_open=True),
+    "sigma2": Spec(0, INF, "IAACO eq. 1: weight σ2 of the goal distance d_jG in η", hi_open=True),
+    "lam": Spec(0, 20, "IAACO eq. 3: exponent λ of the angle guidance μ"),
+    "mu_min": Spec(0, 1, "IAACO eq. 4: floor of the angle guidance μ (keeps every move possible)", lo_open=True),
+    "rs": Spec(0, INF, "IAACO eq. 5: safety radius Rs (cells) of the obstacle exclusion ξ", lo_open=True, hi_open=True),
+    "delta0": Spec(0, 1, "IAACO eq. 7: q0 = δ0·exp(−½(Nc/Nmax)²); the paper uses δ0 ∈ [0.1, 0.5]"),
+    "k_rho": Spec(0, 1, "IAACO eq. 10: adaptive evaporation ρ = k·L_SG/J_best, k < 1", lo_open=True, hi_open=True),
+    "k_len": Spec(0, INF, "multi-objective cost J = kL·L + kS·S + kE·E: weight kL of the length", lo_open=True, hi_open=True),
+    "k_safe": Spec(0, INF, "multi-objective cost: weight kS of the safety cost S", hi_open=True),
+    "k_energy": Spec(0, INF, "multi-objective cost: weight kE of the heading change E (radians)", hi_open=True),
+    "rs_cost": Spec(0, INF, "multi-objective cost: radius (cells) of S = Σ max(0, 2r − d_b)/(2r)", lo_open=True, hi_open=True),
+    # Policy-gradient ACO (pg-aco, ALGORITHMS.md §9; jaco.pg)
+    "penalty": Spec(0, INF, "pg-aco: a failed ant costs (1 + penalty)·L̄, L̄ the mean cost of the iteration's successful ants", hi_open=True),
+    # PF-ACO baseline of APF-ACO (seed 003, ALGORITHMS.md §7.6; jaco.apf)
+    "k_rep": Spec(0, INF, "pf-aco: repulsion gain k_rep of the classic APF, U_rep = ½k_rep(1/d − 1/d0)² (attraction ½ρ²)", hi_open=True),
+    "d0": Spec(0, INF, "pf-aco: range d0 (cells) of the classic APF's repulsion", lo_open=True, hi_open=True),
 }
 
 # Pairs (a, b) that must satisfy a < b (or a > b) when both are used: checked like ranges.

@@ -20,7 +20,10 @@ from matplotlib.ticker import MaxNLocator
 
 from .errors import ParamError, ProblemError
 
-__all__ = ["plot_map", "plot_paths", "plot_pheromone", "plot_convergence", "save"]
+__all__ = [
+    "plot_map", "plot_paths", "plot_pheromone", "plot_convergence", "plot_sweep_heatmap", "plot_sweep_box",
+    "animate_pheromone", "save_gif", "save",
+]
 
 _MAP_CMAP = ListedColormap(["#2b2b2b", "#f4f4f0"])  # 0 = blocked (dark), 1 = free (light)
 _OBSTACLE_COLOR = "#2b2b2b"
@@ -144,13 +147,16 @@ def plot_paths(grid, paths, *, labels=None, start=None, goal=None, ax=None, titl
 
 # -- pheromone ---------------------------------------------------------------------------------
 def _per_cell(grid, tau) -> np.ndarray:
-    """Pheromone as ``(H, W)``: from ``(H, W)``, per cell ``(N,)``, or per move ``(N, 8)`` / ``(H, W, 8)``.
+    """Pheromone as ``(H, W)``: from ``(H, W)``, per cell ``(N,)``, or per move ``(N, 8)`` /
+    ``(H, W, 8)`` / flat ``(8N,)``.
 
     Per-move values are summed over the 8 moves out of each cell; non-finite entries (some layouts
     mark impossible moves with inf or NaN) count as 0 in that sum.
     """
     H, W = grid.shape
     t = np.asarray(tau, dtype=float)
+    if t.shape == (H * W * 8,):  # the engine's flat per-move layout, from·8 + move
+        t = t.reshape(H * W, 8)
     if t.shape == (H * W, 8) or t.shape == (H, W, 8):
         t = np.where(np.isfinite(t), t, 0.0).sum(axis=-1)
     if t.shape == (H * W,):
@@ -266,6 +272,145 @@ def plot_convergence(history, *, ax=None, optimal=None, label=None, title=None) 
     (twin if twin is not None else ax).legend(handles, names, loc="best", fontsize="small",
                                               framealpha=0.85)
     return fig
+
+
+# -- sweeps ------------------------------------------------------------------------------------
+def _sweep_column(table, name, what):
+    if name not in table.columns:
+        raise ParamError(f"{what} {name!r} is not a column of the sweep table (columns: {', '.join(map(str, table.columns))})")
+    return name
+
+
+def _finite_mean(values) -> float:
+    """Mean over runs; inf (a failed run has gap/length inf) if any run failed, NaN never."""
+    v = np.asarray(values, dtype=float)
+    return float(v.mean()) if v.size and np.isfinite(v).all() else float("inf")
+
+
+def sweep_grid(table, x: str, y: str, value: str = "gap"):
+    """``(xs, ys, Z)``: the mean of ``value`` over every other column (seeds, other parameters)
+    for each pair of ``x`` and ``y`` values, ``Z[i, j]`` at ``ys[i], xs[j]``; inf where a run
+    failed, NaN where the sweep has no such pair."""
+    for name, what in ((x, "x"), (y, "y"), (value, "value")):
+        _sweep_column(table, name, what)
+    xs = np.unique(np.asarray(table[x], float))
+    ys = np.unique(np.asarray(table[y], float))
+    Z = np.full((len(ys), len(xs)), np.nan)
+    for (xv, yv), part in table.groupby([x, y])[value]:
+        Z[np.searchsorted(ys, yv), np.searchsorted(xs, xv)] = _finite_mean(part)
+    return xs, ys, Z
+
+
+def plot_sweep_heatmap(table, x: str, y: str, value: str = "gap", *, ax=None, title=None, percent=None) -> Figure:
+    """Heatmap of a sweep table (:func:`jaco.sweep`): the mean ``value`` over seeds (and over any
+    other swept parameter) for every ``(x, y)`` pair, each cell annotated with its number.
+
+    Cells where at least one run failed (inf) are hatched grey and marked "fail"; ``percent``
+    (default: True for ``gap``) shows the value ×100 with a % sign.
+    """
+    xs, ys, Z = sweep_grid(table, x, y, value)
+    percent = (value == "gap") if percent is None else percent
+    shown = Z * 100 if percent else Z
+    fig, ax = _figure_axes(ax, figsize=(1.2 * len(xs) + 2.5, 0.9 * len(ys) + 1.8))
+    masked = np.ma.masked_invalid(shown)
+    im = ax.imshow(masked, cmap=_viridis_with_bad().with_extremes(bad="#bdbdbd"), origin="lower", aspect="auto")
+    fig.colorbar(im, ax=ax, label=f"mean {value}" + (" (%)" if percent else ""), shrink=0.85)
+    for i in range(len(ys)):
+        for j in range(len(xs)):
+            v = shown[i, j]
+            text = "fail" if np.isinf(v) else "" if np.isnan(v) else (f"{v:.1f}%" if percent else f"{v:.3g}")
+            ax.text(j, i, text, ha="center", va="center", fontsize="small",
+                    color="black" if not np.isfinite(v) or v > np.nanmean(shown[np.isfinite(shown)]) else "white")
+    ax.set_xticks(range(len(xs)), [f"{v:g}" for v in xs])
+    ax.set_yticks(range(len(ys)), [f"{v:g}" for v in ys])
+    ax.set_xlabel(x)
+    ax.set_ylabel(y)
+    ax.set_title(title if title is not None else f"mean {value} over seeds")
+    return fig
+
+
+def plot_sweep_box(table, by, value: str = "length", *, ax=None, title=None, optimal=None) -> Figure:
+    """Box plots of ``value`` across seeds, one box per configuration (the distinct values of the
+    column(s) ``by``). Failed runs (inf) are left out of the boxes and counted in the labels.
+    ``optimal`` (default: the table's ``optimal`` column when it holds one value) is a dashed line."""
+    by = [by] if isinstance(by, str) else list(by)
+    for name in by:
+        _sweep_column(table, name, "by")
+    _sweep_column(table, value, "value")
+    groups, labels = [], []
+    for key, part in table.groupby(by, sort=True)[value]:
+        key = key if isinstance(key, tuple) else (key,)
+        v = np.asarray(part, float)
+        ok = v[np.isfinite(v)]
+        groups.append(ok)
+        fails = len(v) - len(ok)
+        labels.append(", ".join(f"{n}={k:g}" for n, k in zip(by, key)) + (f"\n({fails} failed)" if fails else ""))
+    if not groups:
+        raise ParamError("plot_sweep_box: the table is empty")
+    fig, ax = _figure_axes(ax, figsize=(max(5.0, 0.8 * len(groups) + 2.0), 4.5))
+    ax.boxplot([g if len(g) else [np.nan] for g in groups])
+    ax.set_xticks(range(1, len(groups) + 1), labels)  # (boxplot's own label keyword was renamed in 3.9)
+    if optimal is None and "optimal" in table.columns and table["optimal"].nunique() == 1:
+        optimal = float(table["optimal"].iloc[0])
+    if optimal is not None:
+        ax.axhline(float(optimal), color="black", linestyle="--", linewidth=1.0, label=f"optimum {float(optimal):.4g}")
+        ax.legend(loc="best", fontsize="small")
+    ax.set_ylabel(value)
+    ax.tick_params(axis="x", labelrotation=45 if len(groups) > 6 else 0, labelsize="small")
+    ax.set_title(title if title is not None else f"{value} across seeds")
+    return fig
+
+
+# -- animation -----------------------------------------------------------------------------------
+def animate_pheromone(grid, history, *, path=None, every: int = 1, interval: int = 150, log=True, title="pheromone"):
+    """A :class:`matplotlib.animation.FuncAnimation` of the pheromone over the iterations.
+
+    ``history`` is ``(T, N)`` or ``(T, N*8)`` — ``Result.pheromone`` of
+    ``jaco.solve(..., keep_pheromone="history")`` — or a list of per-iteration arrays; every
+    ``every``-th frame is drawn. The colour scale is fixed over all frames (log by default:
+    pheromone spans orders of magnitude once the colony converges). Save with :func:`save_gif`.
+    """
+    from matplotlib.animation import FuncAnimation
+
+    frames = [_per_cell(grid, h) for h in list(history)[::max(1, int(every))]]
+    if not frames:
+        raise ParamError("animate_pheromone needs at least one pheromone frame")
+    stack = np.ma.masked_where(np.broadcast_to(~grid.free, (len(frames),) + grid.shape), np.stack(frames))
+    positive = stack.compressed()
+    positive = positive[positive > 0]
+    if log and positive.size:
+        vmin, vmax = float(positive.min()), float(positive.max())
+        norm = LogNorm(vmin=vmin, vmax=vmax if vmax > vmin else vmin * 10)
+    else:
+        norm = Normalize(vmin=float(stack.min()), vmax=float(stack.max()))
+    fig = Figure(figsize=(6.5, 6.0))
+    ax = fig.add_subplot()
+    im = ax.imshow(stack[0], cmap=_viridis_with_bad(), norm=norm, origin="upper", interpolation="nearest")
+    fig.colorbar(im, ax=ax, label="pheromone" + (" (log scale)" if log else ""), shrink=0.85)
+    _cell_axes(ax, grid, None)
+    if path is not None and len(_as_path(path)):
+        p = _as_path(path)
+        _draw_path(ax, p, color="white", linewidth=1.5)
+        _mark_ends(ax, p[0], p[-1])
+    step = max(1, int(every))
+
+    def draw(i):
+        im.set_data(stack[i])
+        ax.set_title(f"{title}, iteration {i * step + 1}")
+        return (im,)
+
+    draw(0)
+    return FuncAnimation(fig, draw, frames=len(frames), interval=interval, blit=False)
+
+
+def save_gif(animation, path, fps: int = 8) -> Path:
+    """Write an animation as an animated GIF with matplotlib's Pillow writer; returns the path."""
+    from matplotlib.animation import PillowWriter
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    animation.save(path, writer=PillowWriter(fps=fps))
+    return path
 
 
 # -- output ------------------------------------------------------------------------------------

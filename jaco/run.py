@@ -56,9 +56,15 @@ class _Best(NamedTuple):
     iteration: jax.Array
 
 
-def make_run(variant, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromone: bool = False):
-    """Build ``run(key, problem, params) -> RunOutput`` for fixed shapes (not jitted here)."""
+def make_run(variant, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromone: bool | str = False):
+    """Build ``run(key, problem, params) -> RunOutput`` for fixed shapes (not jitted here).
+
+    ``keep_pheromone``: False (none), True (the final pheromone ``(M,)``) or ``"history"`` (the
+    pheromone after every iteration, ``(n_iters, M)``, e.g. for :func:`jaco.plot.animate_pheromone`).
+    """
     variant = get_variant(variant)
+    if keep_pheromone not in (False, True, "history"):
+        raise JacoError(f"keep_pheromone must be False, True or 'history', got {keep_pheromone!r}")
 
     def run(key, problem: Problem, params: Params) -> RunOutput:
         TRACES[variant.name] += 1  # Python side effect: runs once per trace, never when cached
@@ -101,12 +107,13 @@ def make_run(variant, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromo
             count = jnp.sum(ok)
             mean = jnp.where(count > 0, jnp.sum(jnp.where(ok, col.cost, 0.0)) / jnp.maximum(count, 1), jnp.inf)
             hist = History(best.cost, col.cost[b], mean, count / col.cost.shape[0])
-            return (trail, best, seen | col.visited, steps + jnp.sum(col.n_steps)), hist
+            snapshot = trail.tau if keep_pheromone == "history" else None
+            return (trail, best, seen | col.visited, steps + jnp.sum(col.n_steps)), (hist, snapshot)
 
         seen = jnp.zeros((n,), bool)
         xs = (jax.random.split(key, n_iters), jnp.arange(n_iters, dtype=jnp.int32))
         carry = (trail, best, seen, jnp.int32(0))
-        (trail, best, seen, steps), history = jax.lax.scan(iteration, carry, xs)
+        (trail, best, seen, steps), (history, snapshots) = jax.lax.scan(iteration, carry, xs)
         return RunOutput(
             best_cells=best.cells,
             best_cost=best.cost,
@@ -115,15 +122,30 @@ def make_run(variant, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromo
             history=history,
             covered=jnp.sum(seen & (problem.clearance > 0)),
             steps=steps,
-            tau=trail.tau if keep_pheromone else None,
+            tau=snapshots if keep_pheromone == "history" else trail.tau if keep_pheromone else None,
         )
 
     return run
 
 
-# -- compiled runs, cached so repeated calls of one shape never recompile -------------------
+# -- compiled programs, cached so repeated calls of one shape never recompile ---------------
 _COMPILED: dict = {}
 TRACES: Counter = Counter()  # how often each variant's run was traced (tests check "once")
+
+
+def cached(key: tuple, build, *keep):
+    """The one cache of every compiled program (runs, sweep chunks, waypoint legs, tuning loops):
+    ``build()`` once per ``key``. Keys hold ``id()``s of variants and optimisers (they are not
+    hashable by value); ``keep`` holds those objects alive so that an id is never reused."""
+    hit = _COMPILED.get(key)
+    if hit is None:
+        hit = _COMPILED[key] = (keep, build())
+    return hit[1]
+
+
+def clear_compiled() -> None:
+    """Forget every cached program (e.g. to bound memory in a long session)."""
+    _COMPILED.clear()
 
 
 def compiled_run(variant: Variant, n_ants: int, n_iters: int, steplimit: int, keep_pheromone: bool, batched: bool):
@@ -132,15 +154,14 @@ def compiled_run(variant: Variant, n_ants: int, n_iters: int, steplimit: int, ke
     ``batched``: ``run(keys (B,), problems (P, ...), params (B,))`` vmapped over configurations
     × seeds (inner) and problems (outer) -> outputs ``(P, B, ...)``.
     """
-    cache_key = (id(variant), n_ants, n_iters, steplimit, keep_pheromone, batched)
-    hit = _COMPILED.get(cache_key)
-    if hit is None:
+
+    def build():
         run = make_run(variant, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, keep_pheromone=keep_pheromone)
         if batched:
             run = jax.vmap(jax.vmap(run, in_axes=(0, None, 0)), in_axes=(None, 0, None))
-        hit = (variant, jax.jit(run))  # keep the variant alive so its id is not reused
-        _COMPILED[cache_key] = hit
-    return hit[1]
+        return jax.jit(run)
+
+    return cached(("run", id(variant), n_ants, n_iters, steplimit, keep_pheromone, batched), build, variant)
 
 
 def default_steplimit(grid: Grid) -> int:
@@ -196,14 +217,22 @@ class Result:
     goal: tuple
     grid: Grid | None = field(default=None, repr=False)
     pheromone: np.ndarray | None = field(default=None, repr=False)
+    connectivity: int = 8  # records: a rerun needs the move set (jaco.records)
+    waypoints: tuple = ()  # the targets visited between start and goal (jaco.waypoints)
 
     def metrics(self) -> dict:
-        """Length, turns, heading change, clearance, safety cost, any-angle length, gap."""
-        from .metrics import path_metrics
+        """:func:`jaco.metrics.path_metrics` of the best path (length, turns, heading change E,
+        clearance, safety cost S, any-angle length, valid, gap) plus the run's ``cost``,
+        ``coverage`` and ``best_iteration``. S uses the run's ``rs_cost`` when the variant has one
+        (the multi-objective cost), else :data:`jaco.metrics.SAFETY_RADIUS`, so S and E are those
+        of the cost. A failed run has length inf and no path figures."""
+        from .metrics import SAFETY_RADIUS, path_metrics
 
+        run = {"cost": self.cost, "coverage": self.coverage, "best_iteration": self.best_iteration}
         if not self.success:
-            return {"length": math.inf, "valid": False}
-        return path_metrics(self.grid, self.path, optimal=self.optimal)
+            return {"length": math.inf, "valid": False, **run}
+        rs = self.params.get("rs_cost", SAFETY_RADIUS)
+        return {**path_metrics(self.grid, self.path, optimal=self.optimal, rs=rs), **run}
 
     def to_dict(self) -> dict:
         """JSON-ready dict (no numpy types; inf written as None where JSON has no inf)."""
@@ -233,6 +262,30 @@ class Result:
             "history": {k: [num(x) for x in v] for k, v in self.history.items()},
         }
 
+    # -- records and world coordinates (jaco.records, docs/records.md) ------------------------
+    def save(self, path):
+        """Write this run as a JSON record (parameters, seed, variant, the map embedded with its
+        sha256, sizes, connectivity, result and history, jaco/jax versions); returns the path.
+        ``jaco.load_run(path).rerun()`` or ``jaco rerun PATH`` reruns it and checks it bit for bit."""
+        from .records import save_run
+
+        return save_run(self, path)
+
+    def to_world(self) -> np.ndarray:
+        """The path as ``(K, 2)`` world ``(x, y)`` in metres (cell centres), from the map's ROS
+        ``resolution`` and ``origin``; a ProblemError when the map has none."""
+        if self.grid is None:
+            raise JacoError("this Result has no grid: world coordinates need the map")
+        return self.grid.cell_to_world(np.asarray(self.path, np.int64).reshape(-1, 2))
+
+    def save_path(self, path, frame: str | None = None):
+        """Write the path as ``.csv`` (columns ``row,col`` and, in the world frame, ``x,y``
+        in metres) or ``.json``; ``frame`` is ``"world"`` or ``"cells"`` (default: world when the
+        map has a resolution). Returns the path written."""
+        from .records import save_path
+
+        return save_path(self, path, frame)
+
 
 def path_cells(grid: Grid, start, best_cells) -> np.ndarray:
     """``(K, 2)`` path from the start cell and the best ant's entered cells."""
@@ -247,7 +300,9 @@ def gap(length, optimal) -> float:
     return 0.0 if optimal == 0 else (length - optimal) / optimal
 
 
-def to_result(out, *, grid, variant, start, goal, optimal, seed, params, n_ants, n_iters, steplimit) -> Result:
+def to_result(
+    out, *, grid, variant, start, goal, optimal, seed, params, n_ants, n_iters, steplimit, connectivity=8
+) -> Result:
     """Convert one (unbatched) :class:`RunOutput` to a :class:`Result`."""
     success = bool(np.isfinite(out.best_cost))
     length = float(out.best_length) * grid.cell_size if success else math.inf
@@ -272,6 +327,7 @@ def to_result(out, *, grid, variant, start, goal, optimal, seed, params, n_ants,
         goal=tuple(int(v) for v in goal),
         grid=grid,
         pheromone=None if out.tau is None else np.asarray(out.tau),
+        connectivity=int(connectivity),
     )
 
 
@@ -287,18 +343,21 @@ def solve(
     steplimit: int | None = None,
     connectivity: int = 8,
     keep_pheromone: bool = False,
+    waypoints=None,
     **params,
 ) -> Result:
     """Plan a path from ``start`` to ``goal`` (``(row, col)`` cells) with one ACO variant.
 
     Everything is validated before anything compiles: the map, start and goal (and that the goal
     is reachable), the sizes, and every parameter (unknown names list the valid ones).
+    ``waypoints=[(r, c), ...]``: visit them in order, then the goal; one leg per target, all legs
+    in one batched call, one combined Result (:mod:`jaco.waypoints`).
 
     >>> import jaco
     >>> grid = jaco.Grid.from_rows(["....", ".##.", "...."])
     >>> r = jaco.solve(grid, (0, 0), (2, 3), "mmas", seed=1, n_ants=8, n_iters=5)
     >>> r.success, round(r.length, 3), round(r.optimal, 3)
-    (True, 3.828, 3.828)
+    (True, 5.0, 5.0)
     """
     variant = get_variant(variant)
     steplimit = default_steplimit(grid) if steplimit is None else steplimit
@@ -309,6 +368,13 @@ def solve(
     for k, v in values.items():
         if v.ndim:
             raise JacoError(f"solve takes one value per parameter; {k!r} has {v.size} (use jaco.sweep)")
+    if waypoints is not None:  # several targets (ALGORITHMS.md §8.5)
+        from .waypoints import solve_waypoints
+
+        return solve_waypoints(
+            grid, start, goal, variant, waypoints, seed=seed, n_ants=n_ants, n_iters=n_iters,
+            steplimit=steplimit, connectivity=connectivity, keep_pheromone=keep_pheromone, values=values,
+        )
     problem = make_problem(grid, start, goal, connectivity=connectivity)
     run = compiled_run(variant, n_ants, n_iters, steplimit, keep_pheromone, batched=False)
     out = run(jax.random.key(seed), problem, params_from(values))
@@ -324,4 +390,5 @@ def solve(
         n_ants=n_ants,
         n_iters=n_iters,
         steplimit=steplimit,
+        connectivity=connectivity,
     )

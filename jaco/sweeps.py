@@ -1,27 +1,49 @@
-"""Hyperparameter sweeps (``jaco.sweep``): the product configurations × seeds × queries as ONE jitted call.
+"""Hyperparameter sweeps (``jaco.sweep``): configurations × seeds × queries as one compiled program.
 
-The run is ``jit(vmap(vmap(run)))``: the inner vmap goes over configurations × seeds (one
-flat axis), the outer over queries (start/goal pairs, or maps of one shape). Every row of the
-table equals :func:`jaco.solve` with the same parameters and seed. The batch is cut into
-equal chunks only when it would not fit in ``memory_budget`` bytes (the last chunk is padded,
-so every chunk reuses the one compiled function).
+The program is ``vmap(vmap(run))``: the inner vmap goes over configurations × seeds (one flat
+axis, the *configuration axis*), the outer over queries (start/goal pairs, or maps of one shape).
+Every row of the table equals :func:`jaco.solve` with the same parameters and seed.
+
+Scale (docs/cluster.md):
+
+* **Designs** — ``params`` is a dict of axes (a full grid) or a :class:`jaco.designs.Design`
+  (grid, random, Latin hypercube, explicit rows), validated against :data:`jaco.params.SPECS`
+  before anything compiles.
+* **Chunking** — the configuration axis is cut into equal chunks so that one chunk fits in
+  ``memory_budget`` bytes per device. The chunk size starts from :func:`bytes_per_run` (or from an
+  earlier measurement of the same shapes), the chunk program is compiled ahead of time and its own
+  XLA memory analysis (arguments + outputs + temporaries) is checked against the budget; if it does
+  not fit, a smaller chunk is compiled. The last chunk is padded, so one executable serves all.
+* **Sharding** — the configuration axis of a chunk is split over a 1-D :class:`jax.sharding.Mesh`
+  of devices (``jax.shard_map``, inputs placed with ``NamedSharding``); each device runs its own
+  slice with no communication, so results do not depend on the number of devices, bit for bit.
+* **Processes and hosts** — after ``jax.distributed.initialize`` the mesh spans every process's
+  devices; every process calls ``sweep`` with the same arguments, runs its slice, and gets the
+  whole table (gathered with ``multihost_utils.process_allgather``; on CPU through XLA's gloo
+  collectives, the default ``jax_cpu_collectives_implementation`` of the jax tested here, 0.10).
 """
 
 from __future__ import annotations
 
-import itertools
 import math
+from typing import NamedTuple
 
 import jax
 import numpy as np
 import pandas as pd
+from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from .construct import pad_steps
-from .errors import JacoError
+from .designs import Design, as_design
+from .errors import JacoError, ParamError
 from .grid import Grid
+from .params import ORDERED, check_values
 from .problem import make_problem, stack
-from .run import check_sizes, compiled_run, default_steplimit, gap, params_from, resolve_params
+from .run import _COMPILED, cached, check_sizes, default_steplimit, make_run, params_from, resolve_params
 from .variants import get_variant
+
+AXIS = "config"
+RESULT_COLUMNS = ("seed", "success", "length", "cost", "best_iteration", "optimal", "gap", "coverage")
 
 
 def _queries(grid, start, goal):
@@ -41,12 +63,291 @@ def _queries(grid, start, goal):
     return [(pick(grids, i), tuple(pick(starts, i)), tuple(pick(goals, i))) for i in range(n)]
 
 
-def bytes_per_run(n_cells: int, n_ants: int, n_iters: int, steplimit: int) -> int:
-    """Rough peak bytes of one run inside a batch: the tabu bitmaps, the step buffers and
-    uniforms, the pheromone and weights, the history; doubled for XLA's temporaries."""
+# -- memory ---------------------------------------------------------------------------------
+def bytes_per_run(n_cells: int, n_ants: int, n_iters: int, steplimit: int, path_len: int | None = None) -> int:
+    """First guess of the peak bytes one run (one configuration, one query) adds to a batch.
+
+    Fitted to XLA's memory analysis of compiled sweeps (BENCHMARKS.md, "Sweeps at scale"): the
+    tabu bitmaps ``A·N`` bytes, about 20 bytes per ant and step slot (uniforms, moves, cells,
+    targets, lengths), the pheromone and move weights ``(N, 8)``, the history. ``path_len`` is the
+    length of the construct step's candidate buffer: when it is longer than one walk (two colonies
+    spliced by crossover), the crossover tables cost about 52 bytes per ant and candidate slot.
+    A 10 % margin on top. :func:`sweep` only starts from this guess: the compiled program's own
+    memory analysis decides.
+    """
     s = pad_steps(steplimit)
-    per = n_ants * n_cells + 5 * 4 * s * n_ants + 4 * 4 * 8 * n_cells + 16 * n_iters
-    return 2 * per
+    path_len = s if path_len is None else path_len
+    per_slot = 20 if path_len <= s else 52
+    per = n_ants * n_cells + per_slot * path_len * n_ants + 96 * n_cells + 32 * n_iters
+    return int(1.1 * per)
+
+
+def _footprint(compiled) -> int | None:
+    """Per-device bytes of a compiled program: arguments + outputs + XLA temporaries."""
+    try:
+        m = compiled.memory_analysis()
+    except (NotImplementedError, RuntimeError, AttributeError):  # backends without the analysis
+        return None
+    if m is None:
+        return None
+    return int(m.argument_size_in_bytes + m.output_size_in_bytes + m.temp_size_in_bytes - m.alias_size_in_bytes)
+
+
+# -- devices and the compiled chunk program -------------------------------------------------
+def _devices(devices) -> list:
+    """None: every device (all processes' after ``jax.distributed.initialize``), or the one set
+    by ``jax.default_device``; an int n: the first n; or a list of devices."""
+    if devices is None:
+        chosen = jax.config.jax_default_device
+        return [chosen] if isinstance(chosen, jax.Device) else list(jax.devices())
+    if isinstance(devices, (int, np.integer)) and not isinstance(devices, bool):
+        available = jax.devices()
+        if not 1 <= devices <= len(available):
+            raise JacoError(f"devices: asked for {devices}, there are {len(available)} ({available[0].platform})")
+        return list(available[: int(devices)])
+    devs = list(devices)
+    if not devs or not all(isinstance(d, jax.Device) for d in devs):
+        raise JacoError("devices must be None, a positive int or a non-empty list of jax devices")
+    if len({d.id for d in devs}) != len(devs):
+        raise JacoError("devices: a device is listed twice")
+    return devs
+
+
+_PER_CONFIG: dict = {}  # (variant id, sizes, shapes) -> measured bytes per configuration and device
+
+
+def _program(variant, n_ants, n_iters, steplimit, mesh):
+    key = ("sweep", id(variant), n_ants, n_iters, steplimit, tuple(d.id for d in mesh.devices.flat))
+
+    def build():
+        run = make_run(variant, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit)
+        batched = jax.vmap(jax.vmap(run, in_axes=(0, None, 0)), in_axes=(None, 0, None))
+
+        def chunk(seeds, problems, params):
+            out = batched(jax.vmap(jax.random.key)(seeds), problems, params)
+            return out.best_cost, out.best_length, out.best_iteration, out.covered
+
+        # Each device runs its slice on its own (no collective inside), so a device's while-loops
+        # stop when its own ants do; check_vma off: the run's loop carries start replicated.
+        program = jax.shard_map(
+            chunk,
+            mesh=mesh,
+            in_specs=(PartitionSpec(AXIS), PartitionSpec(), PartitionSpec(AXIS)),
+            out_specs=PartitionSpec(None, AXIS),
+            check_vma=False,
+        )
+        return jax.jit(program)
+
+    return key, cached(key, build, variant)
+
+
+def _shapes(batch) -> tuple:
+    return tuple((tuple(x.shape), str(x.dtype)) for x in jax.tree.leaves(batch))
+
+
+def _executable(variant, n_ants, n_iters, steplimit, mesh, batch, n_params: int, chunk: int):
+    """The compiled chunk program for ``chunk`` configurations per device (cached), and whether
+    it was compiled by this call."""
+    pkey, program = _program(variant, n_ants, n_iters, steplimit, mesh)
+    key = (pkey, _shapes(batch), n_params, chunk)
+    new = key not in _COMPILED
+
+    def build():
+        width = chunk * mesh.size
+        on_cfg, replicated = NamedSharding(mesh, PartitionSpec(AXIS)), NamedSharding(mesh, PartitionSpec())
+        seeds = jax.ShapeDtypeStruct((width,), np.uint32, sharding=on_cfg)
+        problems = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=replicated), batch)
+        params = params_from(variant.default_params().to_dict(), (width,))
+        params = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, np.float32, sharding=on_cfg), params)
+        return program.lower(seeds, problems, params).compile()
+
+    return cached(key, build, variant), new
+
+
+def _agree(value: int) -> int:
+    """Process 0's value on every process (chunk decisions must match everywhere)."""
+    if jax.process_count() == 1:
+        return int(value)
+    from jax.experimental import multihost_utils
+
+    return int(multihost_utils.broadcast_one_to_all(np.int32(value)))
+
+
+def _fit(budget: int, fixed: int, per: float, rows_per_device: int) -> int:
+    """Configurations per device and chunk: as many as fit, then balanced over the chunks."""
+    c = int(max(1, min(rows_per_device, (budget - fixed) // max(per, 1.0))))
+    n_chunks = math.ceil(rows_per_device / c)
+    return math.ceil(rows_per_device / n_chunks)
+
+
+def _plan(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, n_rows, budget):
+    """Choose the chunk size under the budget from the compiled program's memory analysis.
+
+    Returns ``(executable, configurations per device and chunk, info dict)``."""
+    rows_per_device = math.ceil(n_rows / mesh.size)
+    fixed = sum(int(np.asarray(x).nbytes) for x in jax.tree.leaves(batch))  # replicated problems
+    mkey = (id(variant), n_ants, n_iters, steplimit, _shapes(batch))
+    path_len = _path_len(variant, n_ants, n_iters, steplimit, batch)
+    guess = bytes_per_run(batch.n_cells, n_ants, n_iters, steplimit, path_len) * batch.nbr.shape[0]
+    per = _PER_CONFIG.get(mkey, guess)
+    chunk = _agree(_fit(budget, fixed, per, rows_per_device))
+    compiles, tried = 0, []
+    while True:
+        exe, new = _executable(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, chunk)
+        compiles += new
+        tried.append(chunk)
+        used = _footprint(exe)
+        if used is None:
+            break
+        used = 1024 * _agree(math.ceil(used / 1024))  # KiB: fits an int32 broadcast
+        measured = max(1.0, (used - fixed) / chunk)
+        _PER_CONFIG[mkey] = measured
+        if used <= budget or chunk == 1:
+            break
+        chunk = _agree(min(chunk - 1, _fit(budget, fixed, 1.05 * measured, rows_per_device)))
+    info = dict(
+        devices=mesh.size,
+        processes=jax.process_count(),
+        chunk_per_device=chunk,
+        chunk=chunk * mesh.size,
+        chunks=math.ceil(rows_per_device / chunk),
+        bytes_per_chunk=used,
+        bytes_per_config_estimate=guess,
+        bytes_per_config_measured=None if used is None else measured,
+        memory_budget=budget,
+        compiles=compiles,
+        chunks_tried=tried,  # configurations per device of each compiled attempt
+    )
+    return exe, chunk, info
+
+
+_PATH_LEN: dict = {}
+
+
+def _path_len(variant, n_ants, n_iters, steplimit, batch) -> int:
+    """Length of the construct step's candidate buffer (shape only, traced once per shapes)."""
+    key = (id(variant), n_ants, n_iters, steplimit, _shapes(batch))
+    if key not in _PATH_LEN:
+        run = make_run(variant, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit)
+        one = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape[1:], x.dtype), batch)
+        prm = jax.tree.map(lambda x: jax.ShapeDtypeStruct((), np.float32), variant.default_params())
+        out = jax.eval_shape(run, jax.ShapeDtypeStruct((), jax.random.key(0).dtype), one, prm)
+        _PATH_LEN[key] = (variant, int(out.best_cells.shape[0]))
+    return _PATH_LEN[key][1]
+
+
+def _put(x: np.ndarray, sharding):
+    """A (possibly multi-process) global array from the full host array every process holds."""
+    x = np.asarray(x)
+    return jax.make_array_from_callback(x.shape, sharding, lambda index: x[index])
+
+
+def _fetch(x) -> np.ndarray:
+    if x.is_fully_addressable:
+        return np.asarray(x)
+    from jax.experimental import multihost_utils
+
+    return np.asarray(multihost_utils.process_allgather(x, tiled=True))
+
+
+# -- configurations -------------------------------------------------------------------------
+def _config_table(variant, params) -> tuple[dict, list[str]]:
+    """Per-configuration values (float64, one array per Params field) and the swept names."""
+    where = f"variant {variant.name!r}"
+    if isinstance(params, dict):
+        check_values(params, variant.params, where)  # the variant's own names in the message
+    design = as_design(params)
+    unknown = [k for k in design.names if k not in variant.params]
+    if unknown:
+        raise ParamError(f"unknown parameter {unknown[0]!r} for {where}; valid: {', '.join(sorted(variant.params))}")
+    base = resolve_params(variant, {}, where=where)
+    n = len(design)
+    table = {k: np.broadcast_to(design[k] if k in design else base[k], (n,)).astype(np.float64) for k in base}
+    for lo, hi in ORDERED:  # relations hold on every row (τmin < τmax, Q1 < Q2 < Q3, ρ2 < ρ1)
+        if lo in variant.params and hi in variant.params:
+            bad = ~(table[lo] < table[hi])
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise ParamError(
+                    f"parameters need {lo} < {hi}, got {lo} = {table[lo][i]:g}, {hi} = {table[hi][i]:g} (configuration {i})"
+                )
+    return table, list(design.names)
+
+
+def _seeds(seeds) -> np.ndarray:
+    if isinstance(seeds, (int, np.integer)) and not isinstance(seeds, bool):
+        seeds = range(seeds)
+    out = []
+    for s in seeds:
+        if isinstance(s, bool) or not isinstance(s, (int, np.integer)) or not 0 <= s < 2**32:
+            raise JacoError(f"seeds must be integers in [0, 2**32), got {s!r}")
+        out.append(int(s))
+    if not out:
+        raise JacoError("seeds: need at least one seed")
+    return np.array(out, np.uint32)
+
+
+class _Setup(NamedTuple):
+    variant: object
+    queries: list
+    problems: list
+    values: dict
+    config: np.ndarray
+    seeds: np.ndarray
+    mesh: Mesh
+    exe: object
+    chunk: int
+    info: dict
+
+
+def _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices):
+    """Validate everything (before compiling), then plan the chunks and compile the program."""
+    variant = get_variant(variant)
+    queries = _queries(grid, start, goal)
+    shapes = {g.shape for g, _, _ in queries}
+    if len(shapes) != 1:
+        raise JacoError(f"all maps of a sweep must have one shape, got {sorted(shapes)}")
+    steplimit = default_steplimit(queries[0][0]) if steplimit is None else steplimit
+    check_sizes(n_ants, n_iters, steplimit)
+    seed_list = _seeds(seeds)
+    if isinstance(memory_budget, bool) or not isinstance(memory_budget, (int, np.integer)) or memory_budget < 1:
+        raise JacoError(f"memory_budget must be a positive number of bytes, got {memory_budget!r}")
+    values, _ = _config_table(variant, params)
+    devs = _devices(devices)
+    problems = [make_problem(g, s, t, connectivity=connectivity) for g, s, t in queries]
+
+    n_cfg = len(next(iter(values.values())))
+    config = np.repeat(np.arange(n_cfg), len(seed_list))  # configuration-major, seeds inner
+    seed_arr = np.tile(seed_list, n_cfg)
+    mesh = Mesh(np.array(devs), (AXIS,))
+    batch = stack(problems)
+    exe, chunk, info = _plan(variant, n_ants, n_iters, steplimit, mesh, batch, len(values), len(config), int(memory_budget))
+    info = dict(runs=len(config) * len(problems), configurations=n_cfg, seeds=len(seed_list), queries=len(problems), **info)
+    return _Setup(variant, queries, problems, values, config, seed_arr, mesh, exe, chunk, info)
+
+
+def plan_sweep(
+    grid,
+    start,
+    goal,
+    variant="mmas",
+    params: dict | Design | None = None,
+    seeds=4,
+    *,
+    n_ants: int = 50,
+    n_iters: int = 100,
+    steplimit: int | None = None,
+    connectivity: int = 8,
+    memory_budget: int = 2 << 30,
+    devices=None,
+) -> dict:
+    """What :func:`sweep` with the same arguments would do, without running it: compiles the chunk
+    program and returns its plan (``chunk``, ``chunks``, ``chunk_per_device``, ``devices``,
+    ``bytes_per_chunk`` from XLA's memory analysis, ``bytes_per_config_estimate`` and
+    ``_measured``, ``compiles``...). The compiled program is cached, so the sweep reuses it."""
+    return _setup(
+        grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices
+    ).info
 
 
 def sweep(
@@ -54,7 +355,7 @@ def sweep(
     start,
     goal,
     variant="mmas",
-    params: dict | None = None,
+    params: dict | Design | None = None,
     seeds=4,
     *,
     n_ants: int = 50,
@@ -63,88 +364,106 @@ def sweep(
     connectivity: int = 8,
     memory_budget: int = 2 << 30,
     progress: bool = False,
+    devices=None,
 ) -> pd.DataFrame:
-    """Run every combination of ``params`` (name -> list of values) × ``seeds`` × queries.
+    """Run every configuration of ``params`` × ``seeds`` × queries; one row per run.
 
-    ``seeds`` is a count (``range(seeds)``) or a list of integer seeds. ``grid`` may be a list of
-    grids of one shape and ``start``/``goal`` lists of pairs (one per query, or one for all).
-    Returns one row per query × configuration × seed with the parameter values, the seed, and
-    ``success, length, cost, best_iteration, optimal, gap, coverage``.
+    ``params``: a dict ``name -> list of values`` (every combination, first name slowest), a
+    :class:`jaco.designs.Design` (its rows as given: ``jaco.designs.random``, ``latin_hypercube``,
+    ``grid``, ``table``, ``product``) or a DataFrame of rows. ``seeds`` is a count
+    (``range(seeds)``) or a list of integer seeds. ``grid`` may be a list of grids of one shape and
+    ``start``/``goal`` lists of pairs (one per query, or one for all).
+
+    ``memory_budget``: bytes one chunk may take on each device (arguments, outputs and XLA's
+    temporaries, from the compiled program's memory analysis); the configurations run in as few
+    equal chunks as fit. ``devices``: None (all devices, all processes' after
+    ``jax.distributed.initialize``; or the one chosen by ``jax.default_device``), an int (the
+    first n) or a list; the configuration axis is sharded over them. ``progress``: a tqdm bar over
+    the chunks (on process 0).
+
+    Returns a tidy DataFrame: ``map, start, goal`` (when there are several queries), ``config``
+    (the configuration's row in the design), the variant's parameters, ``seed`` and the results
+    ``success, length, cost, best_iteration, optimal, gap, coverage``. ``table.attrs["sweep"]``
+    holds the plan (:func:`plan_sweep`).
     """
-    variant = get_variant(variant)
-    queries = _queries(grid, start, goal)
-    shapes = {g.shape for g, _, _ in queries}
-    if len(shapes) != 1:
-        raise JacoError(f"all maps of a sweep must have one shape, got {sorted(shapes)}")
-    steplimit = default_steplimit(queries[0][0]) if steplimit is None else steplimit
-    check_sizes(n_ants, n_iters, steplimit)
-    seeds = list(range(seeds)) if isinstance(seeds, (int, np.integer)) else [int(s) for s in seeds]
-    if not seeds:
-        raise JacoError("seeds: need at least one seed")
-    axes = {k: np.atleast_1d(np.asarray(v, dtype=np.float64)) for k, v in (params or {}).items()}
-    resolve_params(variant, axes, where=f"variant {variant.name!r}")  # names, NaN, ranges
-    problems = [make_problem(g, s, t, connectivity=connectivity) for g, s, t in queries]
+    st = _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices)
+    n_rows, n_q = len(st.config), len(st.problems)
+    width = st.chunk * st.mesh.size
+    on_cfg, replicated = NamedSharding(st.mesh, PartitionSpec(AXIS)), NamedSharding(st.mesh, PartitionSpec())
+    batch = jax.tree.map(lambda x: _put(x, replicated), stack(st.problems))
+    n_chunks = math.ceil(n_rows / width)
 
-    names = list(axes)
-    combos = list(itertools.product(*(axes[k] for k in names))) or [()]
-    rows = [(dict(zip(names, c)), seed) for c in combos for seed in seeds]
-    base = resolve_params(variant, {}, where=variant.name)
-    table = {k: np.array([{**base, **r}[k] for r, _ in rows], np.float64) for k in base}
-    seed_arr = np.array([s for _, s in rows], np.uint32)
-
-    n_rows, n_q = len(rows), len(problems)
-    per = bytes_per_run(problems[0].n_cells, n_ants, n_iters, steplimit) * n_q
-    chunk = int(max(1, min(n_rows, memory_budget // max(per, 1))))
-    n_chunks = math.ceil(n_rows / chunk)
-    run = compiled_run(variant, n_ants, n_iters, steplimit, False, batched=True)
-    batch = stack(problems)
-    make_keys = jax.vmap(jax.random.key)
-
-    outs = []
+    cost = np.empty((n_q, n_rows), np.float32)
+    length = np.empty((n_q, n_rows), np.float32)
+    best_iter, covered = np.empty((n_q, n_rows), np.int32), np.empty((n_q, n_rows), np.int32)
     bar = range(n_chunks)
-    if progress and n_chunks > 1:
+    if progress and n_chunks > 1 and jax.process_index() == 0:
         from tqdm.auto import tqdm
 
-        bar = tqdm(bar, desc=f"sweep {variant.name}", unit="chunk")
+        bar = tqdm(bar, desc=f"sweep {st.variant.name} ({width} runs/chunk)", unit="chunk")
     for c in bar:
-        idx = np.minimum(np.arange(c * chunk, (c + 1) * chunk), n_rows - 1)  # pad the last chunk
-        out = run(make_keys(seed_arr[idx]), batch, params_from({k: v[idx] for k, v in table.items()}, (chunk,)))
-        out = jax.device_get((out.best_cost, out.best_length, out.best_iteration, out.covered))
-        outs.append([np.asarray(a)[:, : min(chunk, n_rows - c * chunk)] for a in out])
-    cost, length, best_iter, coverage = (np.concatenate(parts, axis=1) for parts in zip(*outs))
+        lo, hi = c * width, min((c + 1) * width, n_rows)
+        idx = np.minimum(np.arange(lo, lo + width), n_rows - 1)  # pad the last chunk
+        prm = params_from({k: v[st.config[idx]] for k, v in st.values.items()}, (width,))
+        out = st.exe(_put(st.seeds[idx], on_cfg), batch, jax.tree.map(lambda x: _put(x, on_cfg), prm))
+        for dst, src in zip((cost, length, best_iter, covered), out):
+            dst[:, lo:hi] = _fetch(src)[:, : hi - lo]
 
-    records = []
+    table = _tidy(st.variant, st.queries, st.problems, st.values, st.config, st.seeds, cost, length, best_iter, covered)
+    table.attrs["sweep"] = st.info
+    return table
+
+
+def _tidy(variant, queries, problems, values, config, seed_arr, cost, length, best_iter, covered) -> pd.DataFrame:
+    """The tidy table: one row per query × configuration × seed (query-major)."""
+    n_q, n_rows = cost.shape
+    cols: dict = {}
+    parts = []
     for q, (g, s, t) in enumerate(queries):
+        success = np.isfinite(cost[q])
+        L = np.where(success, length[q].astype(np.float64) * g.cell_size, math.inf)
         optimal = float(problems[q].optimal) * g.cell_size
-        for i, (_, seed) in enumerate(rows):
-            success = bool(np.isfinite(cost[q, i]))
-            L = float(length[q, i]) * g.cell_size if success else math.inf
-            rec = {"map": g.name, "start": s, "goal": t} if n_q > 1 else {}
-            rec.update({k: float(table[k][i]) for k in variant.params})
-            rec.update(
-                seed=seed,
-                success=success,
-                length=L,
-                cost=float(cost[q, i]),
-                best_iteration=int(best_iter[q, i]),
-                optimal=optimal,
-                gap=gap(L, optimal),
-                coverage=int(coverage[q, i]) / g.n_free,
-            )
-            records.append(rec)
-    return pd.DataFrame.from_records(records)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            gap = np.where(success, (L - optimal) / optimal if optimal else 0.0, math.inf)
+        cols = {"map": [g.name] * n_rows, "start": [s] * n_rows, "goal": [t] * n_rows} if n_q > 1 else {}
+        cols["config"] = config.astype(np.int64)
+        cols.update({k: values[k][config] for k in variant.params})
+        cols.update(
+            seed=seed_arr.astype(np.int64),
+            success=success,
+            length=L,
+            cost=cost[q].astype(np.float64),
+            best_iteration=best_iter[q].astype(np.int64),
+            optimal=np.full(n_rows, optimal),
+            gap=np.where(success, gap, math.inf),
+            coverage=covered[q].astype(np.int64) / g.n_free,
+        )
+        parts.append(pd.DataFrame(cols))
+    return parts[0] if n_q == 1 else pd.concat(parts, ignore_index=True)
 
 
 def summarize(table: pd.DataFrame, by=None) -> pd.DataFrame:
-    """Per-configuration summary over seeds: mean, std and min length, success rate, mean gap."""
-    ignore = {"seed", "success", "length", "cost", "best_iteration", "optimal", "gap", "coverage"}
-    by = [c for c in table.columns if c not in ignore] if by is None else list(by)
-    finite = table.assign(length=table["length"].where(np.isfinite(table["length"])))
-    return finite.groupby(by, sort=False).agg(
+    """Per-configuration summary over seeds, one row per configuration (and query).
+
+    ``by`` defaults to every column that is not a result (the query columns, ``config`` and the
+    parameters). Columns: ``length_mean, length_std, length_min`` over the successful runs (inf
+    when none succeeded; the std is NaN with fewer than two), ``success_rate``, ``gap_mean``
+    (inf when a run failed), ``gap_min`` and ``runs``.
+    """
+    by = [c for c in table.columns if c not in RESULT_COLUMNS] if by is None else list(by)
+    missing = [c for c in by if c not in table.columns]
+    if missing:
+        raise JacoError(f"summarize: no column {missing[0]!r} in the table")
+    finite = table.assign(length=table["length"].where(table["success"].astype(bool) & np.isfinite(table["length"])))
+    out = finite.groupby(by, sort=False).agg(
         length_mean=("length", "mean"),
         length_std=("length", "std"),
         length_min=("length", "min"),
         success_rate=("success", "mean"),
-        gap_mean=("gap", lambda g: float(np.mean(g)) if np.isfinite(g).all() else math.inf),
+        gap_mean=("gap", "mean"),  # any failed run (gap inf) makes the mean inf
+        gap_min=("gap", "min"),
         runs=("seed", "count"),
     ).reset_index()
+    none = out["success_rate"] == 0
+    out.loc[none, ["length_mean", "length_min"]] = math.inf
+    return out

@@ -8,9 +8,13 @@ is textbook AS with η = 1/d_ij.
 from __future__ import annotations
 
 from . import pheromone as ph
-from .double import DACA, IDACA
+from .apf import APF_ACO, PF_ACO  # APF-ACO and its PF-ACO baseline (seed 003)
+from .chaos import CHAOS_ACO  # chaos ACO (seed 004)
+from .double import DACA, IDACA  # thesis chapter 3
 from .errors import JacoError
-from .iaca import IACA
+from .iaaco import IAACO, IAACO_PRINTED, with_cost  # noqa: F401 (IAACO, seed 002; with_cost re-exported)
+from .iaca import IACA  # thesis chapter 4
+from .pg import PG_ACO  # policy-gradient ACO (ALGORITHMS.md §9)
 from .variant import Variant, constant, make_variant, path_length  # noqa: F401 (re-exported)
 
 
@@ -98,7 +102,13 @@ MMAS = make_variant(
 )
 
 VARIANTS: dict[str, Variant] = {
-    v.name: v for v in (AS, AS_DENSITY, AS_QUANTITY, EAS, RAS, ACS, MMAS, DACA, IDACA, IACA)
+    v.name: v
+    for v in (
+        AS, AS_DENSITY, AS_QUANTITY, EAS, RAS, ACS, MMAS,  # the classic family (§2)
+        DACA, IDACA, IACA,  # the thesis (§3, §4)
+        IAACO, IAACO_PRINTED, APF_ACO, PF_ACO, CHAOS_ACO,  # the papers (§6, §7, §8)
+        PG_ACO,  # beyond the sources (§9)
+    )
 }
 
 

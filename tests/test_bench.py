@@ -164,3 +164,20 @@ def test_sweep_native_runs_every_configuration():
     assert (steps > 0).all()
     single = nr.as_colony(nbr, eta, s, g, 2.0, 4.0, 0.3, 1.0, 0.1, 10, 5, 40, 7 + 3)
     assert lengths[3] == single[0] and steps[3] == single[2]
+
+
+def test_profile_smoke_queue_walk_takes_the_same_moves(tmp_path):
+    """The per-part profile runs at smoke size; its work-queue walk reproduces jaco's walk exactly
+    (the script exits 1 otherwise) and every timed part is reported."""
+    md = tmp_path / "BENCHMARKS.md"
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "experiments" / "profile_iteration.py"), "--smoke", "--out", str(md)],
+        cwd=ROOT, capture_output=True, text=True, timeout=900,
+    )
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    text = md.read_text()
+    assert "<!-- profile_iteration:start -->" in text and "identical moves to jaco's walk: yes" in text
+    for label in ("uniforms", "weights", "walk (lock-step)", "pheromone update", "whole iteration"):
+        vals = numbers(table_row(text, label)[1:])
+        assert len(vals) == 2 and all(math.isfinite(v) and v > 0 for v in vals), label
+    assert re.search(r"lane utilisation \d+ %", text)

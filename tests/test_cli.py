@@ -243,3 +243,49 @@ def test_console_script_user_error_subprocess():
                           timeout=120)
     assert proc.returncode == 2
     assert proc.stderr.strip().startswith("jaco: error:") and "Traceback" not in proc.stderr
+
+
+# -- ROS world coordinates: --start-xy / --goal-xy, --path-csv (records feature, issue 5) ------
+def test_solve_with_world_points_on_a_bundled_ros_map(tmp_path, capsys):
+    # lse_arena.yaml: 60x80 cells, resolution 0.05 m, origin [0, 0, 0]. (0.31, 0.52) m lies in
+    # column floor(0.31 / 0.05) = 6, row 59 - floor(0.52 / 0.05) = 49; its centre is (0.325, 0.525).
+    out_csv, out_json = tmp_path / "path.csv", tmp_path / "r.json"
+    code, out, err = run(capsys, "solve", "lse_arena.yaml", "--start-xy", "0.31,0.52", "--goal-xy", "3.51,2.51",
+                         "--ants", "8", "--iters", "5", "--path-csv", str(out_csv), "--json", str(out_json))
+    assert code == 0, err
+    assert "start (49, 6) -> goal (9, 70)" in out
+    assert re.search(r"^world\s+start \(0\.325, 0\.525\) m -> goal \(3\.525, 2\.525\) m, length [\d.]+ m", out, re.M)
+    with out_csv.open() as f:
+        rows = list(csv.DictReader(f))
+    assert rows[0] == {"row": "49", "col": "6", "x": "0.325", "y": "0.525"}
+    assert rows[-1] == {"row": "9", "col": "70", "x": "3.525", "y": "2.525"}
+    grid = jaco.maps.load_bundled("lse_arena")
+    cells = np.array([[int(r["row"]), int(r["col"])] for r in rows])
+    assert jaco.metrics.validate_path(grid, cells, (49, 6), (9, 70)) == []
+    doc = json.loads(out_json.read_text())
+    world = doc["world"]
+    assert world["start_xy"] == [0.325, 0.525] and world["goal_xy"] == [3.525, 2.525]
+    assert world["path_xy"][0] == [0.325, 0.525] and len(world["path_xy"]) == len(rows)
+    assert world["length_m"] == pytest.approx(doc["length"] * 0.05)
+
+
+@pytest.mark.parametrize(
+    "mapname, args, needles",
+    [
+        ("lse_arena.yaml", ["--start-xy", "10,0.5"], ["--start-xy", "outside", "x 0..4 m", "y 0..3 m"]),
+        ("lse_arena.yaml", ["--goal-xy", "0.01,0.01"], ["--goal-xy", "cell (59, 0)", "obstacle"]),
+        ("map.yaml", ["--start-xy", "-9,-9"], ["--start-xy", "(-9, -9) m", "unknown"]),  # negative X parses
+        ("demo", ["--start-xy", "1,1"], ["--start-xy", "resolution", "--start ROW,COL"]),
+        ("lse_arena.yaml", ["--start-xy", "1,nan"], ["--start-xy", "X,Y"]),
+        ("lse_arena.yaml", ["--start-xy", "1"], ["--start-xy", "X,Y"]),
+        ("lse_arena.yaml", ["--start", "49,6", "--start-xy", "0.31,0.52"], ["not both"]),
+    ],
+)
+def test_bad_world_points_are_one_line_exit_2(capsys, mapname, args, needles):
+    full = ["--start-xy", "0.31,0.52", "--goal-xy", "3.51,2.51"]
+    for i in range(0, len(args), 2):  # the given flags replace the defaults
+        if args[i] in full:
+            del full[full.index(args[i]):full.index(args[i]) + 2]
+    code, out, err = run(capsys, "solve", mapname, *SMALL, *full, *args)
+    assert_user_error(code, err, *needles)
+    assert out == ""

@@ -27,3 +27,46 @@ def test_thesis_tables_smoke(tmp_path):
     pngs = sorted(p.name for p in (tmp_path / "figures").glob("*.png"))
     assert "thesis_paths_utrap-15.png" in pngs and "thesis_convergence_random-20-10.png" in pngs
     assert all((tmp_path / "figures" / p).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in pngs)
+
+
+def test_paper_tables_smoke(tmp_path):
+    out = subprocess.run(
+        [sys.executable, str(ROOT / "experiments" / "paper_tables.py"), "--smoke", "--out", str(tmp_path)],
+        capture_output=True, text=True, timeout=600,
+    )
+    assert out.returncode == 0, out.stderr[-2000:]
+    text = (tmp_path / "results_paper_smoke.md").read_text()
+    assert text.count("<!-- paper_tables:start -->") == 1 and "<!-- paper_tables:end -->" in text
+    rows = {}
+    for line in text.splitlines():
+        cells = [c.strip() for c in line.split("|")[1:-1]]
+        if len(cells) == 12 and cells[0] == "simple-20" and cells[2].isdigit():  # seed 003's table 1 layout
+            rows[cells[1]] = cells
+    assert {"ACO", "PF-ACO", "APF-ACO", "APF alone"} <= set(rows)
+    import jaco
+
+    grid = jaco.maps.named("simple-20")
+    exact, _ = jaco.exact.shortest_path(grid, grid.meta["start"], grid.meta["goal"])
+    (r0, c0), (r1, c1) = grid.meta["start"], grid.meta["goal"]
+    sg = ((r1 - r0) ** 2 + (c1 - c0) ** 2) ** 0.5  # straight start-goal distance (cell centres)
+    for label, c in rows.items():
+        optimum = float(c[5])
+        assert abs(optimum - exact) < 0.01
+        if c[3] != "–":  # best >= optimum, mean >= best, best / L_SG as printed
+            best, mean = float(c[3]), float(c[4])
+            assert optimum - 1e-6 <= best <= mean + 1e-6
+            assert abs(float(c[11]) - best / sg) < 2e-3
+        assert 0 < float(c[10]) <= 100  # coverage %
+    assert rows["ACO"][2] == "2" and rows["APF alone"][2] == "1"
+    # the published numbers sit beside ours, with the paper's own straight distance 20·√2
+    pub = next(line for line in text.splitlines() if line.startswith("| simple-20 | APF-ACO | 28.627 |"))
+    assert pub.split("|")[4].strip() == f"{28.627 / (20 * 2**0.5):.3f}"
+    comp = [line for line in text.splitlines() if line.startswith("| simple-20 | ") and line.count("|") == 14]
+    assert {line.split("|")[2].strip() for line in comp} >= {"AS", "IAACO", "chaos ACO"}
+    for line in comp:  # turns, heading change and safety are non-negative numbers
+        turns, heading, safety = (float(line.split("|")[k]) for k in (7, 8, 9))
+        assert turns >= 0 and heading >= 0 and safety >= 0
+    pngs = sorted(p.name for p in (tmp_path / "figures").glob("*.png"))
+    assert {"paper003_paths_simple-20.png", "paper003_convergence_simple-20.png",
+            "paper_compare_paths_simple-20.png", "paper_compare_convergence_simple-20.png"} <= set(pngs)
+    assert all((tmp_path / "figures" / p).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in pngs)

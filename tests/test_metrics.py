@@ -256,10 +256,10 @@ def test_path_metrics_dict():
     assert m["turns"] == 2 and m["heading_change"] == pytest.approx(math.pi / 2)
     assert m["min_clearance"] == pytest.approx(1.0)
     assert m["any_angle_length"] <= m["length"] + 1e-9
-    assert m["safety"] == 0.0
-    m = path_metrics(g, path, optimal=10 * (2 + 2 * SQ2), rs=1.0)
+    assert m["safety"] == pytest.approx(2.5)  # five cells on the map's edge, 0.5 each (SAFETY_RADIUS = 1)
+    m = path_metrics(g, path, optimal=10 * (2 + 2 * SQ2), rs=0.5)
     assert m["gap"] == pytest.approx((3 + SQ2) / (2 + 2 * SQ2) - 1)
-    assert m["safety"] > 0
+    assert m["safety"] == 0.0  # seed 002's Rs = 0.5 scores every free cell 0
     bad = path_metrics(g, [(0, 0), (2, 2)])
     assert bad["valid"] is False and _has(bad["problems"], "jump")
     assert all(not (isinstance(v, float) and math.isnan(v)) for v in m.values())

@@ -12,6 +12,7 @@ import pytest  # noqa: E402
 from matplotlib.colors import LogNorm  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
+import jaco  # noqa: E402
 from jaco.grid import Grid  # noqa: E402
 from jaco.plot import plot_convergence, plot_map, plot_paths, plot_pheromone, save  # noqa: E402
 
@@ -164,3 +165,65 @@ def test_no_pyplot_figures_are_left_open():
     plot_pheromone(GRID, np.ones(GRID.shape))
     plot_convergence({"best": [1.0], "mean": [1.0]})
     assert set(plt.get_fignums()) == before
+
+
+# -- sweeps and animation -------------------------------------------------------------------------
+def _sweep_table():
+    import pandas as pd
+
+    rows = []
+    for a in (1.0, 2.0):
+        for b in (2.0, 4.0, 8.0):
+            for seed in range(3):
+                failed = a == 2.0 and b == 8.0 and seed == 1
+                gap_ = np.inf if failed else 0.01 * (a + b) + 0.001 * seed
+                rows.append(dict(alpha=a, beta=b, seed=seed, gap=gap_, optimal=10.0,
+                                 length=np.inf if failed else 10.0 * (1 + gap_)))
+    return pd.DataFrame(rows)
+
+
+def test_sweep_heatmap_shows_the_mean_over_seeds_and_marks_failures(tmp_path):
+    table = _sweep_table()
+    xs, ys, Z = jaco.plot.sweep_grid(table, "alpha", "beta", "gap")
+    assert list(xs) == [1.0, 2.0] and list(ys) == [2.0, 4.0, 8.0]
+    assert Z[1, 0] == pytest.approx(0.01 * 5 + 0.001)  # beta=4, alpha=1: mean over seeds 0, 1, 2
+    assert np.isinf(Z[2, 1]) and np.isfinite(np.delete(Z.ravel(), 5)).all()
+    fig = jaco.plot.plot_sweep_heatmap(table, "alpha", "beta")
+    ax = fig.axes[0]
+    texts = {t.get_text() for t in ax.texts}
+    assert "fail" in texts and f"{100 * (0.01 * 5 + 0.001):.1f}%" in texts
+    assert [t.get_text() for t in ax.get_xticklabels()] == ["1", "2"]
+    jaco.plot.save(fig, tmp_path / "heat.png")
+    with pytest.raises(jaco.ParamError, match="not a column"):
+        jaco.plot.plot_sweep_heatmap(table, "alpha", "gamma")
+
+
+def test_sweep_box_one_box_per_configuration_failures_left_out():
+    table = _sweep_table()
+    fig = jaco.plot.plot_sweep_box(table, by=["alpha", "beta"], value="length")
+    ax = fig.axes[0]
+    labels = [t.get_text() for t in ax.get_xticklabels()]
+    assert len(labels) == 6 and labels[-1] == "alpha=2, beta=8\n(1 failed)"
+    # The median line of the first box is the median of its three seeds.
+    first = table[(table.alpha == 1.0) & (table.beta == 2.0)]["length"]
+    medians = [line for line in ax.lines if line.get_color() in ("C1", "#ff7f0e", "orange")]
+    assert medians and medians[0].get_ydata()[0] == pytest.approx(np.median(first))
+    assert any(line.get_linestyle() == "--" and line.get_ydata()[0] == 10.0 for line in ax.lines)
+
+
+def test_pheromone_history_animates_to_a_gif(tmp_path):
+    from PIL import Image
+
+    grid = jaco.maps.named("simple-20")
+    r = jaco.solve(grid, grid.meta["start"], grid.meta["goal"], "as", seed=0, n_ants=8, n_iters=6,
+                   keep_pheromone="history")
+    assert r.pheromone.shape == (6, 8 * grid.height * grid.width)
+    final = jaco.solve(grid, grid.meta["start"], grid.meta["goal"], "as", seed=0, n_ants=8, n_iters=6,
+                       keep_pheromone=True).pheromone
+    np.testing.assert_array_equal(r.pheromone[-1], final)  # the last frame is the final pheromone
+    anim = jaco.plot.animate_pheromone(grid, r.pheromone, path=r.path, every=2)
+    out = jaco.plot.save_gif(anim, tmp_path / "tau.gif", fps=4)
+    with Image.open(out) as im:
+        assert im.format == "GIF" and im.n_frames == 3  # iterations 1, 3, 5
+    with pytest.raises(jaco.JacoError, match="keep_pheromone"):
+        jaco.solve(grid, grid.meta["start"], grid.meta["goal"], "as", n_iters=2, keep_pheromone="all")

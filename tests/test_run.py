@@ -35,7 +35,7 @@ def test_bad_parameters_are_clear_errors_before_compiling(kw, match):
 
 
 def test_unknown_variant_lists_the_registered_ones():
-    with pytest.raises(jaco.JacoError, match="registered: acs, as"):
+    with pytest.raises(jaco.JacoError, match="registered: acs, apf-aco, as, "):
         jaco.solve(GRID, (0, 0), (3, 5), "nope")
 
 

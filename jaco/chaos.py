@@ -1,0 +1,228 @@
+"""Chaos ACO with a probability-selection function (ALGORITHMS.md §8, seed 004).
+
+Xi'an Technological University, School of Electronic Information Engineering: ant colony path
+planning with a probability-selection function (free-cell share and angle to the goal) and a
+Logistic-chaos perturbation of the pheromone, ported to ROS (the seed names neither title nor
+authors). Its equation numbers as the text cites them: transition rule (11), chaos perturbation
+(14), global update (15); the formulas themselves are lost in the seed, so ALGORITHMS.md §8 and
+docs/variants.md ("Chaos ACO") give the interpretation built here.
+
+- **Free-cell share** (§8.1) :func:`free_share`: P_free(j) = (free cells among j's 8 neighbours,
+  the current cell excluded) / 7.
+- **Angle share** (§8.2) :func:`angle_share`: θ_j is the angle between the move i→j and the
+  direction i→goal; P_θ(j) = 1 − θ_j / Σ_s θ_s over the moves the map allows from i (1 where
+  Σθ = 0: at the goal, or when every allowed move points at it).
+- **Selection function** (§8.3) :func:`selection`: P_free·P_θ; the transition (11) is
+  p ∝ τ^α η^β (P_free·P_θ)^γ. Both shares depend only on the map and the goal, so the factor
+  (P_free·P_θ)^γ is folded into the ``(N, 8)`` weight table once per iteration
+  (:func:`chaos_colony`), never per ant step.
+- **Chaos update** (§8.4) :func:`chaos_perturb` then :func:`deposit_at_or_below_mean`: the paths
+  above the iteration's mean length get their pheromone re-drawn by i_c steps of the Logistic
+  map h ← μh(1−h) (:func:`logistic`), then τ ← (1−ρ)τ + Σ Q/L_k over the paths at or below the
+  mean (15).
+
+Several targets (§8.5) are not specific to this planner: every variant takes
+``jaco.solve(..., waypoints=[...])`` (:mod:`jaco.waypoints`).
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from . import pheromone as ph
+from .colony import move_weights, walk_colony
+from .problem import MOVES
+from .variant import make_variant
+
+# A successful path is "above the mean" only when longer by more than this relative margin, so
+# that equal lengths never count as above through the round-off of the float32 mean.
+_MEAN_RTOL = 1e-6
+
+
+# -- probability-selection function (§8.1–8.3) -----------------------------------------------
+def _free_neighbours(problem) -> jax.Array:
+    """``(N,)`` number of free in-bounds cells among each cell's 8 neighbours (the outside of
+    the map counts as blocked, as in :meth:`jaco.Grid.clearance`)."""
+    n = problem.nbr.shape[0]
+    width = -problem.offsets[0]  # move 0 is (-1, 0): its flat offset is -W
+    height = n // width
+    free = problem.clearance > 0  # clearance is 0 exactly on blocked cells
+    rc = problem.xy.astype(jnp.int32)
+    r = rc[:, 0:1] + jnp.asarray(MOVES[:, 0])[None, :]
+    c = rc[:, 1:2] + jnp.asarray(MOVES[:, 1])[None, :]
+    inside = (r >= 0) & (r < height) & (c >= 0) & (c < width)
+    idx = jnp.where(inside, r * width + c, 0)
+    return jnp.sum(inside & free[idx], axis=1)
+
+
+def free_share(problem) -> jax.Array:
+    """P_free ``(N, 8)`` of every move i→j (§8.1): (free neighbours of j other than i) / 7.
+
+    Every free neighbour of j counts, whether or not the move to it would cut a corner (the paper
+    counts the free cells around j); 0 where the map forbids the move."""
+    valid = problem.nbr >= 0
+    count = _free_neighbours(problem)[jnp.where(valid, problem.nbr, 0)]
+    return jnp.where(valid, (count - 1).astype(jnp.float32) / 7.0, 0.0)
+
+
+def move_angles(problem) -> jax.Array:
+    """θ ``(N, 8)`` in [0, π]: the angle between move k from cell i and the direction i→goal
+    (0 at the goal itself, where that direction is undefined)."""
+    to_goal = problem.xy[problem.goal][None, :] - problem.xy  # (N, 2)
+    moves = jnp.asarray(MOVES, jnp.float32)  # (8, 2)
+    dot = to_goal @ moves.T
+    cross = to_goal[:, 0:1] * moves[None, :, 1] - to_goal[:, 1:2] * moves[None, :, 0]
+    return jnp.arctan2(jnp.abs(cross), dot)  # atan2(0, 0) = 0 at the goal
+
+
+def angle_share(problem) -> jax.Array:
+    """P_θ ``(N, 8)`` (§8.2): 1 − θ_j / Σ_s θ_s over the moves s the map allows from i;
+    1 where Σθ = 0 (guard), 0 where the move is forbidden.
+
+    The sum runs over the map's allowed moves, not over the ant's non-tabu ones, so the share is
+    a per-move constant of the problem (computed once per iteration, not per ant step)."""
+    valid = problem.nbr >= 0
+    theta = jnp.where(valid, move_angles(problem), 0.0)
+    total = jnp.sum(theta, axis=1, keepdims=True)
+    share = jnp.where(total > 0, 1.0 - theta / jnp.where(total > 0, total, 1.0), 1.0)
+    return jnp.where(valid, share, 0.0)
+
+
+def selection(problem) -> jax.Array:
+    """The probability-selection function P_free·P_θ ``(N, 8)`` (§8.3; the product is
+    ALGORITHMS.md's interpretation, the seed omits the formula)."""
+    return free_share(problem) * angle_share(problem)
+
+
+def chaos_weights(variant, trail, problem, params, t, n_iters) -> jax.Array:
+    """The iteration's weight table ``(N, 8)``: τ^α η^β (P_free·P_θ)^γ (eq. 11) on allowed moves,
+    floored at 1e-30 there, exactly 0 on forbidden ones."""
+    valid = problem.nbr >= 0
+    w = move_weights(variant, trail, problem, params, t, n_iters) * jnp.power(selection(problem), params.gamma)
+    return jnp.where(valid, jnp.clip(w, 1e-30, 1e30), 0.0)
+
+
+def chaos_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
+    """One colony start → goal with p ∝ τ^α η^β (P_free·P_θ)^γ (transition rule (11)).
+
+    The same as :func:`jaco.colony.single_colony` except that the weight table is multiplied by
+    the selection factor. It is done here and not through ``heuristic`` (η' = η·sel^(γ/β)) so
+    that γ still acts at β = 0. A zero share (P_θ = 0 for the widest-angle move of a cell with
+    few moves) is floored at 1e-30, like every allowed weight, so an ant whose only non-tabu move
+    it is still takes it instead of dying."""
+    weights = chaos_weights(variant, trail, problem, params, t, n_iters)
+    return trail, walk_colony(variant, problem, weights, params, key, n_ants=n_ants, steplimit=steplimit)
+
+
+# -- Logistic-chaos pheromone update (§8.4) ---------------------------------------------------
+def logistic(h0, mu, n):
+    """``n`` steps of the Logistic map h ← μh(1−h) from ``h0`` (the seed's chaos iteration; fully
+    chaotic at μ = 4 with h0 ∈ [0, 1]). ``n`` may be traced: the loop is a ``while_loop`` with a
+    traced trip count, so i_c can be swept like any parameter."""
+    n = jnp.asarray(n, jnp.int32)
+    return jax.lax.fori_loop(0, n, lambda _, h: mu * h * (1.0 - h), jnp.asarray(h0, jnp.float32))
+
+
+def ordered_sum(x) -> jax.Array:
+    """Sum over the leading axis, added strictly in order. A plain ``jnp.sum`` may reduce in
+    another order inside a vmapped sweep than in a single run; the Logistic map amplifies that
+    last-bit difference (×4 per step), and sweep rows must equal solves bit for bit."""
+    return jax.lax.scan(lambda acc, row: (acc + row, None), jnp.zeros_like(x[0]), x)[0]
+
+
+def above_mean(cost) -> tuple[jax.Array, jax.Array]:
+    """Masks ``(A,)`` of the successful paths above the iteration's mean length (the N_L paths)
+    and of those at or below it; failed ants (cost inf) are in neither."""
+    ok = jnp.isfinite(cost)
+    count = jnp.sum(ok)
+    mean = ordered_sum(jnp.where(ok, cost, 0.0)) / jnp.maximum(count, 1)
+    above = ok & (cost > mean * (1.0 + _MEAN_RTOL))
+    return above, ok & ~above
+
+
+def chaos_perturb() -> ph.Rule:
+    """Logistic-chaos perturbation of the paths above the mean length (§8.4, eq. 14).
+
+    For each of the N_L successful paths l longer than the mean: τ_l = mean pheromone over the
+    elements (moves or cells) it used; h0 = (τ_l − τmin)/(τmax − τmin) with τmin, τmax the
+    smallest and largest pheromone on the elements of the N_L paths (the seed: "the maximum and
+    minimum of the pheromone distributed on the N_L paths"); h = i_c Logistic steps (μ =
+    ``chaos_mu``, i_c = ``round(chaos_iters)``); every element of path l is set to
+    τmin + h·(τmax − τmin). An element on several such paths gets the mean of their values;
+    an element that a path at or below the mean also used is left as it is (that path updates
+    it normally). The new values lie in [τmin, τmax], so the pheromone stays finite and never
+    exceeds its previous maximum.
+    """
+
+    def update(trail, walks, problem, params):
+        tau = trail.tau
+        m = tau.shape[0]
+        above, below = above_mean(walks.cost)
+        used = walks.targets < m  # (S, A): steps actually taken
+        on_long = used & above[None, :]
+        tau_steps = tau[jnp.where(used, walks.targets, 0)]
+        n_el = jnp.sum(used, axis=0)
+        tau_l = ordered_sum(jnp.where(used, tau_steps, 0.0)) / jnp.maximum(n_el, 1)
+        lo = jnp.min(jnp.where(on_long, tau_steps, jnp.inf))
+        hi = jnp.max(jnp.where(on_long, tau_steps, -jnp.inf))
+        span = jnp.where(jnp.isfinite(hi - lo), hi - lo, 0.0)
+        base = jnp.where(jnp.isfinite(lo), lo, 0.0)
+        h0 = jnp.clip(jnp.where(span > 0, (tau_l - base) / jnp.where(span > 0, span, 1.0), 0.0), 0.0, 1.0)
+        h = logistic(h0, params.chaos_mu, jnp.round(params.chaos_iters))
+        new = base + h * span  # (A,)
+        targets = jnp.where(on_long, walks.targets, m)  # only the N_L paths write
+        total = jnp.zeros_like(tau).at[targets.ravel()].add(jnp.broadcast_to(new, targets.shape).ravel(), mode="drop")
+        count = jnp.zeros_like(tau).at[targets.ravel()].add(1.0, mode="drop")
+        protected = ph._on_path(tau, jnp.where(used & below[None, :], walks.targets, m))
+        hit = (count > 0) & ~protected
+        return trail._replace(tau=jnp.where(hit, total / jnp.maximum(count, 1.0), tau))
+
+    return ph.Rule(ph._keep_init, update)
+
+
+def at_or_below_mean_cycle(walks, params):
+    """Δτ^k = Q/L_k on every step of a successful ant whose length is at or below the mean
+    (§8.4: these "update directly"; the longer ones were perturbed instead)."""
+    _, below = above_mean(walks.cost)
+    per_ant = jnp.where(below, params.q * ph.inverse(walks.cost), 0.0)
+    return jnp.broadcast_to(per_ant[None, :], walks.targets.shape)
+
+
+def deposit_at_or_below_mean() -> ph.Rule:
+    """Global update (15) after the perturbation: τ ← (1−ρ)τ + Σ_k Q/L_k over the paths at or
+    below the mean (``chain(evaporate(), deposit_at_or_below_mean())``)."""
+    return ph.deposit_all(at_or_below_mean_cycle)
+
+
+CHAOS_ACO = make_variant(
+    "chaos-aco",
+    "Xi'an Technological University (seed 004), transition (11), chaos update (14), "
+    "global update (15); ALGORITHMS.md §8",
+    "Chaos ACO: transition p ∝ τ^α η^β (P_free·P_θ)^γ with the free-cell share P_free and the angle "
+    "share P_θ of each move (a per-move constant folded into the weight table once per iteration); "
+    "after each iteration the paths above the mean length get their pheromone re-drawn by i_c steps "
+    "of the Logistic map (μ = 4) between the smallest and largest pheromone on those paths, then "
+    "τ ← (1−ρ)τ + Σ Q/L_k over the paths at or below the mean. η = 1/(distance to the goal) "
+    "(thesis eq. 3-7) as for the classic variants; pheromone on moves (τ_ij). See docs/variants.md.",
+    ("alpha", "beta", "rho", "q", "tau0", "gamma", "chaos_iters", "chaos_mu"),
+    dict(alpha=1.0, beta=8.0, rho=0.3, q=1.0, tau0=0.1, gamma=4.0, chaos_iters=10.0, chaos_mu=4.0),
+    ph.chain(ph.init_constant(), chaos_perturb(), ph.evaporate(), deposit_at_or_below_mean()),
+    construct=chaos_colony,
+)
+
+__all__ = [
+    "CHAOS_ACO",
+    "above_mean",
+    "angle_share",
+    "at_or_below_mean_cycle",
+    "chaos_colony",
+    "chaos_perturb",
+    "chaos_weights",
+    "deposit_at_or_below_mean",
+    "free_share",
+    "logistic",
+    "ordered_sum",
+    "move_angles",
+    "selection",
+]

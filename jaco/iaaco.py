@@ -1,0 +1,350 @@
+"""IAACO: the improved adaptive ant colony algorithm (seed 002, ALGORITHMS.md §6).
+
+Miao C., Chen G., Yan C. et al., *Path planning optimization of indoor mobile robot based on
+adaptive ant colony algorithm*, Computers & Industrial Engineering 156 (2021) 107230: the adaptive
+heuristic (eqs. 1, 2), the transition rule with angle guidance and obstacle exclusion (3, 4, 5),
+the adaptive pseudo-random rule (6, 7), the best/worst pheromone update (8, 9), the adaptive
+evaporation rate (10) and the multi-objective cost J = kL·L + kS·S + kE·E.
+
+The per-move factors μ^λ (4) and ξ (5) depend only on the map and the parameters, so they are
+folded into the ``(N, 8)`` move-weight table once per iteration (:func:`guided_weights`, in log
+space, each cell's row scaled to a largest weight of 1); an ant step still gathers one row.
+The multi-objective cost (:func:`multi_objective`) is a ``Variant.cost`` that any variant can
+use: ``with_cost("acs", "multi")`` (cached, so repeated calls return the same object and never
+recompile).
+
+Interpretations (ALGORITHMS.md §6; also in ``docs/variants.md``, section IAACO):
+
+* **ε (2) cancels.** ε multiplies every η of an iteration alike, so in the normalised rule (3)
+  and in the argmax of (6) it cancels: it is computed as printed but changes no choice (the
+  per-row scaling of :func:`guided_weights` removes it up to rounding, so it cannot push weights
+  into float32's limits either).
+* **μ (4)** as printed, ``|y_j − y_G| / d_jG`` (y = row), vanishes on the goal's row; the robust
+  form ``cos∠(j→G, S→G)`` is the default. Both are floored at ``mu_min`` (a weight of 0 would
+  forbid a free move and can cut the only way to the goal); μ = 1 at the goal (d_jG = 0).
+* **ξ (5)** on ``problem.clearance`` (centre-to-centre distance to the nearest obstacle cell, the
+  map's outside counting as obstacle) at the candidate cell j; ξ = 1 at the goal. With Rs = 0.5
+  a cell orthogonally next to an obstacle gets ξ = 0.5, every other free cell 1. ξ = 0 (only
+  when Rs > 1) leaves the minimal weight 1e-30 (relative to the cell's best move): such a move
+  is taken only when the ant has no other.
+* **Update (8, 9)** on the iteration's best and worst successful ants only; other moves keep
+  their pheromone (as in ACS's global update). (8) then (9), so a move on both paths gets both;
+  then τ ≥ τmin. No successful ant: no update.
+* **ρ (10)** = k·L_SG/J_best (J_best of the iteration, L_SG the Euclidean start–goal distance),
+  clipped to [0, ``rho``]: ``rho`` is the largest evaporation rate (since L ≥ L_SG, ρ ≤ k/kL
+  anyway with the multi-objective cost).
+* **τ0, α, β, λ, k, μ_min, ρ cap** are not printed: chosen by a small sweep (docs/variants.md).
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from . import metrics
+from . import pheromone as ph
+from .colony import Colony, step_targets
+from .construct import pad_steps, walk
+from .errors import ParamError
+from .heuristics import goal_distance
+from .problem import MOVES
+from .variant import Variant, make_variant, path_length
+
+__all__ = [
+    "adaptive_eps",
+    "iaaco_heuristic",
+    "target_cells",
+    "mu_printed",
+    "mu_robust",
+    "obstacle_exclusion",
+    "guided_weights",
+    "guided_colony",
+    "q0_schedule",
+    "adaptive_rho",
+    "init_floor",
+    "best_worst",
+    "TURN",
+    "safety",
+    "energy",
+    "multi_objective",
+    "COSTS",
+    "COST_PARAMS",
+    "with_cost",
+    "IAACO",
+    "IAACO_PRINTED",
+]
+
+
+def _ratio(t, n_iters):
+    """Nc/Nmax with the sources' 1-based iteration count Nc = t + 1."""
+    return (jnp.asarray(t).astype(jnp.float32) + 1.0) / n_iters
+
+
+# -- heuristic (1, 2) ------------------------------------------------------------------------
+def adaptive_eps(t, n_iters):
+    """ε = exp(−2 (Nc/Nmax)²) (eq. 2)."""
+    return jnp.exp(-2.0 * _ratio(t, n_iters) ** 2)
+
+
+def iaaco_heuristic(problem, params, t, n_iters):
+    """η_ij = ε / (σ1·d_ij + σ2·d_jG) (eq. 1), d_jG Euclidean; the denominator is floored at 1e-6
+    (it is σ1·d_ij at the goal, 0 only when σ1 = 0)."""
+    den = params.sigma1 * problem.step + params.sigma2 * goal_distance(problem)
+    return adaptive_eps(t, n_iters) / jnp.maximum(den, 1e-6)
+
+
+# -- angle guidance (4) and obstacle exclusion (5) -------------------------------------------
+def target_cells(problem):
+    """Flat index ``(N, 8)`` of the cell each move leads to (the own cell where not allowed)."""
+    return jnp.where(problem.nbr >= 0, problem.nbr, jnp.arange(problem.nbr.shape[0])[:, None])
+
+
+def _to_goal(problem):
+    """Vector j→G ``(N, 8, 2)`` and its length ``(N, 8)`` for every move's target j."""
+    v = problem.xy[problem.goal][None, None, :] - problem.xy[target_cells(problem)]
+    return v, jnp.sqrt(jnp.sum(v * v, axis=-1))
+
+
+def mu_printed(problem, params):
+    """μ = |y_j − y_G| / d_jG as printed (eq. 4), y the row; 1 at the goal; floored at μ_min."""
+    v, d = _to_goal(problem)
+    mu = jnp.where(d > 0, jnp.abs(v[..., 0]) / jnp.where(d > 0, d, 1.0), 1.0)
+    return jnp.maximum(mu, params.mu_min)
+
+
+def mu_robust(problem, params):
+    """μ = max(μ_min, cos∠(j→G, S→G)) (ALGORITHMS.md §6.2); 1 at the goal and when S = G."""
+    v, d = _to_goal(problem)
+    sg = problem.xy[problem.goal] - problem.xy[problem.start]
+    l_sg = jnp.sqrt(jnp.sum(sg * sg))
+    dot = jnp.sum(v * sg[None, None, :], axis=-1)
+    ok = (d > 0) & (l_sg > 0)
+    cos = jnp.where(ok, dot / jnp.where(ok, d * l_sg, 1.0), 1.0)
+    return jnp.maximum(cos, params.mu_min)
+
+
+def obstacle_exclusion(problem, params):
+    """ξ (eq. 5) of every move's target j from its obstacle distance d_b: 0 below Rs, Rs/d_b on
+    [Rs, 2Rs], 1 above; 1 at the goal (the target is entered whatever its clearance)."""
+    j = target_cells(problem)
+    d = problem.clearance[j]
+    rs = params.rs
+    xi = jnp.where(d < rs, 0.0, jnp.where(d <= 2 * rs, rs / jnp.maximum(d, 1e-12), 1.0))
+    return jnp.where(j == problem.goal, 1.0, xi)
+
+
+def guided_weights(variant, trail, problem, params, t, n_iters, mu):
+    """Move weights ``(N, 8)`` of eq. (3), τ^α η^β μ^λ ξ, computed in log space and scaled so
+    that each cell's largest weight is 1.
+
+    A cell's weights only ever compete with each other (roulette and argmax of eq. 6 are both
+    invariant to a factor per row), so the scaling changes no choice; it keeps large β, ε^β
+    (down to e^(−2β)) and far-from-goal η^β away from float32's limits, where the engine's
+    clip to [1e-30, 1e30] would flatten them. Moves the map forbids weigh exactly 0; allowed
+    moves at least 1e-30 (ξ = 0 gives exactly that: taken only when nothing else is allowed).
+    """
+    valid = problem.nbr >= 0
+    if variant.pheromone_on == "cells":
+        tau = trail.tau[jnp.where(valid, problem.nbr, 0)]
+    else:
+        tau = trail.tau.reshape(problem.nbr.shape)
+    eta = variant.heuristic(problem, params, t, n_iters)
+    xi = obstacle_exclusion(problem, params)
+    log_w = (
+        params.alpha * jnp.log(jnp.maximum(tau, 1e-30))  # τmin may be 0
+        + params.beta * jnp.log(eta)
+        + params.lam * jnp.log(mu(problem, params))
+        + jnp.where(xi > 0, jnp.log(jnp.where(xi > 0, xi, 1.0)), -jnp.inf)
+    )  # Eq. (3)
+    log_w = jnp.where(valid, log_w, -jnp.inf)
+    top = jnp.max(log_w, axis=1, keepdims=True)
+    top = jnp.where(jnp.isfinite(top), top, 0.0)  # rows with no allowed move (or only ξ = 0)
+    w = jnp.clip(jnp.exp(log_w - top), 1e-30, 1.0)
+    return jnp.where(valid, w, 0.0)
+
+
+def guided_colony(mu):
+    """A construct step: :func:`jaco.colony.single_colony` with the weights of
+    :func:`guided_weights` (eq. 3, once per iteration), ``mu`` one of :func:`mu_robust`,
+    :func:`mu_printed` (a static choice)."""
+
+    def construct(variant, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
+        w = guided_weights(variant, trail, problem, params, t, n_iters, mu)
+        u = jax.random.uniform(key, (pad_steps(steplimit), n_ants), jnp.float32)
+        tours = walk(problem, w, u, params.q0, steplimit=steplimit, exploit=variant.transition == "pseudo-random")
+        cost = jnp.where(tours.arrived, variant.cost(tours, problem, params), jnp.inf)
+        targets = step_targets(variant.pheromone_on, tours.cells, tours.moves, problem.start, problem.nbr.shape[0])
+        return trail, Colony(tours.cells, targets, tours.step_len, cost, tours.length, tours.n_steps, tours.visited)
+
+    return construct
+
+
+# -- adaptive pseudo-random rule (6, 7) ------------------------------------------------------
+def q0_schedule(params, t, n_iters):
+    """q0 = δ0·exp(−½ (Nc/Nmax)²) (eq. 7), read by the engine's pseudo-random rule (eq. 6)."""
+    return params.replace(q0=params.delta0 * jnp.exp(-0.5 * _ratio(t, n_iters) ** 2))
+
+
+# -- pheromone (8, 9, 10) --------------------------------------------------------------------
+def adaptive_rho(problem, j_best, params):
+    """ρ = k·L_SG/J_best (eq. 10), clipped to [0, ``params.rho``]; 0 when J_best is not a
+    positive finite number."""
+    sg = problem.xy[problem.goal] - problem.xy[problem.start]
+    l_sg = jnp.sqrt(jnp.sum(sg * sg))
+    return jnp.clip(params.k_rho * l_sg * ph.inverse(j_best), 0.0, params.rho)
+
+
+def init_floor() -> ph.Rule:
+    """τ = max(τ0, τmin) everywhere, lower bound τmin (> 0, so a penalised move stays possible)."""
+
+    def init(trail, problem, params):
+        lo = jnp.float32(params.tau_min)
+        tau = jnp.full_like(trail.tau, jnp.maximum(params.tau0, params.tau_min))
+        return ph.Trail(tau, lo, jnp.float32(jnp.inf))
+
+    return ph.Rule(init, ph._keep_update)
+
+
+def best_worst() -> ph.Rule:
+    """Eqs. (8, 9) with ρ of eq. (10), over the iteration's successful ants:
+    τ ← (1−ρ)τ + ρ·(Q/J_best)·(J_best + J_worst)/2 on the best path, then
+    τ ← (1−ρ)τ − ρ·Q/J_worst on the worst path; then τ ≥ τmin. No successful ant: unchanged."""
+
+    def update(trail, walks, problem, params):
+        ok = jnp.isfinite(walks.cost)
+        b = jnp.argmin(walks.cost)
+        w = jnp.argmax(jnp.where(ok, walks.cost, -jnp.inf))
+        j_b, j_w = walks.cost[b], walks.cost[w]
+        rho = adaptive_rho(problem, j_b, params)  # Eq. (10)
+        reward = params.q * ph.inverse(j_b) * (j_b + j_w) / 2.0
+        tau = trail.tau
+        tau = jnp.where(ph._on_path(tau, walks.targets[:, b]), (1.0 - rho) * tau + rho * reward, tau)  # Eq. (8)
+        penalty = params.q * ph.inverse(j_w)
+        tau = jnp.where(ph._on_path(tau, walks.targets[:, w]), (1.0 - rho) * tau - rho * penalty, tau)  # Eq. (9)
+        tau = jnp.maximum(tau, trail.lo)
+        return trail._replace(tau=jnp.where(jnp.any(ok), tau, trail.tau))
+
+    return ph.Rule(ph._keep_init, update)
+
+
+# -- multi-objective cost J = kL·L + kS·S + kE·E ---------------------------------------------
+def _turn_table() -> np.ndarray:
+    """``TURN[a, b]``: heading change (radians) of move a followed by move b, by
+    :func:`jaco.metrics.heading_change` itself, so the two can never disagree."""
+    out = np.zeros((8, 8), np.float32)
+    for a in range(8):
+        for b in range(8):
+            out[a, b] = metrics.heading_change([(0, 0), MOVES[a], MOVES[a] + MOVES[b]])
+    return out
+
+
+#: Heading change of every pair of consecutive moves ``(8, 8)``.
+TURN = _turn_table()
+
+
+def safety(tours, problem, params):
+    """S per ant ``(A,)``: :func:`jaco.metrics.safety_terms` with radius ``rs_cost`` summed over
+    the start and every cell entered (the same cells and formula as :func:`jaco.metrics.safety_cost`)."""
+    took = tours.cells >= 0
+    d = problem.clearance[jnp.where(took, tours.cells, 0)]
+    terms = jnp.where(took, metrics.safety_terms(d, params.rs_cost, xp=jnp), 0.0)
+    return jnp.sum(terms, axis=0) + metrics.safety_terms(problem.clearance[problem.start], params.rs_cost, xp=jnp)
+
+
+def energy(tours, problem, params):
+    """E per ant ``(A,)``: total absolute heading change in radians (:func:`jaco.metrics.heading_change`)."""
+    prev, nxt = tours.moves[:-1], tours.moves[1:]
+    both = (prev >= 0) & (nxt >= 0)
+    turn = jnp.asarray(TURN)[jnp.where(both, prev, 0), jnp.where(both, nxt, 0)]
+    return jnp.sum(jnp.where(both, turn, 0.0), axis=0)
+
+
+def multi_objective(tours, problem, params):
+    """J = kL·L + kS·S + kE·E (seed 002 §3.4, ALGORITHMS.md §6.6): L the path length (cells),
+    S :func:`safety`, E :func:`energy`; a ``Variant.cost`` for any variant."""
+    return (
+        params.k_len * tours.length
+        + params.k_safe * safety(tours, problem, params)
+        + params.k_energy * energy(tours, problem, params)
+    )
+
+
+#: Cost functions by name, for :func:`with_cost`.
+COSTS = {"length": path_length, "multi": multi_objective}
+#: The parameters the multi-objective cost reads.
+COST_PARAMS = ("k_len", "k_safe", "k_energy", "rs_cost")
+
+_WITH_COST: dict = {}
+
+
+def with_cost(variant, cost: str = "multi") -> Variant:
+    """``variant`` (a name or a :class:`Variant`) with another cost: ``"multi"``
+    (:func:`multi_objective`, and its weights become sweepable parameters) or ``"length"``.
+
+    Cached: the same arguments return the same object, so repeated runs never recompile.
+    The new variant is named ``"<name>+<cost>"``.
+
+    >>> import jaco
+    >>> from jaco.iaaco import with_cost
+    >>> v = with_cost("acs", "multi")
+    >>> v.name, v is with_cost("acs", "multi"), "k_safe" in v.params
+    ('acs+multi', True, True)
+    """
+    from .variants import get_variant
+
+    if cost not in COSTS:
+        raise ParamError(f"unknown cost {cost!r}; valid: {', '.join(sorted(COSTS))}")
+    base = get_variant(variant)
+    key = (id(base), cost)
+    hit = _WITH_COST.get(key)
+    if hit is None:
+        if base.cost is COSTS[cost]:
+            new = base
+        else:
+            extra = COST_PARAMS if cost == "multi" else ()
+            params = base.params + tuple(p for p in extra if p not in base.params)
+            new = base._replace(name=f"{base.name}+{cost}", cost=COSTS[cost], params=params)
+        hit = (base, new)  # keep the base alive so its id is not reused
+        _WITH_COST[key] = hit
+    return hit[1]
+
+
+# -- the variants ----------------------------------------------------------------------------
+IAACO_PARAMS = (
+    "alpha", "beta", "lam", "q", "tau0", "tau_min", "rho", "k_rho", "delta0",
+    "sigma1", "sigma2", "mu_min", "rs",
+) + COST_PARAMS
+
+IAACO_DEFAULTS = dict(
+    alpha=1.0, beta=20.0, lam=3.0, q=2.5, tau0=0.01, tau_min=0.01, rho=0.9, k_rho=0.6, delta0=0.15,
+    sigma1=0.1, sigma2=0.9, mu_min=0.3, rs=0.5, k_len=0.7, k_safe=0.1, k_energy=0.2, rs_cost=1.0,
+)
+
+_DOC = (
+    "Improved adaptive ACO: η = ε/(σ1·d_ij + σ2·d_jG) with ε = exp(−2(Nc/Nmax)²) (1, 2); "
+    "p ∝ τ^α η^β μ^λ ξ with angle guidance μ and obstacle exclusion ξ (3–5), folded into the move "
+    "weights once per iteration; pseudo-random rule with q0 = δ0·exp(−½(Nc/Nmax)²) (6, 7); the "
+    "iteration's best path is reinforced and its worst penalised (8, 9) with ρ = k·L_SG/J_best "
+    "clipped to [0, rho] (10); τ ≥ τmin; cost J = kL·L + kS·S + kE·E. Pheromone on moves."
+)
+
+IAACO = make_variant(
+    "iaaco",
+    "Miao et al. 2021 (seed 002), eqs. 1–10",
+    _DOC + " Angle guidance μ = max(μ_min, cos∠(j→G, S→G)) (robust form of eq. 4).",
+    IAACO_PARAMS,
+    IAACO_DEFAULTS,
+    ph.chain(init_floor(), best_worst()),
+    heuristic=iaaco_heuristic,
+    transition="pseudo-random",
+    schedule=q0_schedule,
+    cost=multi_objective,
+    construct=guided_colony(mu_robust),
+)
+
+IAACO_PRINTED = IAACO._replace(
+    name="iaaco-printed",
+    doc=_DOC + " Angle guidance as printed in eq. 4: μ = max(μ_min, |y_j − y_G|/d_jG), y the row.",
+    construct=guided_colony(mu_printed),
+)

@@ -1,0 +1,748 @@
+"""Reproducible run records: save a run or a sweep, load it back, rerun it and check the rerun.
+
+A *record* is everything needed to run a result again without the original files, plus the
+result itself so that a rerun can be compared bit for bit (docs/records.md has the format):
+
+* a **run** (:meth:`jaco.Result.save`): one JSON file;
+* a **sweep** (:func:`save_sweep`): the table as CSV plus a JSON sidecar (same stem, ``.json``).
+
+The map is always embedded (text rows up to :data:`EMBED_ROWS_MAX` cells, above that a packed bit
+mask), together with its sha256 (:func:`map_hash`) and, when it is a named map or a bundled file,
+that name, so a record never depends on the file it was made from. ``load_run(path).rerun()``
+runs the same call again and reports whether path, length, cost and history (or, for a sweep, the
+whole table) are identical; when the record was written by other versions of jaco / jax / jaxlib
+or on another backend, it says so (one warning line naming both versions), because XLA may then
+legitimately produce different floating point rounding.
+
+>>> import jaco, tempfile, os
+>>> grid = jaco.maps.named("demo")
+>>> r = jaco.solve(grid, grid.meta["start"], grid.meta["goal"], seed=1, n_ants=8, n_iters=5)
+>>> path = r.save(os.path.join(tempfile.mkdtemp(), "run.json"))
+>>> jaco.load_run(path).rerun().matched
+True
+"""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+import inspect
+import io
+import json
+import math
+import platform
+import warnings
+import zlib
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from .errors import JacoError
+from .grid import Grid
+
+__all__ = [
+    "EMBED_ROWS_MAX",
+    "FORMAT",
+    "FORMAT_VERSION",
+    "RecordError",
+    "RecordWarning",
+    "Rerun",
+    "RunRecord",
+    "SweepRecord",
+    "load_run",
+    "map_hash",
+    "save_path",
+    "save_run",
+    "save_sweep",
+    "versions",
+]
+
+FORMAT = "jaco-record"
+FORMAT_VERSION = 1
+#: Maps with at most this many cells are embedded as text rows ('.' free, '@' blocked), larger
+#: ones as a base64 zlib-compressed bit mask (np.packbits, row-major).
+EMBED_ROWS_MAX = 65536
+#: Versions whose difference is reported before a rerun (bit-for-bit equality is promised only
+#: for the same jaco, jax, jaxlib and backend).
+CHECKED_VERSIONS = ("jaco", "jax", "jaxlib", "backend")
+
+
+class RecordError(JacoError):
+    """A record file that cannot be read or used (missing, not a jaco record, inconsistent)."""
+
+
+class RecordWarning(UserWarning):
+    """A record written by other versions, or whose map no longer matches its hash."""
+
+
+# -- versions -------------------------------------------------------------------------------
+def versions() -> dict:
+    """Versions that decide whether a rerun can be bit-identical (read at call time)."""
+    import jax
+    import pandas
+
+    import jaco
+
+    try:
+        import jaxlib
+
+        jaxlib_version = jaxlib.__version__
+    except (ImportError, AttributeError):  # pragma: no cover - jaxlib ships with jax
+        jaxlib_version = None
+    return {
+        "jaco": jaco.__version__,
+        "jax": jax.__version__,
+        "jaxlib": jaxlib_version,
+        "backend": jax.default_backend(),
+        "numpy": np.__version__,
+        "pandas": pandas.__version__,
+        "python": platform.python_version(),
+    }
+
+
+def version_warnings(recorded: dict) -> list[str]:
+    """One line per checked version that differs between a record and this installation."""
+    now = versions()
+    out = []
+    for k in CHECKED_VERSIONS:
+        old, new = recorded.get(k), now.get(k)
+        if old != new:
+            out.append(
+                f"record written with {k} {old}, this is {k} {new}: "
+                "the rerun may differ in floating point rounding"
+            )
+    return out
+
+
+# -- maps -----------------------------------------------------------------------------------
+def _frame(grid: Grid) -> dict:
+    return {
+        "shape": [int(grid.height), int(grid.width)],
+        "cell_size": float(grid.cell_size),
+        "resolution": None if grid.resolution is None else float(grid.resolution),
+        "origin": None if grid.origin is None else [float(v) for v in grid.origin],
+    }
+
+
+def map_hash(grid: Grid) -> str:
+    """sha256 (hex) of a map: a canonical JSON header (shape, cell_size, resolution, origin;
+    sorted keys, no spaces), a newline, then the free mask as one byte per cell, row-major.
+
+    >>> map_hash(Grid.from_rows(["..", ".#"]))[:12]
+    '571ae8eb7897'
+    """
+    header = json.dumps(_frame(grid), sort_keys=True, separators=(",", ":")).encode()
+    return hashlib.sha256(header + b"\n" + grid.free.astype(np.uint8).tobytes()).hexdigest()
+
+
+def _source(grid: Grid, digest: str) -> dict | None:
+    """``{"named": name}`` or ``{"bundled": file}`` when the grid is exactly that map."""
+    from . import maps
+
+    if grid.name in maps.NAMED:
+        try:
+            if map_hash(maps.named(grid.name).replace(cell_size=grid.cell_size)) == digest:
+                return {"named": grid.name}
+        except JacoError:  # pragma: no cover - named maps always build
+            pass
+    src = grid.meta.get("source")
+    if isinstance(src, str) and src in maps.BUNDLED and Path(src).suffix.lower() in maps.SUPPORTED_SUFFIXES:
+        try:
+            if map_hash(maps.load_bundled(src, cell_size=grid.cell_size)) == digest:
+                return {"bundled": src}
+        except JacoError:  # pragma: no cover
+            pass
+    return None
+
+
+def map_entry(grid: Grid) -> dict:
+    """The record's description of a map: frame, hash, source name if any, embedded mask."""
+    digest = map_hash(grid)
+    entry = {"name": grid.name, **_frame(grid), "sha256": digest, "source": _source(grid, digest)}
+    if grid.n_cells <= EMBED_ROWS_MAX:
+        entry["rows"] = grid.to_rows()
+    else:
+        packed = np.packbits(grid.free.ravel()).tobytes()
+        entry["packed"] = base64.b64encode(zlib.compress(packed, 9)).decode("ascii")
+    return entry
+
+
+def grid_from_entry(entry: dict, where: str) -> tuple[Grid, list[str]]:
+    """Rebuild the embedded map; warnings when it (or its named/bundled source) no longer has the
+    recorded hash."""
+    from . import maps
+
+    try:
+        h, w = (int(v) for v in entry["shape"])
+        if "rows" in entry:
+            free = Grid.from_rows(entry["rows"]).free
+        elif "packed" in entry:
+            bits = np.frombuffer(zlib.decompress(base64.b64decode(entry["packed"])), np.uint8)
+            free = np.unpackbits(bits)[: h * w].reshape(h, w).astype(bool)
+        else:
+            raise KeyError("rows")
+        origin = entry.get("origin")
+        grid = Grid(
+            free,
+            name=str(entry.get("name", "grid")),
+            cell_size=float(entry.get("cell_size", 1.0)),
+            resolution=None if entry.get("resolution") is None else float(entry["resolution"]),
+            origin=None if origin is None else tuple(float(v) for v in origin),
+        )
+    except (KeyError, TypeError, ValueError, zlib.error, JacoError) as e:
+        raise RecordError(f"{where}: the embedded map cannot be read ({type(e).__name__}: {e})") from None
+    if grid.shape != (h, w):
+        raise RecordError(f"{where}: the embedded map is {grid.shape}, the record says {(h, w)}")
+    notes = []
+    digest = map_hash(grid)
+    if digest != entry.get("sha256"):
+        notes.append(
+            f"map {grid.name!r}: the embedded map has sha256 {digest[:12]}…, the record says "
+            f"{str(entry.get('sha256'))[:12]}…: the record was modified"
+        )
+    src = entry.get("source") or {}
+    try:
+        if "named" in src:
+            now = maps.named(src["named"]).replace(cell_size=grid.cell_size)
+        elif "bundled" in src:
+            now = maps.load_bundled(src["bundled"], cell_size=grid.cell_size)
+        else:
+            now = None
+    except JacoError as e:
+        now = None
+        notes.append(f"map {grid.name!r}: its source {src} is no longer available ({e}); using the embedded copy")
+    if now is not None and map_hash(now) != entry.get("sha256"):
+        notes.append(
+            f"map {grid.name!r}: {src} has changed since the record was written "
+            "(its sha256 differs); rerunning on the embedded copy"
+        )
+    return grid, notes
+
+
+# -- JSON helpers ---------------------------------------------------------------------------
+def _num(x):
+    """A float for JSON: finite as is (repr round-trips), +inf as null, -inf/nan as strings."""
+    x = float(x)
+    if math.isfinite(x):
+        return x
+    return None if x == math.inf else str(x)
+
+
+def _unnum(x) -> float:
+    return math.inf if x is None else float(x)
+
+
+def _dumps(x, indent: int = 0) -> str:
+    """Readable, strict JSON: mappings one key per line, lists of numbers (and lists of pairs)
+    on one line, lists of strings (map rows) one per line."""
+    pad, inner = " " * indent, " " * (indent + 1)
+    scalar = lambda v: v is None or isinstance(v, (bool, int, float))  # noqa: E731
+    if isinstance(x, dict):
+        if not x:
+            return "{}"
+        items = [f"{inner}{json.dumps(str(k))}: {_dumps(v, indent + 1)}" for k, v in x.items()]
+        return "{\n" + ",\n".join(items) + "\n" + pad + "}"
+    if isinstance(x, list):
+        if all(scalar(v) or (isinstance(v, list) and all(scalar(u) for u in v)) for v in x):
+            return json.dumps(x, allow_nan=False)
+        return "[\n" + ",\n".join(inner + _dumps(v, indent + 1) for v in x) + "\n" + pad + "]"
+    return json.dumps(x, allow_nan=False)
+
+
+def _write_json(doc: dict, path: Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    text = _dumps(doc) + "\n"
+    json.loads(text)  # never write a file that does not read back
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def _header(kind: str) -> dict:
+    return {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "kind": kind,
+        "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "versions": versions(),
+    }
+
+
+def _cells(x):
+    """A (row, col) pair, a list of pairs, or None, as JSON lists of ints."""
+    if x is None:
+        return None
+    a = np.asarray(x)
+    if a.dtype.kind not in "iu" and not np.all(a == np.round(a)):
+        raise RecordError(f"cells must be integers, got {x!r}")
+    return a.astype(np.int64).tolist()
+
+
+def _uncells(x):
+    if x is None:
+        return None
+    a = np.asarray(x, dtype=np.int64)
+    if a.ndim == 1:
+        return tuple(int(v) for v in a)
+    return [tuple(int(v) for v in row) for row in a]
+
+
+# -- runs -----------------------------------------------------------------------------------
+_HISTORY_DTYPE = np.float32
+
+
+def save_run(result, path) -> Path:
+    """Write ``result`` (a :class:`jaco.Result` from :func:`jaco.solve`) as a JSON record."""
+    from .variants import VARIANTS
+
+    if result.grid is None:
+        raise RecordError("this Result has no grid (it was not made by jaco.solve): cannot record its map")
+    if result.variant not in VARIANTS:
+        raise RecordError(
+            f"variant {result.variant!r} is not registered: a record can only be rerun with a "
+            "variant in jaco.VARIANTS"
+        )
+    waypoints = getattr(result, "waypoints", None)
+    pher = result.pheromone
+    doc = _header("run")
+    doc["call"] = {
+        "variant": result.variant,
+        "seed": int(result.seed),
+        "n_ants": int(result.n_ants),
+        "n_iters": int(result.n_iters),
+        "steplimit": int(result.steplimit),
+        "connectivity": int(getattr(result, "connectivity", 8)),
+        # False, True (final pheromone (M,)) or "history" (one row per iteration (n_iters, M))
+        "keep_pheromone": False if pher is None else "history" if np.ndim(pher) == 2 else True,
+        "params": {k: float(v) for k, v in result.params.items()},
+        "start": _cells(result.start),
+        "goal": _cells(result.goal),
+        "waypoints": _cells(list(waypoints)) if waypoints is not None and len(waypoints) else None,
+    }
+    doc["map"] = map_entry(result.grid)
+    doc["result"] = {
+        "success": bool(result.success),
+        "path": np.asarray(result.path, np.int64).tolist(),
+        "length": _num(result.length),
+        "cost": _num(result.cost),
+        "optimal": _num(result.optimal),
+        "gap": _num(result.gap),
+        "best_iteration": int(result.best_iteration),
+        "coverage": _num(result.coverage),
+        "history": {k: [_num(x) for x in np.asarray(v)] for k, v in result.history.items()},
+        "history_dtype": {k: str(np.asarray(v).dtype) for k, v in result.history.items()},
+        "pheromone_sha256": None if pher is None else hashlib.sha256(np.ascontiguousarray(pher).tobytes()).hexdigest(),
+    }
+    return _write_json(doc, path)
+
+
+@dataclass
+class Rerun:
+    """The outcome of :meth:`RunRecord.rerun` / :meth:`SweepRecord.rerun`.
+
+    ``matched`` is True when everything recorded came out identical; ``differences`` lists what
+    did not; ``warnings`` the version / map notes; ``result`` is the new :class:`jaco.Result`
+    (run) or DataFrame (sweep).
+    """
+
+    matched: bool
+    differences: list
+    warnings: list
+    result: object
+    what: str
+
+    def summary(self) -> str:
+        """Lines for a person: the warnings, then whether the rerun matched and, if not, how."""
+        lines = [f"warning: {w}" for w in self.warnings]
+        if self.matched:
+            lines.append(f"rerun matched the record bit for bit ({self.what})")
+        else:
+            lines.append(f"rerun did NOT match the record ({len(self.differences)} difference(s)):")
+            lines += [f"  {d}" for d in self.differences]
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.summary()
+
+
+def _same_float(a, b) -> bool:
+    a, b = float(a), float(b)
+    return (a == b and math.copysign(1, a) == math.copysign(1, b)) or (math.isnan(a) and math.isnan(b))
+
+
+@dataclass
+class RunRecord:
+    """A loaded run record: ``call`` (the solve arguments), ``grid``, ``result`` (the recorded
+    :class:`jaco.Result`), ``versions``, ``warnings`` (version and map notes)."""
+
+    path: Path
+    call: dict
+    grid: Grid
+    result: object
+    versions: dict
+    map_sha256: str
+    pheromone_sha256: str | None = None
+    warnings: list = field(default_factory=list)
+
+    def solve_kwargs(self) -> dict:
+        c = self.call
+        kw = dict(
+            seed=c["seed"], n_ants=c["n_ants"], n_iters=c["n_iters"], steplimit=c["steplimit"],
+            connectivity=c["connectivity"], keep_pheromone=c["keep_pheromone"], **c["params"],
+        )
+        if c.get("waypoints"):
+            kw["waypoints"] = _uncells(c["waypoints"])
+        return kw
+
+    def rerun(self, *, warn: bool = True) -> Rerun:
+        """Run the recorded call again and compare path, length, cost, success, best iteration,
+        coverage, optimum, history (every array, bitwise) and the pheromone hash if recorded.
+
+        With ``warn``, version and map notes are also issued as :class:`RecordWarning`."""
+        from .run import solve
+
+        if warn:
+            for w in self.warnings:
+                warnings.warn(w, RecordWarning, stacklevel=2)
+        c = self.call
+        try:
+            new = solve(self.grid, _uncells(c["start"]), _uncells(c["goal"]), c["variant"], **self.solve_kwargs())
+        except TypeError as e:  # e.g. a waypoints record on a jaco without waypoints
+            raise RecordError(f"{self.path}: this jaco cannot rerun the recorded call ({e})") from None
+        old = self.result
+        diffs = []
+        if not np.array_equal(np.asarray(old.path), np.asarray(new.path)):
+            diffs.append(f"path: recorded {len(old.path)} cells, rerun {len(new.path)} cells"
+                         + ("" if len(old.path) != len(new.path) else " (different cells)"))
+        for name in ("success", "best_iteration"):
+            if getattr(old, name) != getattr(new, name):
+                diffs.append(f"{name}: recorded {getattr(old, name)}, rerun {getattr(new, name)}")
+        for name in ("length", "cost", "optimal", "coverage"):
+            if not _same_float(getattr(old, name), getattr(new, name)):
+                diffs.append(f"{name}: recorded {getattr(old, name)!r}, rerun {getattr(new, name)!r}")
+        for k in sorted(set(old.history) | set(new.history)):
+            a, b = old.history.get(k), new.history.get(k)
+            if a is None or b is None:
+                diffs.append(f"history[{k}]: only in the {'rerun' if a is None else 'record'}")
+                continue
+            a, b = np.asarray(a), np.asarray(b).astype(a.dtype)
+            if a.shape != b.shape or a.tobytes() != b.tobytes():
+                n = int(np.sum(a != b)) if a.shape == b.shape else "all"
+                diffs.append(f"history[{k}]: {n} of {len(b)} iterations differ")
+        if self.pheromone_sha256 is not None and new.pheromone is not None:
+            h = hashlib.sha256(np.ascontiguousarray(new.pheromone).tobytes()).hexdigest()
+            if h != self.pheromone_sha256:
+                diffs.append("pheromone: the final pheromone differs (sha256)")
+        what = (f"path {len(new.path)} cells, length {new.length:.6g}, "
+                f"history {len(next(iter(new.history.values()), []))} iterations")
+        return Rerun(not diffs, diffs, list(self.warnings), new, what)
+
+
+def _result_from(doc: dict, grid: Grid):
+    from .run import Result, gap
+
+    c, r = doc["call"], doc["result"]
+    history = {
+        k: np.array([_unnum(x) for x in v], dtype=np.dtype(r.get("history_dtype", {}).get(k, "float32")))
+        for k, v in r["history"].items()
+    }
+    length, optimal = _unnum(r["length"]), _unnum(r["optimal"])
+    res = Result(
+        variant=c["variant"],
+        path=np.asarray(r["path"], np.int64).reshape(-1, 2),
+        length=length,
+        success=bool(r["success"]),
+        cost=_unnum(r["cost"]),
+        optimal=optimal,
+        gap=_unnum(r["gap"]) if "gap" in r else gap(length, optimal),
+        best_iteration=int(r["best_iteration"]),
+        history=history,
+        coverage=_unnum(r["coverage"]),
+        seed=int(c["seed"]),
+        params=dict(c["params"]),
+        n_ants=int(c["n_ants"]),
+        n_iters=int(c["n_iters"]),
+        steplimit=int(c["steplimit"]),
+        start=_uncells(c["start"]),
+        goal=_uncells(c["goal"]),
+        grid=grid,
+    )
+    for name, value in (("connectivity", int(c.get("connectivity", 8))),
+                        ("waypoints", _uncells(c.get("waypoints")))):
+        if hasattr(res, name) and value is not None:
+            setattr(res, name, value)
+    return res
+
+
+# -- paths in world coordinates (ROS) -------------------------------------------------------
+def _metres(v) -> float:
+    """World coordinates rounded to the nanometre: 0.475, not 0.47500000000000003."""
+    return round(float(v), 9)
+
+
+def save_path(result, path, frame: str | None = None) -> Path:
+    """Write ``result``'s path as CSV or JSON (by the suffix of ``path``).
+
+    ``frame="world"``: columns ``row,col,x,y``, x and y in metres at the cell centres, from the
+    map's ``resolution`` and ``origin`` (:meth:`jaco.Grid.cell_to_world`; row 0 is the top of the
+    image, i.e. the largest y). ``frame="cells"``: ``row,col`` only. Default: world when the map
+    has a resolution. The JSON holds the map name, frame, resolution, origin, length and the
+    points as ``[[row, col], ...]`` (``cells``) and ``[[x, y], ...]`` (``xy``), and in the world
+    frame ``length_m`` (the length in metres: cell units × resolution). Coordinates are rounded
+    to 1e-9 m.
+    """
+    from .errors import ProblemError
+
+    path = Path(path)
+    grid = result.grid
+    if grid is None:
+        raise RecordError("this Result has no grid: cannot write its path")
+    if frame is None:
+        frame = "world" if grid.resolution is not None else "cells"
+    if frame not in ("world", "cells"):
+        raise JacoError(f"frame must be 'world' or 'cells', got {frame!r}")
+    if frame == "world" and grid.resolution is None:
+        raise ProblemError(
+            f"map {grid.name!r} has no resolution/origin: world coordinates need a ROS map (use frame='cells')"
+        )
+    suffix = path.suffix.lower()
+    if suffix not in (".csv", ".json"):
+        raise JacoError(f"a path file is .csv or .json, got {path.name!r}")
+    cells = np.asarray(result.path, np.int64).reshape(-1, 2)
+    xy = grid.cell_to_world(cells) if frame == "world" else None
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if suffix == ".csv":
+        lines = ["row,col,x,y" if xy is not None else "row,col"]
+        for i, (r, c) in enumerate(cells):
+            row = f"{int(r)},{int(c)}"
+            if xy is not None:
+                row += f",{_metres(xy[i, 0])!r},{_metres(xy[i, 1])!r}"
+            lines.append(row)
+        path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+        return path
+    doc = {
+        "map": grid.name,
+        "frame": frame,
+        "units": "m" if frame == "world" else "cells",
+        "resolution": None if grid.resolution is None else float(grid.resolution),
+        "origin": None if grid.origin is None else [float(v) for v in grid.origin],
+        "success": bool(result.success),
+        "length": _num(result.length),
+        "cells": cells.tolist(),
+    }
+    if xy is not None:
+        doc["length_m"] = _num(result.length / grid.cell_size * grid.resolution)
+        doc["xy"] = [[_metres(x), _metres(y)] for x, y in xy]
+    return _write_json(doc, path)
+
+
+# -- sweeps ---------------------------------------------------------------------------------
+def _sidecar(path: Path) -> Path:
+    return path.with_suffix(".json")
+
+
+def _csv_text(table) -> str:
+    return table.to_csv(index=False, lineterminator="\n")
+
+
+def _encode_grids(grid):
+    if isinstance(grid, Grid):
+        return map_entry(grid)
+    grids = list(grid)
+    if not grids or not all(isinstance(g, Grid) for g in grids):
+        raise RecordError("grid: expected a jaco.Grid or a list of Grids")
+    return [map_entry(g) for g in grids]
+
+
+def _jsonable(name: str, value):
+    try:
+        json.dumps(value, allow_nan=False)
+    except (TypeError, ValueError):
+        raise RecordError(f"sweep argument {name}={value!r} cannot be written to a record (not plain JSON)") from None
+    return value
+
+
+def save_sweep(table, path, *args, **kwargs) -> Path:
+    """Write a :func:`jaco.sweep` table as CSV at ``path`` and a JSON sidecar beside it
+    (``path`` with suffix ``.json``); returns the sidecar's path, which :func:`load_run` reads
+    (it also accepts the CSV's path).
+
+    ``jaco.sweep`` returns a plain DataFrame that does not carry its arguments, so after the table
+    and the path pass the same arguments the sweep was called with (positional or by keyword, e.g.
+    ``save_sweep(df, "s.csv", grid, start, goal, "acs", {"q0": [0.5, 0.9]}, 8, n_ants=20)``).
+    They are bound to ``jaco.sweep``'s own signature (its defaults fill the rest) and recorded;
+    ``progress`` is not. The table must have as many rows, and the same seeds, as those
+    arguments give, so a wrong argument is caught here; the rest is checked by a rerun.
+    """
+    from . import sweeps
+    from .variants import VARIANTS, get_variant
+
+    path = Path(path)
+    if path.suffix.lower() != ".csv":
+        raise RecordError(f"a sweep record is a .csv table plus a .json sidecar; got {path.name!r} (use a .csv name)")
+    try:
+        bound = inspect.signature(sweeps.sweep).bind(*args, **kwargs)
+    except TypeError as e:
+        raise RecordError(f"save_sweep: {e} (pass the arguments of jaco.sweep)") from None
+    bound.apply_defaults()
+    given = dict(bound.arguments)
+    given.pop("progress", None)
+    v = get_variant(given["variant"])
+    if VARIANTS.get(v.name) is not v:
+        raise RecordError(f"variant {v.name!r} is not the registered one: a record can only rerun registered variants")
+    from .designs import as_design
+
+    design = as_design(given["params"])  # a dict of axes is a full grid; a Design or DataFrame as given
+    rows = {k: [float(x) for x in v] for k, v in design.values.items()}
+    if isinstance(given["params"], dict) or given["params"] is None:
+        axes = {k: [float(x) for x in np.atleast_1d(np.asarray(vals, np.float64))] for k, vals in (given["params"] or {}).items()}
+        n_configs = math.prod(len(x) for x in axes.values())
+        recorded_params = axes
+    else:  # recorded as explicit rows, rebuilt with jaco.designs.table on rerun
+        n_configs = len(design)
+        recorded_params = {"design": rows}
+    seeds_arg = given["seeds"]
+    seed_list = list(range(int(seeds_arg))) if isinstance(seeds_arg, (int, np.integer)) else [int(s) for s in seeds_arg]
+    grids = [given["grid"]] if isinstance(given["grid"], Grid) else list(given["grid"])
+    pair = lambda x: np.ndim(x) == 1 and len(x) == 2  # noqa: E731
+    n_q = max(len(grids), 1 if pair(given["start"]) else len(given["start"]), 1 if pair(given["goal"]) else len(given["goal"]))
+    expected = n_q * n_configs * len(seed_list)
+    if len(table) != expected:
+        raise RecordError(
+            f"the table has {len(table)} rows but these arguments give {expected} "
+            f"({n_q} queries x {n_configs} configurations x {len(seed_list)} seeds): "
+            "pass the arguments the sweep was called with"
+        )
+    if "seed" in table and set(int(s) for s in table["seed"]) != set(seed_list):
+        raise RecordError("the table's seeds are not the seeds given: pass the arguments the sweep was called with")
+
+    call = {}
+    for name, value in given.items():
+        if name == "grid":
+            call[name] = _encode_grids(value)
+        elif name in ("start", "goal"):
+            call[name] = _cells(value)
+        elif name == "variant":
+            call[name] = v.name
+        elif name == "params":
+            call[name] = recorded_params
+        elif name == "seeds":
+            call[name] = int(value) if isinstance(value, (int, np.integer)) else seed_list
+        else:
+            call[name] = _jsonable(name, value.item() if isinstance(value, np.generic) else value)
+    text = _csv_text(table)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text, encoding="utf-8")
+    doc = _header("sweep")
+    doc["call"] = call
+    doc["table"] = {"file": path.name, "rows": len(table), "columns": list(map(str, table.columns)),
+                    "sha256": hashlib.sha256(text.encode()).hexdigest()}
+    return _write_json(doc, _sidecar(path))
+
+
+@dataclass
+class SweepRecord:
+    """A loaded sweep record: ``call`` (the sweep arguments, maps rebuilt in ``grids``),
+    ``table`` (the recorded DataFrame), ``table_text`` (its CSV), ``versions``, ``warnings``."""
+
+    path: Path
+    call: dict
+    grids: object
+    table: object
+    table_text: str
+    versions: dict
+    warnings: list = field(default_factory=list)
+
+    def sweep_kwargs(self) -> dict:
+        kw = dict(self.call)
+        kw["grid"] = self.grids
+        kw["start"], kw["goal"] = _uncells(kw["start"]), _uncells(kw["goal"])
+        if isinstance(kw.get("params"), dict) and "design" in kw["params"]:  # explicit rows (a Design)
+            from .designs import table
+
+            kw["params"] = table(kw["params"]["design"])
+        return kw
+
+    def rerun(self, *, warn: bool = True) -> Rerun:
+        """Run the recorded sweep again and compare the whole table (as CSV text, i.e. every
+        float to the last bit); differences name the first differing rows and columns."""
+        import pandas as pd
+
+        from .sweeps import sweep
+
+        if warn:
+            for w in self.warnings:
+                warnings.warn(w, RecordWarning, stacklevel=2)
+        try:
+            new = sweep(**self.sweep_kwargs())
+        except TypeError as e:
+            raise RecordError(f"{self.path}: this jaco cannot rerun the recorded sweep ({e})") from None
+        text = _csv_text(new)
+        diffs = []
+        if text != self.table_text:
+            a = self.table
+            b = pd.read_csv(io.StringIO(text))
+            if list(a.columns) != list(b.columns):
+                diffs.append(f"columns: recorded {list(a.columns)}, rerun {list(b.columns)}")
+            elif len(a) != len(b):
+                diffs.append(f"rows: recorded {len(a)}, rerun {len(b)}")
+            else:
+                old_lines, new_lines = self.table_text.splitlines()[1:], text.splitlines()[1:]
+                rows = [i for i, (x, y) in enumerate(zip(old_lines, new_lines)) if x != y]
+                cols = [c for c in a.columns if not a[c].astype(str).equals(b[c].astype(str))]
+                diffs.append(f"{len(rows)} of {len(a)} rows differ (first rows {rows[:5]}; columns {cols})")
+        what = f"{len(new)} rows x {len(new.columns)} columns"
+        return Rerun(not diffs, diffs, list(self.warnings), new, what)
+
+
+# -- loading --------------------------------------------------------------------------------
+def load_run(path):
+    """Load a record written by :meth:`jaco.Result.save` (returns a :class:`RunRecord`) or by
+    :func:`save_sweep` (a :class:`SweepRecord`; the sidecar ``.json`` or its ``.csv`` table).
+    ``load_run(path).rerun()`` reruns it and reports whether it matched."""
+    import pandas as pd
+
+    path = Path(path)
+    if path.suffix.lower() == ".csv":
+        path = _sidecar(path)
+    if not path.is_file():
+        raise RecordError(f"record {str(path)!r} not found")
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise RecordError(f"{path.name}: not a JSON record ({e})") from None
+    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
+        raise RecordError(f"{path.name}: not a jaco record (no \"format\": \"{FORMAT}\")")
+    if doc.get("format_version", 0) > FORMAT_VERSION:
+        raise RecordError(
+            f"{path.name}: record format version {doc.get('format_version')} is newer than this "
+            f"jaco reads ({FORMAT_VERSION}): upgrade jaco"
+        )
+    recorded = doc.get("versions", {})
+    notes = version_warnings(recorded)
+    try:
+        if doc.get("kind") == "run":
+            grid, map_notes = grid_from_entry(doc["map"], path.name)
+            rec = RunRecord(path, doc["call"], grid, _result_from(doc, grid), recorded,
+                            doc["map"].get("sha256"), doc["result"].get("pheromone_sha256"), notes + map_notes)
+            return rec
+        if doc.get("kind") == "sweep":
+            entries = doc["call"]["grid"]
+            if isinstance(entries, dict):
+                grids, map_notes = grid_from_entry(entries, path.name)
+            else:
+                built = [grid_from_entry(e, path.name) for e in entries]
+                grids, map_notes = [g for g, _ in built], [n for _, ns in built for n in ns]
+            table_path = path.parent / doc["table"]["file"]
+            if not table_path.is_file():
+                raise RecordError(f"{path.name}: its table {table_path.name!r} is missing (expected beside the sidecar)")
+            text = table_path.read_text(encoding="utf-8")
+            if hashlib.sha256(text.encode()).hexdigest() != doc["table"].get("sha256"):
+                map_notes.append(f"table {table_path.name}: its sha256 differs from the sidecar's: the table was modified")
+            table = pd.read_csv(io.StringIO(text))
+            return SweepRecord(path, doc["call"], grids, table, text, recorded, notes + map_notes)
+    except (KeyError, TypeError, ValueError) as e:
+        raise RecordError(f"{path.name}: incomplete record ({type(e).__name__}: {e})") from None
+    raise RecordError(f"{path.name}: unknown record kind {doc.get('kind')!r} (expected 'run' or 'sweep')")
