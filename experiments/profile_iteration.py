@@ -16,19 +16,18 @@ the iteration is jitted and timed alone (process CPU time, best of ``reps``):
 * construct: the whole construction step (uniforms + weights + walk + cells, lengths, targets);
 * update: the pheromone rule (evaporation + ant-cycle deposit).
 
-It also measures the two costs that bound the lock-step walk: the fixed cost of one loop step
-(the walk with a single ant) and the cost per lane-step (the walk of all ``B × 50`` lanes), and
-the share of lane-steps that are real ant steps (lane utilisation). A **work-queue walk** (below:
-``L`` lanes, each lane takes the next ant of any configuration when its ant stops, refilled every 8
-steps; moves recorded lane-major with one ``dynamic_update_slice`` row per step; the same moves
-as jaco's walk, checked bit for bit) shows what raising the utilisation buys. The native loop
+It also measures the two costs that bound a lock-step walk (every ant on its own lane until the
+batch's last ant stops): the fixed cost of one loop step (the walk with a single ant) and the cost
+per lane-step, and the share of lane-steps that are real ant steps (lane utilisation). jaco's
+engine walks a batch of more than ``jaco.construct.POOL`` ants on a pool of that many lanes, each
+lane taking the next ant of any configuration when its ant stops; the last table times that walk
+for several pool sizes (same moves as the lock-step walk, checked bit for bit). The native loop
 (``native_reference.py``) gives the per-iteration bar. Nothing here asserts a time.
 """
 
 from __future__ import annotations
 
 import argparse
-import functools
 import sys
 import time
 from pathlib import Path
@@ -53,79 +52,6 @@ def cpu_ms(fn, *args, reps):
         cpu.append(time.process_time() - c0)
         wall.append(time.perf_counter() - t0)
     return 1e3 * min(cpu), 1e3 * min(wall)
-
-
-def queue_walk(weights, u, start, goal, offsets, *, steplimit, lanes, chunk=8):
-    """Work-queue walk (an experiment, not the engine): ``weights (B, N, 8)``, ``u (B, S_pad, A)``.
-
-    ``L = lanes`` lanes walk the ``B·A`` ants; every ``chunk`` steps, lanes whose ant stopped take
-    the next ants in order (ant ``g`` of configuration ``g // A``); tabu lists are per-lane stamps
-    (``stamp[lane, cell] == g + 1``), so a refill costs nothing. Moves are written lane-major,
-    one row per loop step; each ant's moves are gathered back afterwards from (first row, lane).
-    Returns ``(moves (S_pad, B, A) as jaco's walk, loop steps)``.
-    """
-    import jax
-    import jax.numpy as jnp
-
-    B, N, _ = weights.shape
-    s_pad, A = u.shape[1], u.shape[2]
-    G = B * A
-    L = min(lanes, G)
-    cap = (-(-G // L) + 1) * (-(-steplimit // chunk) + 1) * chunk  # ≥ the longest possible queue
-    wflat = weights.reshape(B * N, 8)
-    uflat = jnp.swapaxes(u, 1, 2).reshape(G * s_pad)
-    lane = jnp.arange(L, dtype=jnp.int32)
-
-    def step(carry, t):
-        ant, alive, cell, s, wbase, ubase, g, stamp, rec = carry
-        nb = jnp.clip(cell[:, None] + offsets[None, :], 0, N - 1)
-        w = jnp.where(stamp[lane[:, None], nb] == (ant + 1)[:, None], 0.0, wflat[wbase + cell])
-        c = jnp.cumsum(w, axis=-1)
-        x = jnp.minimum(uflat[ubase + jnp.minimum(s, s_pad - 1)] * c[:, -1], jnp.nextafter(c[:, -1], 0.0))
-        k = jnp.sum(c <= x[:, None], axis=-1)
-        ok = alive & (c[:, -1] > 0)
-        cell = jnp.where(ok, cell + offsets[k], cell)
-        code = jnp.where(ok, k, 8) + jnp.where(alive & (s == 0), 16, 0)  # 16: an ant's first row
-        rec = jax.lax.dynamic_update_slice(rec, code.astype(jnp.int8)[None], (t, 0))
-        s = s + ok
-        alive = ok & (cell != g) & (s < steplimit)
-        stamp = stamp.at[lane, cell].set(ant + 1, indices_are_sorted=True, unique_indices=True)
-        return (ant, alive, cell, s, wbase, ubase, g, stamp, rec), None
-
-    def body(st):
-        t0, nxt, ant, alive, cell, s, wbase, ubase, g, stamp, rec, begin, lane_of = st
-        free = ~alive
-        ant = jnp.where(free, jnp.minimum(nxt + jnp.cumsum(free) - 1, G), ant)
-        nxt = nxt + jnp.sum(free)
-        fresh = free & (ant < G)
-        b = jnp.minimum(ant // A, B - 1)
-        cell = jnp.where(free, start[b], cell)
-        s = jnp.where(free, 0, s)
-        wbase, ubase, g = b * N, jnp.minimum(ant, G - 1) * s_pad, goal[b]
-        alive = alive | fresh
-        idx = jnp.where(fresh, ant, G)
-        begin = begin.at[idx].set(t0, mode="drop")
-        lane_of = lane_of.at[idx].set(lane, mode="drop")
-        stamp = stamp.at[lane, cell].set(ant + 1, indices_are_sorted=True, unique_indices=True)
-        carry = (ant, alive, cell, s, wbase, ubase, g, stamp, rec)
-        carry, _ = jax.lax.scan(step, carry, t0 + jnp.arange(chunk), unroll=True)
-        ant, alive, cell, s, wbase, ubase, g, stamp, rec = carry
-        return t0 + chunk, nxt, ant, alive, cell, s, wbase, ubase, g, stamp, rec, begin, lane_of
-
-    def more(st):
-        return (st[1] < G) | jnp.any(st[3])
-
-    z = jnp.zeros(L, jnp.int32)
-    st = (jnp.int32(0), jnp.int32(0), jnp.full(L, G, jnp.int32), jnp.zeros(L, bool), z, z, z, z, z,
-          jnp.zeros((L, N), jnp.int32), jnp.full((cap, L), 8, jnp.int8),
-          jnp.zeros(G + 1, jnp.int32), jnp.zeros(G + 1, jnp.int32))
-    out = jax.lax.while_loop(more, body, st)
-    t, rec, begin, lane_of = out[0], out[10], out[11], out[12]
-    rows = jnp.minimum(begin[:G][None, :] + jnp.arange(s_pad)[:, None], cap - 1)
-    code = rec[rows, lane_of[:G][None, :]].astype(jnp.int32)
-    moved = ((code & 15) < 8) & ((jnp.arange(s_pad)[:, None] == 0) | (code < 16))
-    took = jnp.cumprod(moved, axis=0).astype(bool)
-    return jnp.where(took, code & 15, -1).reshape(s_pad, B, A), t
 
 
 def measure(cfg) -> dict:
@@ -155,7 +81,14 @@ def measure(cfg) -> dict:
     uniforms = jax.jit(jax.vmap(lambda k: jax.random.uniform(k, (s_pad, A))))
     weights = jax.jit(jax.vmap(lambda tr, p: move_weights(var, tr, prob, p, 0, 100)))
     W, U = weights(trail, P), uniforms(keys)
-    lockstep = jax.jit(jax.vmap(lambda w, u: walk(prob, w, u, 0.0, steplimit=steplimit, exploit=False)))
+    from jaco.construct import _lockstep_walk
+
+    lockstep = jax.jit(jax.vmap(lambda w, u: _lockstep_walk(w, u, prob.start, prob.goal, 0.0, offsets=prob.offsets,
+                                                             steplimit=steplimit, exploit=False)))
+
+    def pooled():  # jaco's walk under vmap, traced anew so that it reads the current POOL
+        return jax.jit(jax.vmap(lambda w, u: walk(prob, w, u, 0.0, steplimit=steplimit, exploit=False)))
+
     construct = jax.jit(jax.vmap(lambda tr, p, k: single_colony(var, prob, tr, p, 0, 100, k, n_ants=A, steplimit=steplimit)))
     _, col = construct(trail, P, keys)
 
@@ -167,7 +100,8 @@ def measure(cfg) -> dict:
     parts = {
         "uniforms": cpu_ms(uniforms, keys, reps=reps),
         "weights": cpu_ms(weights, trail, P, reps=reps),
-        "walk (lock-step)": cpu_ms(lockstep, W, U, reps=reps),
+        "walk, lock-step (every ant its own lane)": cpu_ms(lockstep, W, U, reps=reps),
+        f"walk, jaco (pool of {jaco.construct.POOL} lanes beyond {jaco.construct.POOL} ants)": cpu_ms(pooled(), W, U, reps=reps),
         "construct (all of the above + cells, lengths)": cpu_ms(construct, trail, P, keys, reps=reps),
         "pheromone update": cpu_ms(update, trail, col, P, reps=reps),
     }
@@ -176,9 +110,10 @@ def measure(cfg) -> dict:
     c, w = cpu_ms(run, keys, prob, P, reps=max(1, reps // 3))
     parts["whole iteration (mean over a 10-iteration run)"] = (c / iters, w / iters)
 
-    tours = lockstep(W, U)
-    real = int(jnp.sum(tours.n_steps))
-    loop_steps = int(-(-int(jnp.max(tours.n_steps)) // CHUNK) * CHUNK)
+    moves, _ = lockstep(W, U)
+    n_steps = jnp.sum(moves >= 0, axis=1)
+    real = int(jnp.sum(n_steps))
+    loop_steps = int(-(-int(jnp.max(n_steps)) // CHUNK) * CHUNK)
     lanes = B * A
 
     # Fixed cost of a loop step: the same walk with one ant (its own steps, one lane).
@@ -187,15 +122,16 @@ def measure(cfg) -> dict:
     one_ms, _ = cpu_ms(one, W[0], U[0][:, :1], reps=reps)
 
     queue = []
-    starts, goals = jnp.full((B,), prob.start), jnp.full((B,), prob.goal)
-    U_bsa = U  # (B, S_pad, A)
-    for L in cfg["lanes"]:
-        f = jax.jit(functools.partial(queue_walk, steplimit=steplimit, lanes=L))
-        moves, t = f(W, U_bsa, starts, goals, prob.offsets)
-        same = bool(jnp.array_equal(jnp.transpose(moves, (1, 0, 2)), tours.moves))
-        cpu, wall = cpu_ms(f, W, U_bsa, starts, goals, prob.offsets, reps=reps)
-        queue.append(dict(lanes=L, loop_steps=int(t), utilisation=real / (int(t) * min(L, lanes)), cpu_ms=cpu,
-                          wall_ms=wall, same=same))
+    default_pool = jaco.construct.POOL
+    try:
+        for L in cfg["lanes"]:
+            jaco.construct.POOL = L
+            f = pooled()
+            same = bool(jnp.array_equal(f(W, U).moves, moves))
+            cpu, wall = cpu_ms(f, W, U, reps=reps)
+            queue.append(dict(lanes=L, cpu_ms=cpu, wall_ms=wall, same=same))
+    finally:
+        jaco.construct.POOL = default_pool
 
     native = None
     try:
@@ -223,7 +159,7 @@ def measure(cfg) -> dict:
 def report(R, command) -> str:
     from bench_throughput import fmt, table
 
-    walk_cpu = R["parts"]["walk (lock-step)"][0]
+    walk_cpu = R["parts"]["walk, lock-step (every ant its own lane)"][0]
     lane_ns = 1e6 * walk_cpu / (R["lanes"] * R["loop_steps"])
     step_us = 1e3 * R["one_ms"] / max(R["single_steps"], 1)
     lines = [
@@ -250,17 +186,16 @@ def report(R, command) -> str:
         ]
     lines += [
         "",
-        "Work-queue walk (the experiment in this script; identical moves to jaco's walk: "
+        "jaco's pool walk by pool size (`jaco.construct.POOL`; identical moves to the lock-step walk: "
         + ("yes" if all(q["same"] for q in R["queue"]) else "**NO**") + "):",
         "",
-        table(["lanes", "loop steps", "lane utilisation", "CPU ms", "wall ms"],
-              [(q["lanes"], q["loop_steps"], f"{100 * q['utilisation']:.0f} %", q["cpu_ms"], q["wall_ms"]) for q in R["queue"]]),
+        table(["lanes", "CPU ms", "wall ms"], [(q["lanes"], q["cpu_ms"], q["wall_ms"]) for q in R["queue"]]),
         "",
         "Reading: XLA:CPU runs every operation of a loop step as its own kernel, so a step has a fixed cost of "
         "microseconds whatever the number of lanes, and a lane-step (a gather of 8 weights, 8 tabu "
         "lookups, a roulette on 8 numbers, a scatter) costs tens of ns where the numba loop spends ~15–30 ns "
-        "on a whole real step. Fewer lanes raise the utilisation but multiply the loop steps, whose fixed "
-        "cost then dominates; more lanes amortise the fixed cost but walk finished ants.",
+        "on a whole real step. A pool of lanes that take the next ant keeps the lanes busy; fewer lanes "
+        "raise the utilisation but multiply the loop steps, whose fixed cost then dominates.",
     ]
     return "\n".join(lines)
 

@@ -9,7 +9,7 @@ import pytest
 
 import jaco
 from jaco.construct import choose, pad_steps, walk
-from jaco.problem import MOVES, make_problem
+from jaco.problem import MOVES, make_problem, to_device
 
 
 def _frequencies(w, q0=0.0, exploit=False, n=40_000):
@@ -74,3 +74,30 @@ def test_diagonal_lengths_are_exact():
     weights = jnp.where((p.nbr >= 0), jnp.where(jnp.arange(8)[None, :] == diag, 1e6, 1e-6), 0.0)
     tours = walk(p, weights, jnp.full((pad_steps(4), 1), 0.5), 0.0, steplimit=4, exploit=False)
     assert float(tours.length[0]) == pytest.approx(2 * math.sqrt(2), rel=1e-7)
+
+
+@pytest.mark.parametrize("exploit", [False, True])
+def test_pool_walk_takes_the_lockstep_moves_bit_for_bit(monkeypatch, exploit):
+    """Under vmap the ants of every configuration share a pool of lanes (refilled between chunks);
+    each ant still uses its own uniforms, so every move equals the lock-step walk's, also across
+    nested vmaps, pools smaller than a colony, and an ant that dies at once."""
+    import jaco.construct as c
+
+    monkeypatch.setattr(c, "POOL", 7)  # 3 configs x 2 seeds x 5 ants = 30 ants on 7 lanes
+    grid = jaco.maps.random_map(12, 0.3, seed=1)
+    p = to_device(make_problem(grid, (0, 0), (11, 11)))
+    s_pad = pad_steps(40)
+    base = jnp.where(p.nbr >= 0, 1.0 / jnp.maximum(p.goal_dist[jnp.maximum(p.nbr, 0)], 0.5), 0.0)
+    W = base[None] ** jnp.array([0.5, 2.0, 6.0])[:, None, None]
+    U = jax.random.uniform(jax.random.key(3), (3, 2, s_pad, 5))
+    q0 = jnp.array([0.2, 0.7])
+
+    pooled = jax.jit(jax.vmap(jax.vmap(
+        lambda w, u, q: walk(p, w, u, q, steplimit=37, exploit=exploit), in_axes=(None, 0, 0)), in_axes=(0, 0, None)))
+    lockstep = jax.jit(jax.vmap(jax.vmap(
+        lambda w, u, q: c._lockstep_walk(w, u, p.start, p.goal, q, offsets=p.offsets, steplimit=37, exploit=exploit),
+        in_axes=(None, 0, 0)), in_axes=(0, 0, None)))
+    got, (moves, visited) = pooled(W, U, q0), lockstep(W, U, q0)
+    np.testing.assert_array_equal(np.asarray(got.moves), np.asarray(moves).astype(np.int32))
+    np.testing.assert_array_equal(np.asarray(got.visited), np.asarray(visited))
+    assert (np.asarray(got.n_steps) > 0).any() and np.asarray(got.arrived).any()
