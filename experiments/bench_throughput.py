@@ -23,9 +23,8 @@ them in two ways, both measured and both checked bit-for-bit against the 1-devic
 * threads: the configurations are split along one parameter axis into N equal parts, and each
   part runs through ``jaco.sweep`` in its own Python thread under ``jax.default_device(d)``
   (JAX releases the GIL while XLA runs, so the parts run on different cores, independently);
-* sharding: the batched compiled run (``jaco.run.compiled_run(..., batched=True)``) is called
-  with its configuration axis sharded over a ``jax.sharding.Mesh`` of the N devices (one SPMD
-  program; the devices agree on every chunk of the walk's while-loop).
+* sharding: ``jaco.sweep(..., devices=N)``, the configuration axis sharded over the N devices
+  with ``jax.shard_map`` (one program; each device walks its own slice, no communication).
 
 Timings are the best of ``reps`` repetitions, with the engines interleaved, because the machine
 may be shared; the load average is recorded. Nothing here asserts a time.
@@ -279,27 +278,19 @@ def run_benchmark(args) -> dict:
         return pd.concat(results, ignore_index=True)
 
     if n_dev > 1:
-        from jax.sharding import Mesh, NamedSharding, PartitionSpec as P
-
-        mesh = Mesh(np.array(devices[:n_dev]), ("config",))
-        on_cfg, replicated = NamedSharding(mesh, P("config")), NamedSharding(mesh, P())
-        keys_s, prm_s = jax.device_put(keys, on_cfg), jax.device_put(prm, on_cfg)
-        problems_s = jax.device_put(problems, replicated)
-
-        def sharded():
-            return run_b(keys_s, problems_s, prm_s)
+        def sharded():  # jaco.sweep's own sharding: shard_map, each device walks its slice
+            return sweep(axes, devices=n_dev)
 
         first_threads = timed(threads)
         first_sharded = timed(sharded)
         cols = ["cost", "length", "best_iteration", "coverage"]
-        got = first_threads[2].sort_values(names, kind="stable").reset_index(drop=True)
         want = ref_table.sort_values(names, kind="stable").reset_index(drop=True)
-        same_threads = len(got) == len(want) and all(np.array_equal(got[c].to_numpy(), want[c].to_numpy()) for c in cols + names)
-        sh_out = jax.device_get(first_sharded[2])
-        same_sharded = all(
-            np.array_equal(np.asarray(getattr(sh_out, f)), np.asarray(getattr(out, f)))
-            for f in ("best_cost", "best_length", "best_iteration", "steps")
-        )
+
+        def same(table):
+            got = table.sort_values(names, kind="stable").reset_index(drop=True)
+            return len(got) == len(want) and all(np.array_equal(got[c].to_numpy(), want[c].to_numpy()) for c in cols + names)
+
+        same_threads, same_sharded = same(first_threads[2]), same(first_sharded[2])
         R["multi_device_equal"] = {"threads": bool(same_threads), "sharding": bool(same_sharded)}
 
     # -- timed repetitions, engines interleaved -------------------------------------------------
@@ -324,7 +315,7 @@ def run_benchmark(args) -> dict:
         "native": "native (numba loop, 1 core)",
         "jaco_1": "jaco, 1 device (`jaco.sweep`)",
         "jaco_threads": f"jaco, {n_dev} devices: threads (`jaco.sweep` per part)",
-        "jaco_sharded": f"jaco, {n_dev} devices: sharded config axis (compiled run)",
+        "jaco_sharded": f"jaco, {n_dev} devices: sharded config axis (`jaco.sweep(devices={n_dev})`)",
     }
     figures = {}
     for k, (w, c) in best.items():
@@ -562,9 +553,8 @@ def report(R: dict, command: str) -> str:
             "Multi-device results equal the 1-device results bit for bit: "
             f"threads {'yes' if eq['threads'] else 'NO'}, sharding {'yes' if eq['sharding'] else 'NO'}. "
             "Threads: the configurations are split along one parameter axis, one `jaco.sweep` per part, each in its "
-            "own Python thread under `jax.default_device` (JAX releases the GIL). Sharding: the batched compiled run "
-            "with its configuration axis sharded over a `jax.sharding.Mesh` (one SPMD program; the walk's "
-            "while-loop runs in lockstep on all devices).",
+            "own Python thread under `jax.default_device` (JAX releases the GIL). Sharding: `jaco.sweep(devices=N)`, "
+            "the configuration axis sharded with `jax.shard_map` (each device walks its own slice).",
             "",
         ]
     lines += [
