@@ -25,8 +25,9 @@ def _queries():
     return out
 
 
-@pytest.mark.parametrize("variant", ["mmas", "acs"])
-def test_median_gap_within_five_percent(variant):
+def _checked_gaps(variant):
+    """Gap to the exact optimum on every query (inf where the run failed); every returned path
+    is checked cell by cell and is no shorter than the optimum."""
     gaps = []
     for grid, start, goal in _queries():
         r = jaco.solve(grid, start, goal, variant, seed=0, n_ants=50, n_iters=100)
@@ -34,6 +35,12 @@ def test_median_gap_within_five_percent(variant):
             assert validate_path(grid, r.path, start, goal) == []
             assert r.length >= r.optimal - 1e-4
         gaps.append(r.gap)
+    return gaps
+
+
+@pytest.mark.parametrize("variant", ["mmas", "acs"])
+def test_median_gap_within_five_percent(variant):
+    gaps = _checked_gaps(variant)
     assert np.median(gaps) <= 0.05, gaps
     assert np.isfinite(gaps).mean() >= 0.8, gaps
 
@@ -43,12 +50,6 @@ def test_median_gap_within_five_percent(variant):
 # the bound on the median gap leaves margin for other engines' random streams.
 @pytest.mark.parametrize("variant", ["iaaco", "iaaco-printed", "apf-aco", "pf-aco", "chaos-aco"])
 def test_papers_planners_succeed_on_all_but_one(variant):
-    gaps = []
-    for grid, start, goal in _queries():
-        r = jaco.solve(grid, start, goal, variant, seed=0, n_ants=50, n_iters=100)
-        if r.success:
-            assert validate_path(grid, r.path, start, goal) == []
-            assert r.length >= r.optimal - 1e-4
-        gaps.append(r.gap)
+    gaps = _checked_gaps(variant)
     assert np.sum(~np.isfinite(gaps)) <= 1, gaps
     assert np.median(gaps) <= 0.15, gaps
