@@ -11,7 +11,7 @@ through one ``jaco.sweep`` call with the default 2 GiB budget (smoke: 64 MiB). E
 fresh process, so its peak resident memory (``ru_maxrss``) is its own; the growth is the peak minus
 the resident memory just before the sweep (after importing jax and building the design).
 
-Estimate: for every registered variant, ``jaco.sweeps.plan_sweep`` compiles a 64-configuration
+Estimate: for every registered variant, ``jaco.research.sweeps.plan_sweep`` compiles a 64-configuration
 chunk (50 ants, 100 iterations, 32x32) and reports the bytes per configuration from XLA's memory
 analysis beside ``bytes_per_run``'s first guess and the earlier one-colony formula.
 
@@ -56,7 +56,7 @@ def worker(variant: str, configs: int, n_ants: int, n_iters: int, budget: int) -
     import jaco
 
     grid = jaco.maps.random_map(32, 0.2, seed=0)
-    design = jaco.designs.latin_hypercube(0, configs, RANGES, log=["rho"])
+    design = jaco.research.designs.latin_hypercube(0, configs, RANGES, log=["rho"])
     before = rss_mib()
     t0 = time.perf_counter()
     table = jaco.sweep(grid, (0, 0), (31, 31), variant, design, seeds=1, n_ants=n_ants, n_iters=n_iters,
@@ -76,13 +76,13 @@ def worker(variant: str, configs: int, n_ants: int, n_iters: int, budget: int) -
 
 def estimates(variants) -> list[dict]:
     import jaco
-    from jaco.construct import pad_steps
+    from jaco.engine.walk import pad_steps
 
     grid = jaco.maps.random_map(32, 0.2, seed=0)
     rows = []
     for name in variants:
-        plan = jaco.sweeps.plan_sweep(grid, (0, 0), (31, 31), name, seeds=64, n_ants=50, n_iters=100, devices=1)
-        s = pad_steps(jaco.run.default_steplimit(grid))
+        plan = jaco.research.sweeps.plan_sweep(grid, (0, 0), (31, 31), name, seeds=64, n_ants=50, n_iters=100, devices=1)
+        s = pad_steps(jaco.engine.run.default_steplimit(grid))
         old = 2 * (50 * grid.n_cells + 5 * 4 * s * 50 + 4 * 4 * 8 * grid.n_cells + 16 * 100)
         rows.append(dict(variant=name, old=old, estimate=plan["bytes_per_config_estimate"],
                          measured=plan["bytes_per_config_measured"], chunk_bytes=plan["bytes_per_chunk"]))
@@ -144,7 +144,7 @@ def report(R: dict, command: str) -> str:
             "",
             "Bytes one configuration adds to a compiled chunk (64 configurations, 50 ants × 100 iterations, the same "
             "32x32 map): XLA's memory analysis per configuration (chunk bytes / 64, so the fixed part is spread over "
-            "the chunk), `jaco.sweeps.bytes_per_run`'s first guess (the sweep's starting point; the analysis decides), "
+            "the chunk), `jaco.research.sweeps.bytes_per_run`'s first guess (the sweep's starting point; the analysis decides), "
             "and the one-colony formula used before (2 × tabu + step buffers + pheromone + history).",
             "",
             "| variant | XLA KiB/config | estimate KiB | estimate / XLA | old formula KiB | old / XLA |",

@@ -196,14 +196,14 @@ def run_benchmark(args) -> dict:
     import numpy as np
 
     import jaco
-    import jaco.run as jr
-    from jaco.problem import stack
+    import jaco.engine.run as jr
+    from jaco.engine.problem import stack
 
     sys.path.insert(0, str(HERE))
     import native_reference as nr
 
     if "steps" not in jr.RunOutput._fields:
-        raise SystemExit("this benchmark needs jaco.run.RunOutput.steps (real ant-steps of a run)")
+        raise SystemExit("this benchmark needs jaco.engine.run.RunOutput.steps (real ant-steps of a run)")
 
     t_start = time.perf_counter()
     R: dict = {"config": {k: v for k, v in cfg.items()}, "machine": machine(), "load_start": os.getloadavg()}
@@ -345,7 +345,7 @@ def run_benchmark(args) -> dict:
         optimal=float(problems.optimal[0]),
     )
     # -- where part of the time goes: uniforms drawn for every step slot, used or not ------------
-    from jaco.construct import pad_steps
+    from jaco.engine.walk import pad_steps
 
     s_pad = pad_steps(steplimit)
 

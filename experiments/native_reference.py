@@ -1,12 +1,12 @@
 """Native reference for the throughput benchmark: classic ant-cycle AS as plain numba loops.
 
-This is the same algorithm as jaco's ``as`` variant (``jaco.variants.AS``), written the way one
+This is the same algorithm as jaco's ``as`` variant (``jaco.planners.classic.AS``), written the way one
 would write it by hand for one core, so that ``experiments/bench_throughput.py`` can compare
 jaco's batched JAX engine against a fair native baseline measured in the same run:
 
 * pheromone on moves ``tau (N, 8)``, initialised to ``tau0``;
 * once per iteration the move weights ``w = tau^alpha * eta^beta`` on the moves the map allows
-  (``eta = 1/max(|target - goal|, 0.5)``, :func:`jaco.heuristics.inverse_goal_distance`),
+  (``eta = 1/max(|target - goal|, 0.5)``, :func:`jaco.engine.heuristics.inverse_goal_distance`),
   clipped to ``[1e-30, 1e30]`` like jaco; ``eta^beta`` is constant and is computed once per
   colony (a hand-written loop would do the same);
 * every ant starts on ``start`` with a tabu list (an int "stamp" array, so it is never cleared);
@@ -25,13 +25,13 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-#: Move lengths in jaco's move order (``jaco.problem.MOVES``: 4 straight moves, then diagonals).
+#: Move lengths in jaco's move order (``jaco.moves.MOVES``: 4 straight moves, then diagonals).
 MOVE_LENGTHS = np.array([1.0, 1.0, 1.0, 1.0] + [np.sqrt(2.0)] * 4, dtype=np.float64)
 
 
 def goal_eta(nbr: np.ndarray, width: int, goal: int) -> np.ndarray:
     """``eta (N, 8)`` = 1/max(euclidean distance of each move's target to the goal, 0.5), as
-    :func:`jaco.heuristics.inverse_goal_distance` (own cell where the move is not allowed)."""
+    :func:`jaco.engine.heuristics.inverse_goal_distance` (own cell where the move is not allowed)."""
     nbr = np.asarray(nbr)
     n = nbr.shape[0]
     safe = np.where(nbr >= 0, nbr, np.arange(n)[:, None])
@@ -44,7 +44,7 @@ def goal_eta(nbr: np.ndarray, width: int, goal: int) -> np.ndarray:
 def problem_arrays(grid, start, goal):
     """``(nbr, eta, start_index, goal_index)`` for a :class:`jaco.Grid` and two ``(row, col)``
     cells, with jaco's own neighbour table (8-connected, no corner cutting)."""
-    from jaco.problem import neighbour_table
+    from jaco.moves import neighbour_table
 
     nbr, _ = neighbour_table(grid.free, 8)
     s = int(start[0]) * grid.width + int(start[1])

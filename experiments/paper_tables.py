@@ -12,7 +12,7 @@ not describe their maps either (002 is a summary of the paper; 004's figures and
 the text), so their comparison runs on the same two maps.
 
 For every map and planner, the R independent runs (seeds 0..R-1) are ONE compiled batch: the
-program ``jaco.sweep`` is built on (``jaco.run.compiled_run(batched=True)``: runs vmapped, each run
+program ``jaco.sweep`` is built on (``jaco.engine.run.compiled_run(batched=True)``: runs vmapped, each run
 equal to ``jaco.solve`` with its seed). It is called directly, not through ``jaco.sweep``, because
 the sweep's table has no paths or histories, and turns, heading change and safety need every run's
 path: going through both would compile every planner twice. The batch is compiled ahead of time
@@ -35,9 +35,11 @@ from pathlib import Path
 import numpy as np
 
 import jaco
-from jaco import pheromone as ph
+from jaco.engine import pheromone as ph
+from jaco.engine.cost import path_length
+from jaco.engine.variant import make_variant
 from jaco.metrics import SAFETY_RADIUS, path_metrics, validate_path
-from jaco.variants import BASE, make_variant, path_length
+from jaco.planners.classic import BASE
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from thesis_tables import fmt, write_section  # noqa: E402 (same folder; shared section writer)
@@ -79,9 +81,9 @@ PAPER_SG = {"simple-20": 20 * SQRT2, "complex-30": 30 * SQRT2}
 
 def table1_planners() -> dict:
     """Seed 003's table 1 rows: label -> (Variant, parameter values). PF-ACO and APF-ACO run with
-    the paper's printed α = 2, β = 6, ρ = 0.7, Q = 1 (``jaco.apf.PAPER_PARAMS``), not jaco's
+    the paper's printed α = 2, β = 6, ρ = 0.7, Q = 1 (``jaco.planners.apf_guided.PAPER_PARAMS``), not jaco's
     defaults (β = 20, ρ = 0.3, chosen for dense maps: docs/variants.md)."""
-    from jaco.apf import PAPER_PARAMS
+    from jaco.planners.apf_guided import PAPER_PARAMS
 
     out = {"ACO": (ACO_003, {})}
     for label, name in (("PF-ACO", "pf-aco"), ("APF-ACO", "apf-aco")):
@@ -114,13 +116,13 @@ def has_apf() -> bool:
 
 def _batch(grid, variant, seeds, n_ants, n_iters, steplimit, values=None):
     """Compile, then run and time, R runs of ``variant`` on ``grid`` as ONE batched program
-    (``jaco.run.compiled_run(batched=True)``: seeds vmapped, the program ``jaco.sweep`` runs);
+    (``jaco.engine.run.compiled_run(batched=True)``: seeds vmapped, the program ``jaco.sweep`` runs);
     returns the raw outputs (numpy, leading axis = run), the parameters and the seconds of the run
     alone (compiled ahead of time with ``lower().compile()``, so compilation is outside the timing)."""
     import jax
 
-    from jaco.problem import make_problem, stack
-    from jaco.run import compiled_run, params_from, resolve_params
+    from jaco.engine.problem import make_problem, stack
+    from jaco.engine.run import compiled_run, params_from, resolve_params
 
     start, goal = grid.meta["start"], grid.meta["goal"]
     base = resolve_params(variant, dict(values or {}), where=variant.name)
@@ -139,10 +141,10 @@ def _batch(grid, variant, seeds, n_ants, n_iters, steplimit, values=None):
 def run_cell(grid, variant, runs, n_ants, n_iters, steplimit, values=None, rs=SAFETY_RADIUS):
     """R runs (seeds 0..R-1) of one planner on one map (parameter ``values`` over its defaults):
     the table's figures, per-run path figures (means over the successful runs) and the shortest
-    run as a :class:`jaco.run.Result`."""
+    run as a :class:`jaco.Result`."""
     import jax
 
-    from jaco.run import path_cells, to_result
+    from jaco.engine.result import path_cells, to_result
 
     start, goal = grid.meta["start"], grid.meta["goal"]
     seeds = list(range(runs))
@@ -374,7 +376,7 @@ def run_table1(maps, runs, n_ants, n_iters, steplimit, with_apf=True, verbose=Tr
     rows = {}
     for name in maps:
         grid = jaco.maps.named(name)
-        limit = steplimit or jaco.run.default_steplimit(grid)
+        limit = steplimit or jaco.engine.run.default_steplimit(grid)
         cells = {label: run_cell(grid, v, runs, n_ants, n_iters, limit, values)
                  for label, (v, values) in table1_planners().items()}
         if with_apf and has_apf():
@@ -391,7 +393,7 @@ def run_compare(maps, runs, n_ants, n_iters, steplimit, labels=None, verbose=Tru
     rows = {}
     for name in maps:
         grid = jaco.maps.named(name)
-        limit = steplimit or jaco.run.default_steplimit(grid)
+        limit = steplimit or jaco.engine.run.default_steplimit(grid)
         rows[name] = {label: run_cell(grid, v, runs, n_ants, n_iters, limit) for label, v in compare_planners(labels).items()}
         if verbose:
             print(f"{name:12s} " + "  ".join(f"{k} {fmt(c['best'])}/{fmt(c['turns'], 1)}t" for k, c in rows[name].items()), flush=True)

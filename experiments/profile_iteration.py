@@ -12,14 +12,14 @@ the iteration is jitted and timed alone (process CPU time, best of ``reps``):
 
 * uniforms: the iteration's ``(S_pad, ants)`` uniforms per configuration (threefry);
 * weights: τ^α η^β for every move, once per iteration;
-* walk: :func:`jaco.construct.walk`, every ant in lock-step, chunks of 8 steps in a while-loop;
+* walk: :func:`jaco.engine.walk.walk`, every ant in lock-step, chunks of 8 steps in a while-loop;
 * construct: the whole construction step (uniforms + weights + walk + cells, lengths, targets);
 * update: the pheromone rule (evaporation + ant-cycle deposit).
 
 It also measures the two costs that bound a lock-step walk (every ant on its own lane until the
 batch's last ant stops): the fixed cost of one loop step (the walk with a single ant) and the cost
 per lane-step, and the share of lane-steps that are real ant steps (lane utilisation). jaco's
-engine walks a batch of more than ``jaco.construct.POOL`` ants on a pool of that many lanes, each
+engine walks a batch of more than ``jaco.engine.walk.POOL`` ants on a pool of that many lanes, each
 lane taking the next ant of any configuration when its ant stops; the last table times that walk
 for several pool sizes (same moves as the lock-step walk, checked bit for bit). The native loop
 (``native_reference.py``) gives the per-iteration bar. Nothing here asserts a time.
@@ -60,16 +60,16 @@ def measure(cfg) -> dict:
     import numpy as np
 
     import jaco
-    from jaco.colony import move_weights, single_colony
-    from jaco.construct import CHUNK, pad_steps, walk
-    from jaco.pheromone import Trail, Walks
-    from jaco.problem import make_problem, to_device
+    from jaco.engine.colony import move_weights, single_colony
+    from jaco.engine.pheromone import Trail, Walks
+    from jaco.engine.problem import make_problem, to_device
+    from jaco.engine.walk import CHUNK, pad_steps, walk
 
     B, A, reps = cfg["configs"], cfg["n_ants"], cfg["reps"]
     grid = jaco.maps.random_map(30, 0.25, seed=0)
     start, goal = (0, 0), (29, 29)
     prob = to_device(make_problem(grid, start, goal))
-    steplimit = jaco.run.default_steplimit(grid)
+    steplimit = jaco.engine.run.default_steplimit(grid)
     s_pad = pad_steps(steplimit)
     var = jaco.VARIANTS["as"]
     betas = jnp.asarray(np.resize([1.0, 2.0, 4.0, 8.0], B), jnp.float32)
@@ -81,7 +81,7 @@ def measure(cfg) -> dict:
     uniforms = jax.jit(jax.vmap(lambda k: jax.random.uniform(k, (s_pad, A))))
     weights = jax.jit(jax.vmap(lambda tr, p: move_weights(var, tr, prob, p, 0, 100)))
     W, U = weights(trail, P), uniforms(keys)
-    from jaco.construct import _lockstep_walk
+    from jaco.engine.walk import _lockstep_walk
 
     lockstep = jax.jit(jax.vmap(lambda w, u: _lockstep_walk(w, u, prob.start, prob.goal, 0.0, offsets=prob.offsets,
                                                              steplimit=steplimit, exploit=False)))
@@ -101,7 +101,7 @@ def measure(cfg) -> dict:
         "uniforms": cpu_ms(uniforms, keys, reps=reps),
         "weights": cpu_ms(weights, trail, P, reps=reps),
         "walk, lock-step (every ant its own lane)": cpu_ms(lockstep, W, U, reps=reps),
-        f"walk, jaco (pool of {jaco.construct.POOL} lanes beyond {jaco.construct.POOL} ants)": cpu_ms(pooled(), W, U, reps=reps),
+        f"walk, jaco (pool of {jaco.engine.walk.POOL} lanes beyond {jaco.engine.walk.POOL} ants)": cpu_ms(pooled(), W, U, reps=reps),
         "construct (all of the above + cells, lengths)": cpu_ms(construct, trail, P, keys, reps=reps),
         "pheromone update": cpu_ms(update, trail, col, P, reps=reps),
     }
@@ -122,16 +122,16 @@ def measure(cfg) -> dict:
     one_ms, _ = cpu_ms(one, W[0], U[0][:, :1], reps=reps)
 
     queue = []
-    default_pool = jaco.construct.POOL
+    default_pool = jaco.engine.walk.POOL
     try:
         for L in cfg["lanes"]:
-            jaco.construct.POOL = L
+            jaco.engine.walk.POOL = L
             f = pooled()
             same = bool(jnp.array_equal(f(W, U).moves, moves))
             cpu, wall = cpu_ms(f, W, U, reps=reps)
             queue.append(dict(lanes=L, cpu_ms=cpu, wall_ms=wall, same=same))
     finally:
-        jaco.construct.POOL = default_pool
+        jaco.engine.walk.POOL = default_pool
 
     native = None
     try:
@@ -186,7 +186,7 @@ def report(R, command) -> str:
         ]
     lines += [
         "",
-        "jaco's pool walk by pool size (`jaco.construct.POOL`; identical moves to the lock-step walk: "
+        "jaco's pool walk by pool size (`jaco.engine.walk.POOL`; identical moves to the lock-step walk: "
         + ("yes" if all(q["same"] for q in R["queue"]) else "**NO**") + "):",
         "",
         table(["lanes", "CPU ms", "wall ms"], [(q["lanes"], q["cpu_ms"], q["wall_ms"]) for q in R["queue"]]),

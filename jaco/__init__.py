@@ -7,38 +7,70 @@
 True
 
 Submodules and the heavy parts (jax, pandas, matplotlib) load on first use, so that
-``import jaco`` and ``jaco --help`` stay fast.
+``import jaco`` and ``jaco --help`` stay fast. The layout (README, "Layout"): :mod:`jaco.engine`
+(problem, params, pheromone rules, variants, walk, colony, run, result), :mod:`jaco.planners`
+(one module per source, and the registry), :mod:`jaco.maps`, :mod:`jaco.research` (sweeps,
+designs, tuning, records), and :mod:`jaco.api` (``solve``), :mod:`jaco.waypoints`,
+:mod:`jaco.exact`, :mod:`jaco.metrics`, :mod:`jaco.plot`, :mod:`jaco.apf`, :mod:`jaco.cli`.
 """
 
 from importlib import import_module
+from importlib.util import find_spec
 
 from .errors import JacoError, MapFormatError, ParamError, ProblemError
 from .grid import Grid
 
 __version__ = "0.1.0"
 
+#: Public names and the module each comes from.
 _LAZY = {
-    "Params": "params",
-    "Problem": "problem",
-    "make_problem": "problem",
-    "Result": "run",
-    "make_run": "run",
-    "solve": "run",
-    "sweep": "sweeps",
-    "summarize": "sweeps",
-    # sweeps at scale (issue 6)
-    "plan_sweep": "sweeps",
-    "VARIANTS": "variants",
-    "Variant": "variants",
-    # records (run records, issue 6)
-    "load_run": "records",
-    # tuning with optax (the module is jaco.tuning: jaco.tune is the function)
-    "tune": "tuning",
-    "TuneResult": "tuning",
+    "Params": "engine.params",
+    "Problem": "engine.problem",
+    "make_problem": "engine.problem",
+    "Result": "engine.result",
+    "make_run": "api",
+    "solve": "api",
+    "sweep": "research.sweeps",
+    "summarize": "research.sweeps",
+    "plan_sweep": "research.sweeps",
+    "VARIANTS": "planners.registry",
+    "Variant": "engine.variant",
+    "load_run": "research.records",
+    # tuning with optax (the module is jaco.research.tuning: jaco.tune is the function)
+    "tune": "research.tuning",
+    "TuneResult": "research.tuning",
 }
-_SUBMODULES = {"apf", "chaos", "construct", "designs", "exact", "heuristics", "iaaco", "maps", "metrics", "params", "pheromone", "plot", "problem", "records", "run", "sweeps", "variants", "waypoints", "cli", "pg", "tuning"}
+_SUBMODULES = {
+    "api", "apf", "cli", "engine", "exact", "maps", "metrics", "moves", "planners", "plot", "potential",
+    "research", "waypoints",
+}
+#: Modules that moved into the engine, planners and research packages, by the name they had
+#: before: ``jaco.pheromone`` is :mod:`jaco.engine.pheromone`, ``jaco.variants`` the registry.
+_MOVED = {
+    "colony": "engine.colony",
+    "construct": "engine.walk",
+    "heuristics": "engine.heuristics",
+    "params": "engine.params",
+    "pheromone": "engine.pheromone",
+    "problem": "engine.problem",
+    "run": "engine.run",
+    "schedules": "engine.schedules",
+    "variant": "engine.variant",
+    "variants": "planners.registry",
+    "chaos": "planners.chaos",
+    "double": "planners.double",
+    "iaaco": "planners.iaaco",
+    "iaca": "planners.iaca",
+    "pg": "planners.pg",
+    "designs": "research.designs",
+    "records": "research.records",
+    "sweeps": "research.sweeps",
+    "tuning": "research.tuning",
+}
 
-__all__ = ["Grid", "JacoError", "MapFormatError", "ParamError", "ProblemError", *_LAZY, *sorted(_SUBMODULES)]
+__all__ = [
+    "Grid", "JacoError", "MapFormatError", "ParamError", "ProblemError", *_LAZY, *sorted(_SUBMODULES | set(_MOVED))
+]
 
 
 def __getattr__(name):
@@ -46,6 +78,8 @@ def __getattr__(name):
         value = getattr(import_module(f".{_LAZY[name]}", __name__), name)
     elif name in _SUBMODULES:
         value = import_module(f".{name}", __name__)
+    elif name in _MOVED:
+        value = import_module(f".{_MOVED[name]}", __name__)
     else:
         raise AttributeError(f"module 'jaco' has no attribute {name!r}")
     globals()[name] = value
@@ -54,3 +88,16 @@ def __getattr__(name):
 
 def __dir__():
     return sorted(set(globals()) | set(__all__))
+
+
+def _submodules_on_access(package: str):
+    """A module ``__getattr__`` for ``package`` (PEP 562) that imports a submodule when it is first
+    used as an attribute, so ``jaco.engine.run.TRACES`` works without importing every submodule
+    when the package loads."""
+
+    def getattr_(name):
+        if not name.startswith("_") and find_spec(f"{package}.{name}") is not None:
+            return import_module(f"{package}.{name}")
+        raise AttributeError(f"module {package!r} has no attribute {name!r}")
+
+    return getattr_

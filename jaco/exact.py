@@ -16,14 +16,13 @@ from scipy.sparse.csgraph import connected_components, dijkstra
 
 from .errors import ProblemError
 from .grid import Grid
+from .moves import cached_table
 
 
 def _graph(grid: Grid, connectivity: int) -> csr_matrix:
     key = f"_graph{connectivity}"
     if key not in grid.meta:
-        from .problem import _cached_table
-
-        nbr, step = _cached_table(grid, connectivity)
+        nbr, step = cached_table(grid, connectivity)
         src, k = np.nonzero(nbr >= 0)
         grid.meta[key] = csr_matrix(
             (step[src, k], (src, nbr[src, k])), shape=(grid.n_cells, grid.n_cells)

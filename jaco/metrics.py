@@ -49,7 +49,7 @@ DEFAULT_WEIGHTS = (0.4, 0.2, 0.4)
 
 #: Default radius (cells) of the safety cost S (``ALGORITHMS.md`` §6.6), shared by
 #: :func:`safety_cost`, :func:`path_metrics` and the in-jit multi-objective cost
-#: (``jaco.iaaco.multi_objective``, ``Params.rs_cost``). Seed 002's Rs = 0.5 would score every free
+#: (``jaco.engine.cost.multi_objective``, ``Params.rs_cost``). Seed 002's Rs = 0.5 would score every free
 #: cell 0 (a free cell is at least 1 cell from an obstacle centre); with 1 a cell orthogonally next
 #: to an obstacle (or the map's edge) costs 0.5, a diagonal neighbour 1 − √2/2 ≈ 0.29, others 0.
 SAFETY_RADIUS = 1.0

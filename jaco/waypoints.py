@@ -4,14 +4,14 @@
 The trip start → w₀ → w₁ → … → goal is cut into legs; each leg is an ordinary run of the
 variant from one target to the next (its ants start with a fresh tabu list, and the leg has its
 own pheromone, started afresh). All legs are problems of one map shape, so they are stacked
-(:func:`jaco.problem.stack`) and run as ONE jitted call, vmapped over (key, problem) pairs:
+(:func:`jaco.engine.problem.stack`) and run as ONE jitted call, vmapped over (key, problem) pairs:
 repeated calls with the same number of legs, sizes and map shape reuse the compiled function.
 
 Seeds: leg 0 uses ``jax.random.key(seed)`` (so it is exactly ``jaco.solve(grid, start, w₀,
 seed=seed)``), leg i ≥ 1 uses ``jax.random.fold_in(jax.random.key(seed), i)``. The same seed
 therefore gives the same trip bit for bit.
 
-The combined :class:`~jaco.run.Result`: ``path`` is the concatenation of the legs' best paths
+The combined :class:`~jaco.engine.result.Result`: ``path`` is the concatenation of the legs' best paths
 (each junction cell once); ``length``, ``cost`` and ``optimal`` are the sums over the legs (the
 optimum of a trip through fixed waypoints in a fixed order is the sum of the exact leg optima);
 ``success`` only when every leg succeeded; ``best_iteration`` is the last leg's best iteration
@@ -32,11 +32,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .engine.problem import _as_cell, make_problem, stack
+from .engine.result import Result, gap, to_result
+from .engine.run import cached, make_run, params_from, prepare
+from .engine.variant import Variant
 from .errors import ProblemError
 from .exact import distance_field, shortest_path
 from .grid import Grid
-from .problem import _as_cell, make_problem, stack
-from .run import Result, cached, gap, make_run, params_from, to_result
 
 
 def check_waypoints(grid: Grid, start, goal, waypoints, *, connectivity: int = 8) -> list[tuple[int, int]]:
@@ -77,7 +79,7 @@ def leg_keys(seed: int, n_legs: int) -> jax.Array:
 
 def compiled_legs(variant, n_ants: int, n_iters: int, steplimit: int, keep_pheromone):
     """``jit(vmap(run))`` over (key, problem) pairs with shared params, cached like
-    :func:`jaco.run.compiled_run` (by variant identity and sizes; the variant is kept alive)."""
+    :func:`jaco.engine.run.compiled_run` (by variant identity and sizes; the variant is kept alive)."""
     def build():
         run = make_run(variant, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, keep_pheromone=keep_pheromone)
         return jax.jit(jax.vmap(run, in_axes=(0, 0, None)))
@@ -138,11 +140,12 @@ def combine(legs: list[Result]) -> Result:
     )
 
 
-def solve_waypoints(
-    grid, start, goal, variant, waypoints, *, seed, n_ants, n_iters, steplimit, connectivity, keep_pheromone, values
-) -> Result:
-    """The body of ``jaco.solve(..., waypoints=...)``: validate every target, run the legs in one
-    batched call, combine them. ``variant``, sizes and ``values`` are already validated."""
+def solve_waypoints(grid: Grid, start, goal, variant: Variant, waypoints, *, seed, n_ants, n_iters, steplimit,
+                    connectivity, keep_pheromone, **params) -> Result:
+    """The body of ``jaco.solve(..., waypoints=...)`` (whose signature has the defaults): validate
+    the call as a single run is validated, and every target; run the legs in one batched call;
+    combine them."""
+    steplimit, values = prepare(grid, variant, seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, params=params)
     points = check_waypoints(grid, start, goal, waypoints, connectivity=connectivity)
     legs = run_legs(
         grid, points, variant, seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,

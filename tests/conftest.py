@@ -15,7 +15,7 @@ def _forget_compiled_programs():
     """Each test module starts without the previous modules' compiled programs: hundreds of
     executables in one process exhaust the kernel's memory-map limit (XLA:CPU then crashes)."""
     yield
-    import jaco.run
+    import jaco.engine.run
 
-    jaco.run.clear_compiled()
+    jaco.engine.run.clear_compiled()
     jax.clear_caches()

@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 
 import jaco
-from jaco import apf
-from jaco import pheromone as ph
+from jaco import apf, potential
+from jaco.engine import pheromone as ph
+from jaco.engine.problem import make_problem
 from jaco.metrics import line_of_sight, validate_path
-from jaco.problem import make_problem
+from jaco.planners import apf_guided
 
 SQ2 = math.sqrt(2.0)
 
@@ -41,8 +42,8 @@ def maps12():
     return [jaco.maps.random_map(12, 0.15, seed=0), jaco.maps.random_map(12, 0.3, seed=3), jaco.maps.utrap(12)]
 
 
-_next = jax.jit(apf.apf_next)
-_lengths = jax.jit(apf.chain_lengths)
+_next = jax.jit(potential.apf_next)
+_lengths = jax.jit(potential.chain_lengths)
 
 
 # -- geometry ----------------------------------------------------------------------------------
@@ -56,7 +57,7 @@ def test_segment_crossing_matches_line_of_sight_and_the_jax_dda(maps12):
     rng = np.random.default_rng(0)
     cells = np.argwhere(grid.free)
     pairs = cells[rng.integers(0, len(cells), size=(300, 2))]  # (300, 2 ends, 2)
-    last = jax.jit(jax.vmap(lambda a, b: apf._last_blocked_j(free, jnp.int32(12), a, b)))(
+    last = jax.jit(jax.vmap(lambda a, b: potential._last_blocked_j(free, jnp.int32(12), a, b)))(
         jnp.asarray(pairs[:, 0], jnp.int32), jnp.asarray(pairs[:, 1], jnp.int32)
     )
     seen_blocked = 0
@@ -189,7 +190,7 @@ def test_classic_potential_descent_by_hand():
     goal = (0, 2)
     prob = make_problem(grid, (3, 2), goal)
     k, d0 = 10.0, 2.0
-    nxt = np.asarray(apf.classic_next(prob, k, d0))
+    nxt = np.asarray(potential.classic_next(prob, k, d0))
     blocked = np.argwhere(~grid.free)  # the map's outside does not repel
 
     def u(c):
@@ -216,13 +217,13 @@ def test_heuristic_eq10_by_hand():
     grid = jaco.Grid.from_rows(["...", "..."])
     prob = make_problem(grid, (1, 0), (0, 2))
     r = jnp.arange(6, dtype=jnp.float32) + 1.0  # r_jg = flat index + 1
-    eta = np.asarray(apf.apf_eta(prob, r, 0, 10))
+    eta = np.asarray(apf_guided.apf_eta(prob, r, 0, 10))
     # From cell 3 = (1, 0): up → cell 0 (d = 1, r = 1), right → cell 4 (1, r = 5), up-right →
     # cell 1 (√2, r = 2); factor (10 − 1 + 1)/10 = 1 at the first iteration.
     assert eta[3, 0] == pytest.approx(1 / 2) and eta[3, 1] == pytest.approx(1 / 6)
     assert eta[3, 4] == pytest.approx(1 / (SQ2 + 2)) and eta[3, 2] == 0 and eta[3, 3] == 0
     # Last iteration (Nc = Nmax = 10): factor 1/10, so the last iteration keeps some guidance.
-    assert np.asarray(apf.apf_eta(prob, r, 9, 10))[3, 0] == pytest.approx(0.05)
+    assert np.asarray(apf_guided.apf_eta(prob, r, 9, 10))[3, 0] == pytest.approx(0.05)
 
 
 def test_best_half_fitness_weighted_deposit_by_hand():
@@ -232,17 +233,17 @@ def test_best_half_fitness_weighted_deposit_by_hand():
     targets = jnp.array([[0, 9, 2, 3, 4], [5, 9, 6, 7, 8]])  # two steps each; 9 = no element
     walks = ph.Walks(targets, jnp.ones((2, 5)), cost, targets[:, 0], jnp.ones(2), cost[2])
     trail = ph.Trail(jnp.zeros(9), 0.0, jnp.inf)
-    tau = np.asarray(apf.deposit_best_half().update(trail, walks, None, jaco.Params(q=1.0)).tau)
+    tau = np.asarray(apf_guided.deposit_best_half().update(trail, walks, None, jaco.Params(q=1.0)).tau)
     want = np.zeros(9)
     want[[2, 6]] = 1 / 3
     want[[0, 5]] = 1 / 12
     np.testing.assert_allclose(tau, want, rtol=1e-6)
     # With 3 successful ants, ceil(3/2) = 2 deposit; with one, that one (s = 1, Q/L).
     one = walks._replace(cost=jnp.array([jnp.inf, jnp.inf, 2.0, jnp.inf, jnp.inf]))
-    tau = np.asarray(apf.deposit_best_half().update(trail, one, None, jaco.Params(q=3.0)).tau)
+    tau = np.asarray(apf_guided.deposit_best_half().update(trail, one, None, jaco.Params(q=3.0)).tau)
     assert tau[2] == pytest.approx(1.5) and tau[6] == pytest.approx(1.5) and tau.sum() == pytest.approx(3.0)
     none = walks._replace(cost=jnp.full(5, jnp.inf))
-    assert not np.asarray(apf.deposit_best_half().update(trail, none, None, jaco.Params()).tau).any()
+    assert not np.asarray(apf_guided.deposit_best_half().update(trail, none, None, jaco.Params()).tau).any()
 
 
 def test_log_weights_give_the_probabilities_of_eq6_without_underflow():
@@ -251,7 +252,7 @@ def test_log_weights_give_the_probabilities_of_eq6_without_underflow():
     eta = jnp.array([[0.1, 0.05, 0.2, 0, 0, 0, 0, 0]])
     for scale in (1.0, 1e-30, 1e-60):  # 1e-60 is 0 in float32: τ floored at the smallest normal
         tau = jnp.array([[0.5, 1.0, 0.25, 1, 1, 1, 1, 1]]) * scale
-        w = np.asarray(apf.log_weights(tau, eta, valid, p))[0]
+        w = np.asarray(apf_guided.log_weights(tau, eta, valid, p))[0]
         assert (w[3:] == 0).all() and np.isfinite(w).all()
         t = np.array([0.5, 1.0, 0.25]) if scale > 1e-38 else np.ones(3)  # the scale cancels
         raw = t**2 * np.array([0.1, 0.05, 0.2]) ** 6
@@ -265,10 +266,10 @@ def test_table_is_computed_once_per_run_not_per_iteration():
 
     def counting(problem, params):
         calls.append(1)
-        return apf.apf_distance(problem)
+        return potential.apf_distance(problem)
 
     v = jaco.VARIANTS["apf-aco"]
-    v = v._replace(name="apf-aco-count", rule=ph.chain(apf.apf_init(counting), ph.evaporate(), apf.deposit_best_half()))
+    v = v._replace(name="apf-aco-count", rule=ph.chain(apf_guided.apf_init(counting), ph.evaporate(), apf_guided.deposit_best_half()))
     grid = jaco.Grid.from_rows(["......", "..#...", "..#...", "......"])
     prob = make_problem(grid, (2, 0), (2, 5))
     out = jax.eval_shape(jaco.make_run(v, n_ants=4, n_iters=3, steplimit=10), jax.random.key(0), prob, v.default_params())
@@ -281,10 +282,10 @@ def test_variants_defaults_and_sources():
     for v in (a, c):
         d = v.default_params()
         assert (d.alpha, d.beta, d.rho, d.q) == (2.0, 20.0, 0.3, 1.0)  # tuned (docs/variants.md)
-        assert apf.PAPER_PARAMS == dict(alpha=2.0, beta=6.0, rho=0.7, q=1.0)  # the paper's
+        assert apf_guided.PAPER_PARAMS == dict(alpha=2.0, beta=6.0, rho=0.7, q=1.0)  # the paper's
         assert v.doc.startswith("Dong & Zhao 2021") or "Dong & Zhao 2021" in v.doc
     assert set(c.params) - set(a.params) == {"k_rep", "d0"}
-    assert (c.default_params().k_rep, c.default_params().d0) == (apf.K_REP, apf.D0)
+    assert (c.default_params().k_rep, c.default_params().d0) == (potential.K_REP, potential.D0)
 
 
 def test_apf_aco_paths_near_the_optimum_on_small_random_maps():

@@ -126,7 +126,7 @@ def test_native_heuristic_matches_jaco():
     grid = jaco.maps.random_map(9, 0.2, seed=1)
     nbr, eta, s, g = nr.problem_arrays(grid, (0, 0), (8, 8))
     problem = jaco.make_problem(grid, (0, 0), (8, 8))
-    want = np.asarray(jaco.heuristics.inverse_goal_distance(jaco.problem.to_device(problem), None, 0, 1))
+    want = np.asarray(jaco.engine.heuristics.inverse_goal_distance(jaco.engine.problem.to_device(problem), None, 0, 1))
     np.testing.assert_allclose(eta, want, rtol=1e-6)
     np.testing.assert_array_equal(nbr, problem.nbr)
 

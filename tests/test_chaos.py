@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 import jaco
-from jaco import chaos
-from jaco import pheromone as ph
-from jaco.colony import move_weights
-from jaco.problem import make_problem
+from jaco.engine import pheromone as ph
+from jaco.engine.colony import move_weights
+from jaco.engine.problem import make_problem
+from jaco.planners import chaos
 
 # 3 x 4, one obstacle at (1, 1); goal in the far corner.
 ROWS = ["....", ".#..", "...."]

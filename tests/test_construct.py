@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 import jaco
-from jaco.construct import choose, pad_steps, walk
-from jaco.problem import MOVES, make_problem, to_device
+from jaco.engine.problem import make_problem, to_device
+from jaco.engine.walk import choose, pad_steps, walk
+from jaco.moves import MOVES
 
 
 def _frequencies(w, q0=0.0, exploit=False, n=40_000):
@@ -81,7 +82,7 @@ def test_pool_walk_takes_the_lockstep_moves_bit_for_bit(monkeypatch, exploit):
     """Under vmap the ants of every configuration share a pool of lanes (refilled between chunks);
     each ant still uses its own uniforms, so every move equals the lock-step walk's, also across
     nested vmaps, pools smaller than a colony, and an ant that dies at once."""
-    import jaco.construct as c
+    import jaco.engine.walk as c
 
     monkeypatch.setattr(c, "POOL", 7)  # 3 configs x 2 seeds x 5 ants = 30 ants on 7 lanes
     grid = jaco.maps.random_map(12, 0.3, seed=1)

@@ -8,12 +8,13 @@ import numpy as np
 import pytest
 
 import jaco
-from jaco import schedules
-from jaco.double import DACA, IDACA, SPLICED, assemble, best_population, crossover, double_walk, mean_feasible
+from jaco.engine import schedules
+from jaco.engine.params import Params
+from jaco.engine.pheromone import Trail
+from jaco.engine.problem import make_problem
 from jaco.metrics import validate_path
-from jaco.params import Params
-from jaco.pheromone import Trail
-from jaco.problem import MOVES, make_problem
+from jaco.moves import MOVES
+from jaco.planners.double import DACA, IDACA, SPLICED, assemble, best_population, crossover, double_walk, mean_feasible
 
 SMALL = dict(n_ants=16, n_iters=12)
 # The 12x12 map's runs all keep the pheromone, so they share one compiled run per variant.

@@ -10,14 +10,17 @@ import numpy as np
 import pytest
 
 import jaco
-from jaco import iaaco
-from jaco.construct import pad_steps, walk
-from jaco.heuristics import inverse_goal_distance
+from jaco.engine import cost as costs
+from jaco.engine.heuristics import inverse_goal_distance
+from jaco.engine.params import Params
+from jaco.engine.pheromone import Trail, Walks
+from jaco.engine.problem import make_problem, to_device
+from jaco.engine.result import path_cells
+from jaco.engine.walk import pad_steps, walk
 from jaco.metrics import heading_change, path_length, safety_cost, validate_path
-from jaco.params import Params
-from jaco.pheromone import Trail, Walks
-from jaco.problem import MOVES, make_problem, to_device
-from jaco.run import path_cells
+from jaco.moves import MOVES
+from jaco.planners import iaaco
+from jaco.planners.registry import with_cost
 
 SQ2 = math.sqrt(2.0)
 GAP_MAX = {"iaaco": 0.05, "iaaco-printed": 0.15}  # measured: 0 % on all four maps; printed μ up to 10 %
@@ -167,7 +170,7 @@ def test_multi_objective_equals_the_numpy_metrics_on_every_ant():
     weights = jnp.where(jnp.asarray(prob.nbr) >= 0, eta**4, 0.0)
     u = jax.random.uniform(jax.random.key(0), (pad_steps(steplimit), 32), jnp.float32)
     tours = jax.jit(lambda pr, u: walk(pr, weights, u, 0.0, steplimit=steplimit, exploit=False))(prob, u)
-    s, e, j = (np.asarray(f(tours, prob, p)) for f in (iaaco.safety, iaaco.energy, iaaco.multi_objective))
+    s, e, j = (np.asarray(f(tours, prob, p)) for f in (costs.safety, costs.energy, costs.multi_objective))
     assert 0 < np.asarray(tours.arrived).sum() < 32 and (np.asarray(tours.n_steps) > 2).all()
     for a in range(32):
         path = path_cells(grid, grid.meta["start"], np.asarray(tours.cells)[:, a])
@@ -190,21 +193,22 @@ def test_iaaco_result_cost_and_metrics_agree():
 
 
 def test_with_cost_any_variant_cached():
-    acs_multi = iaaco.with_cost("acs", "multi")
-    assert acs_multi is jaco.variants.with_cost("acs", "multi") and acs_multi.name == "acs+multi"
-    assert set(iaaco.COST_PARAMS) <= set(acs_multi.params)
-    assert iaaco.with_cost("iaaco", "multi") is jaco.VARIANTS["iaaco"]  # already its cost
+    acs_multi = with_cost("acs", "multi")
+    assert acs_multi is with_cost("acs", "multi") and acs_multi.name == "acs+multi"
+    assert acs_multi is jaco.variants.with_cost("acs", "multi")  # the registry's path before the planners folder
+    assert set(costs.COST_PARAMS) <= set(acs_multi.params)
+    assert with_cost("iaaco", "multi") is jaco.VARIANTS["iaaco"]  # already its cost
     with pytest.raises(jaco.ParamError, match="unknown cost"):
-        iaaco.with_cost("acs", "energy")
+        with_cost("acs", "energy")
     grid = jaco.maps.random_map(12, 0.2, seed=3)
     ends = grid.meta["start"], grid.meta["goal"]
     # Also through a variant with its own construct step (IACA's backtracking ants).
-    for v in (acs_multi, iaaco.with_cost("iaca", "multi")):
+    for v in (acs_multi, with_cost("iaca", "multi")):
         r = jaco.solve(grid, *ends, v, seed=1, n_ants=8, n_iters=4, k_energy=0.5)
         m = r.metrics()
         assert r.cost == pytest.approx(0.7 * r.length + 0.1 * m["safety"] + 0.5 * m["heading_change"], rel=1e-5)
-    plain = iaaco.with_cost("iaaco", "length")
-    assert plain.name == "iaaco+length" and plain.cost is jaco.variants.path_length
+    plain = with_cost("iaaco", "length")
+    assert plain.name == "iaaco+length" and plain.cost is costs.path_length
 
 
 def test_bad_parameters_are_clear_errors():

@@ -10,7 +10,12 @@ import numpy as np
 import pytest
 
 import jaco
-from jaco.iaca import (
+from jaco.engine.params import Params
+from jaco.engine.pheromone import Trail
+from jaco.engine.problem import make_problem, to_device
+from jaco.engine.run import TRACES
+from jaco.metrics import validate_path
+from jaco.planners.iaca import (
     IACA,
     backtrack_walk,
     detour,
@@ -21,11 +26,6 @@ from jaco.iaca import (
     infeasible_update,
     local_update,
 )
-from jaco.metrics import validate_path
-from jaco.params import Params
-from jaco.pheromone import Trail
-from jaco.problem import make_problem, to_device
-from jaco.run import TRACES
 
 SMALL = dict(n_ants=16, n_iters=12, keep_pheromone=True)  # one compiled run per map shape
 P = IACA.default_params()

@@ -19,7 +19,7 @@ from jaco.errors import MapFormatError, ProblemError
 from jaco.exact import reachable, shortest_path
 from jaco.grid import Grid
 
-DATA = Path(jaco.__file__).parent / "data"
+DATA = Path(jaco.__file__).parent / "maps" / "data"
 
 MOVINGAI_MAPS = [
     "empty-16-16.map",

@@ -9,11 +9,12 @@ import optax
 import pytest
 
 import jaco
-from jaco.colony import move_weights
-from jaco.pg import LOGIT_MAX, PG_ACO, PGTrail, advantages, make_pg_aco, score, step_probabilities
-from jaco.pheromone import Trail
-from jaco.problem import MOVES, make_problem, to_device
-from jaco.run import params_from, resolve_params
+from jaco.engine.colony import move_weights
+from jaco.engine.pheromone import Trail
+from jaco.engine.problem import make_problem, to_device
+from jaco.engine.run import params_from, resolve_params
+from jaco.moves import MOVES
+from jaco.planners.pg import LOGIT_MAX, PG_ACO, PGTrail, advantages, make_pg_aco, score, step_probabilities
 
 GRID_ROWS = ["....", ".#..", "...."]
 # A hand path on the 3×4 map above: right, right, down-right, down. At (0, 1) the start is tabu.

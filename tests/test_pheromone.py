@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import jaco
-from jaco import pheromone as ph
-from jaco.params import Params
-from jaco.problem import make_problem
+from jaco.engine import pheromone as ph
+from jaco.engine.params import Params
+from jaco.engine.problem import make_problem
 
 M = 6  # six pheromone elements; index 6 is padding and must be dropped
 

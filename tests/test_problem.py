@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 import jaco
-from jaco.problem import MOVES, make_problem, neighbour_table, stack
+from jaco.engine.problem import make_problem, stack
+from jaco.moves import MOVES, neighbour_table
 
 
 def test_neighbour_table_forbids_corner_cuts_and_leaving_the_map():

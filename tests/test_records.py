@@ -12,7 +12,7 @@ import pytest
 
 import jaco
 from jaco.cli import main
-from jaco.records import RecordError, RecordWarning, load_run, map_hash, save_sweep
+from jaco.research.records import RecordError, RecordWarning, load_run, map_hash, save_sweep
 
 SMALL = dict(n_ants=8, n_iters=6)
 CLI_SMALL = ["--ants", "8", "--iters", "6"]
@@ -91,7 +91,7 @@ def test_record_contains_versions_map_hash_and_call(tmp_path, demo):
 
 
 def test_large_map_is_embedded_packed_and_comes_back_exactly():
-    from jaco.records import grid_from_entry, map_entry
+    from jaco.research.records import grid_from_entry, map_entry
 
     rng = np.random.default_rng(0)
     grid = jaco.Grid(rng.random((301, 257)) > 0.3, name="big", cell_size=10.0, resolution=0.1,
@@ -235,7 +235,7 @@ def test_sweep_record_reruns_and_checks_its_arguments(tmp_path, demo):
 
 def test_latin_hypercube_sweep_record_reruns(tmp_path, demo):
     start, goal = demo.meta["start"], demo.meta["goal"]
-    design = jaco.designs.latin_hypercube(1, 3, {"alpha": (0.5, 3.0), "beta": (1.0, 8.0)})
+    design = jaco.research.designs.latin_hypercube(1, 3, {"alpha": (0.5, 3.0), "beta": (1.0, 8.0)})
     table = jaco.sweep(demo, start, goal, "as", design, 2, **SMALL)
     sidecar = save_sweep(table, tmp_path / "lhs.csv", demo, start, goal, "as", design, 2, **SMALL)
     recorded = json.loads(sidecar.read_text())["call"]["params"]["design"]

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import jaco
-from jaco.run import TRACES
+from jaco.engine.run import TRACES
 
 GRID = jaco.Grid.from_rows(["......", ".##...", "...#..", "......"])
 

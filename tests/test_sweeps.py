@@ -16,9 +16,9 @@ import pandas as pd
 import pytest
 
 import jaco
-from jaco import designs
-from jaco.run import TRACES
-from jaco.sweeps import _config_table, _fit, bytes_per_run
+from jaco.engine.run import TRACES
+from jaco.research import designs
+from jaco.research.sweeps import _config_table, _fit, bytes_per_run
 
 ROOT = Path(__file__).resolve().parents[1]
 GRID = jaco.maps.random_map(12, 0.2, seed=3)
@@ -148,7 +148,7 @@ def test_chunks_fit_the_budget_and_match_one_chunk(reference, capsys):
     assert plan["chunks"] >= 2 and plan["bytes_per_chunk"] <= budget
     assert plan["chunk"] * plan["chunks"] >= len(reference)
     assert "sweep as" in capsys.readouterr().err  # the tqdm bar, one step per chunk
-    again = jaco.sweeps.plan_sweep(GRID, *ENDS, "as", params=AXES, seeds=SEEDS, memory_budget=budget, **TINY)
+    again = jaco.research.sweeps.plan_sweep(GRID, *ENDS, "as", params=AXES, seeds=SEEDS, memory_budget=budget, **TINY)
     assert again == {**plan, "compiles": 0}  # the same plan, from the cache
 
 
@@ -173,12 +173,12 @@ def test_estimate_is_honest_for_single_and_double_colonies(reference):
     """The first guess is within 25 % of XLA's memory analysis for one and two colonies (the old
     one-colony formula was 2× over for one colony and up to 3× under for two)."""
     plans = {"as": reference.attrs["sweep"]}
-    plans["daca"] = jaco.sweeps.plan_sweep(GRID, *ENDS, "daca", params=AXES, seeds=SEEDS, devices=1, **TINY)
+    plans["daca"] = jaco.research.sweeps.plan_sweep(GRID, *ENDS, "daca", params=AXES, seeds=SEEDS, devices=1, **TINY)
     for name, plan in plans.items():
         ratio = plan["bytes_per_config_estimate"] / plan["bytes_per_config_measured"]
         assert 0.8 <= ratio <= 1.25, (name, plan)
     assert plans["daca"]["bytes_per_config_measured"] > 2.5 * plans["as"]["bytes_per_config_measured"]
-    s = jaco.sweeps.pad_steps(256)
+    s = jaco.engine.walk.pad_steps(256)
     assert bytes_per_run(1024, 50, 100, 256, path_len=2 * s) > 3 * bytes_per_run(1024, 50, 100, 256)
 
 

@@ -10,9 +10,9 @@ import optax
 import pytest
 
 import jaco
-from jaco.params import SPECS
-from jaco.run import TRACES
-from jaco.tuning import TUNABLE, centered_ranks, es_gradient, member_objective, to_params, to_unconstrained
+from jaco.engine.params import SPECS
+from jaco.engine.run import TRACES
+from jaco.research.tuning import TUNABLE, centered_ranks, es_gradient, member_objective, to_params, to_unconstrained
 
 # A 16×16 map on which β = 0.5 is poor for `as` with few ants: about a quarter of the runs fail
 # and the rest are about twice the optimum; β ≈ 4–8 finds near-optimal paths every time.
@@ -171,4 +171,4 @@ def test_any_optax_optimiser_is_used_as_given():
     assert res.params["rho"] == pytest.approx(0.2, rel=1e-5) and res.params["q"] == pytest.approx(3.0, rel=1e-5)
     np.testing.assert_allclose(res.history.rho, 0.2, rtol=1e-5)
     assert res.params["alpha"] == jaco.VARIANTS["mmas"].defaults["alpha"]  # untuned: unchanged
-    assert callable(jaco.tune) and jaco.tuning.TuneResult is jaco.TuneResult
+    assert callable(jaco.tune) and jaco.research.tuning.TuneResult is jaco.TuneResult

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import jaco
+from jaco.engine.run import TRACES
 from jaco.metrics import validate_path
-from jaco.run import TRACES
 
 SMALL = dict(n_ants=16, n_iters=12)
 

@@ -5,8 +5,8 @@ import pytest
 
 import jaco
 from jaco import exact, waypoints
+from jaco.engine.run import TRACES, resolve_params
 from jaco.metrics import path_length, validate_path
-from jaco.run import TRACES, resolve_params
 
 SMALL = dict(n_ants=8, n_iters=4)
 START, GOAL = (0, 0), (9, 9)
@@ -47,7 +47,7 @@ def test_combined_result_is_the_sum_of_its_legs(grid):
     r = jaco.solve(grid, START, GOAL, "mmas", seed=4, waypoints=VIA, keep_pheromone=True, **SMALL)
     v = jaco.VARIANTS["mmas"]
     points = waypoints.check_waypoints(grid, START, GOAL, VIA)
-    legs = waypoints.run_legs(grid, points, v, seed=4, n_ants=8, n_iters=4, steplimit=jaco.run.default_steplimit(grid),
+    legs = waypoints.run_legs(grid, points, v, seed=4, n_ants=8, n_iters=4, steplimit=jaco.engine.run.default_steplimit(grid),
                               connectivity=8, keep_pheromone=True, values=resolve_params(v, {}, where="t"))
     assert len(legs) == 3 and all(leg.success for leg in legs)
     assert r.length == pytest.approx(sum(leg.length for leg in legs))

@@ -1,5 +1,5 @@
 """Pheromone rules as ``(init, update)`` pairs of pure functions, combined by :func:`chain`
-(DESIGN.md concept 3, in the manner of optax's gradient transformations).
+(the third of the five concepts, in the manner of optax's gradient transformations).
 
 The pheromone is a flat vector ``tau`` of ``M`` elements: one per cell (``M = N``, the thesis's
 "node pheromone") or one per move (``M = 8N``, τ_ij of classic ACO). The engine turns every

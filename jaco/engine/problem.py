@@ -1,4 +1,4 @@
-"""A planning problem: the grid as a fixed-degree graph, as arrays (DESIGN.md concept 1).
+"""A planning problem: the grid as a fixed-degree graph, as arrays (the first of the five concepts).
 
 Built and validated with numpy outside any jit, so that a user mistake is a clear
 :class:`~jaco.errors.ProblemError` and never a traceback from XLA. The result is a pytree whose
@@ -15,39 +15,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .errors import ProblemError
-from .grid import Grid
-
-# The eight moves as (d_row, d_col): the four straight ones first, so 4-connectivity is a prefix.
-MOVES = np.array(
-    [(-1, 0), (0, 1), (1, 0), (0, -1), (-1, 1), (1, 1), (1, -1), (-1, -1)], dtype=np.int32
-)
-MOVE_LENGTHS = np.hypot(MOVES[:, 0], MOVES[:, 1]).astype(np.float64)
-
-
-def neighbour_table(free: np.ndarray, connectivity: int = 8) -> tuple[np.ndarray, np.ndarray]:
-    """Neighbour table ``(N, 8)`` (flat index, -1 where the move is not allowed) and step lengths.
-
-    A move is allowed when both cells are free and in bounds; a diagonal move also needs both
-    orthogonal cells it passes to be free (no corner cutting, thesis 3.3.1 and MovingAI's rule).
-    """
-    if connectivity not in (4, 8):
-        raise ProblemError(f"connectivity must be 4 or 8, got {connectivity!r}")
-    free = np.asarray(free, dtype=bool)
-    h, w = free.shape
-    padded = np.pad(free, 1, constant_values=False)
-    rows, cols = np.meshgrid(np.arange(h), np.arange(w), indexing="ij")
-    nbr = np.full((h * w, 8), -1, dtype=np.int32)
-    n_moves = 4 if connectivity == 4 else 8
-    for k in range(n_moves):
-        dr, dc = MOVES[k]
-        ok = free & padded[1 + dr : 1 + dr + h, 1 + dc : 1 + dc + w]
-        if dr and dc:  # diagonal: both orthogonal cells must be free
-            ok &= padded[1 + dr : 1 + dr + h, 1 : 1 + w] & padded[1 : 1 + h, 1 + dc : 1 + dc + w]
-        target = (rows + dr) * w + (cols + dc)
-        nbr[:, k] = np.where(ok, target, -1).ravel()
-    step = np.where(nbr >= 0, MOVE_LENGTHS[None, :], 0.0)
-    return nbr, step
+from ..errors import ProblemError
+from ..grid import Grid
+from ..moves import MOVES, cached_table
 
 
 def _as_cell(grid: Grid, cell, what: str) -> tuple[int, int]:
@@ -101,7 +71,7 @@ def make_problem(grid: Grid, start, goal, *, connectivity: int = 8) -> Problem:
     Raises :class:`ProblemError` for an empty map, a start or goal outside the map or on an
     obstacle, and a goal that cannot be reached from the start (found by the exact search).
     """
-    from .exact import distance_field
+    from ..exact import distance_field  # scipy loads on the first problem, not on import
 
     if not isinstance(grid, Grid):
         raise ProblemError(f"expected a jaco.Grid, got {type(grid).__name__}")
@@ -115,7 +85,7 @@ def make_problem(grid: Grid, start, goal, *, connectivity: int = 8) -> Problem:
             f"goal {g} cannot be reached from start {s} on map {grid.name!r} "
             f"({connectivity}-connected, no corner cutting)"
         )
-    nbr, step = _cached_table(grid, connectivity)
+    nbr, step = cached_table(grid, connectivity)
     h, w = grid.shape
     rows, cols = np.divmod(np.arange(h * w), w)
     return Problem(
@@ -129,16 +99,6 @@ def make_problem(grid: Grid, start, goal, *, connectivity: int = 8) -> Problem:
         goal=np.int32(grid.index(g)),
         optimal=np.float32(dist[s]),
     )
-
-
-def _cached_table(grid: Grid, connectivity: int):
-    key = f"_nbr{connectivity}"
-    if key not in grid.meta:
-        nbr, step = neighbour_table(grid.free, connectivity)
-        nbr.setflags(write=False)
-        step.setflags(write=False)
-        grid.meta[key] = (nbr, step)
-    return grid.meta[key]
 
 
 def stack(problems) -> Problem:

@@ -1,8 +1,8 @@
 """Ant walks: one colony's tours for one iteration, all ants at once.
 
-The per-step work is what DESIGN.md's speed section asks for: gather one precomputed row of
-move weights ``W[cur] (8,)`` per lane, mask the cells in the ant's tabu list, and pick one of 8
-by roulette (inverse CDF of a uniform drawn for the whole iteration in advance). Ants walk on a
+The per-step work is kept to the minimum: gather one precomputed row of move weights
+``W[cur] (8,)`` per lane, mask the cells in the ant's tabu list, and pick one of 8 by roulette
+(inverse CDF of a uniform drawn for the whole iteration in advance). Ants walk on a
 pool of lanes in chunks of :data:`CHUNK` steps inside a ``while_loop``; between chunks a lane
 whose ant stopped takes the next ant, of any colony or configuration of the batch, so lanes do
 not idle until the batch's longest walk ends.
@@ -16,7 +16,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from .problem import MOVE_LENGTHS
+from ..moves import MOVE_LENGTHS
 
 CHUNK = 8
 

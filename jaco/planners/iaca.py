@@ -9,7 +9,7 @@ of infeasible paths (4-6, 4.2.4) and the ant backtracking strategy (4.3); the st
 Pheromone lives on cells (τ_j, the thesis's "node pheromone"). Unlike the classic family, an
 ant's weights depend on the pheromone *as it is during the walk* (the local update changes it
 after every step) and on its own tabu list (the heuristic 4-5 normalises over the allowed
-neighbours), so :func:`iaca_colony` replaces the engine's :func:`jaco.colony.single_colony`:
+neighbours), so :func:`iaca_colony` replaces the engine's :func:`jaco.engine.colony.single_colony`:
 it carries τ through the walk and computes each ant's 8 weights per step.
 
 Interpretations (ALGORITHMS.md §4; also in ``docs/variants_iaca.md``):
@@ -56,12 +56,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from . import pheromone as ph
-from .colony import Colony, step_targets
-from .construct import CHUNK, Tours, choose, pad_steps
-from .heuristics import goal_distance
-from .problem import MOVE_LENGTHS, MOVES
-from .variant import make_variant
+from ..engine import pheromone as ph
+from ..engine.colony import Colony, step_targets
+from ..engine.heuristics import goal_distance
+from ..engine.variant import make_variant
+from ..engine.walk import CHUNK, Tours, choose, pad_steps
+from ..moves import MOVE_LENGTHS, MOVES
 
 ETA_FLOOR = 1e-6
 
@@ -215,7 +215,7 @@ def backtrack_walk(problem, trail, params, u, *, steplimit: int, exploit: bool =
 
 
 def stack_tours(problem, stack, sp, arrived, actions, tabu, s_pad: int) -> Tours:
-    """Step-major :class:`~jaco.construct.Tours` ``(s_pad, A)`` of the final stacks."""
+    """Step-major :class:`~jaco.engine.walk.Tours` ``(s_pad, A)`` of the final stacks."""
     n_ants, depth = stack.shape
     idx = jnp.arange(depth)[None, :]
     path = jnp.where(idx <= sp[:, None], stack, -1)
@@ -253,7 +253,7 @@ def infeasible_cells(stack, sp, arrived, tabu) -> jax.Array:
 def iaca_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
     """One IACA iteration (thesis 4.4, Steps 2–5): backtracking walks with the local update, then
     the infeasible-path update (4-6). Returns the updated trail and the final stacks as a
-    :class:`~jaco.colony.Colony`; the variant's ``rule.update`` (global update) follows."""
+    :class:`~jaco.engine.colony.Colony`; the variant's ``rule.update`` (global update) follows."""
     s_pad = pad_steps(steplimit)
     u = jax.random.uniform(key, (s_pad, n_ants), jnp.float32)
     exploit = variant.transition == "pseudo-random"

@@ -14,7 +14,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
-from .construct import pad_steps, walk
+from .walk import pad_steps, walk
 
 
 class Colony(NamedTuple):

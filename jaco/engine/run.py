@@ -1,27 +1,32 @@
-"""The colony loop (DESIGN.md concept 5): ``make_run(variant, ...) -> run(key, problem, params)``.
+"""The colony loop (the fifth of the five concepts): ``make_run(variant, ...) -> run(key, problem,
+params)``.
 
 Iterations are a ``lax.scan``; the ants of an iteration walk together (vectorised over the ant
-axis, see :mod:`jaco.construct`); a sweep is ``jit(vmap(run))``. The key is always the first
+axis, see :mod:`jaco.engine.walk`); a sweep is ``jit(vmap(run))``. The key is always the first
 argument and is never stored in state, so the same key gives the same result bit for bit.
+
+Everything here takes a :class:`~jaco.engine.variant.Variant` itself: names are resolved one layer
+up, by :func:`jaco.solve` (:mod:`jaco.api`) through the registry, so the engine never imports the
+planners. :func:`solve` is the plain single run; several targets (:mod:`jaco.waypoints`) are
+built on top of it.
 """
 
 from __future__ import annotations
 
-import math
 from collections import Counter
-from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .errors import JacoError
-from .grid import Grid
+from ..errors import JacoError
+from ..grid import Grid
 from .params import Params, check_order, check_values
 from .pheromone import Trail, Walks
 from .problem import Problem, make_problem
-from .variants import Variant, get_variant
+from .result import Result, to_result
+from .variant import Variant
 
 
 class History(NamedTuple):
@@ -62,7 +67,8 @@ def make_run(variant, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromo
     ``keep_pheromone``: False (none), True (the final pheromone ``(M,)``) or ``"history"`` (the
     pheromone after every iteration, ``(n_iters, M)``, e.g. for :func:`jaco.plot.animate_pheromone`).
     """
-    variant = get_variant(variant)
+    if not isinstance(variant, Variant):
+        raise JacoError(f"make_run takes a Variant, got {variant!r} (by name: jaco.make_run or jaco.VARIANTS[name])")
     if keep_pheromone not in (False, True, "history"):
         raise JacoError(f"keep_pheromone must be False, True or 'history', got {keep_pheromone!r}")
 
@@ -188,178 +194,10 @@ def params_from(values: dict, shape=()) -> Params:
     return Params(**{k: np.broadcast_to(np.float32(v), shape) for k, v in values.items()})
 
 
-# -- results ------------------------------------------------------------------------------
-@dataclass
-class Result:
-    """The outcome of one run: the best path and how the colony got there.
-
-    ``path`` is a ``(K, 2)`` array of ``(row, col)`` (empty when no ant reached the goal);
-    ``length`` and ``optimal`` are in cell units times the grid's ``cell_size``; ``cost`` is the
-    variant's objective (the length in cell units unless the variant says otherwise).
-    """
-
-    variant: str
-    path: np.ndarray
-    length: float
-    success: bool
-    cost: float
-    optimal: float
-    gap: float
-    best_iteration: int
-    history: dict
-    coverage: float
-    seed: int
-    params: dict
-    n_ants: int
-    n_iters: int
-    steplimit: int
-    start: tuple
-    goal: tuple
-    grid: Grid | None = field(default=None, repr=False)
-    pheromone: np.ndarray | None = field(default=None, repr=False)
-    connectivity: int = 8  # records: a rerun needs the move set (jaco.records)
-    waypoints: tuple = ()  # the targets visited between start and goal (jaco.waypoints)
-
-    def metrics(self) -> dict:
-        """:func:`jaco.metrics.path_metrics` of the best path (length, turns, heading change E,
-        clearance, safety cost S, any-angle length, valid, gap) plus the run's ``cost``,
-        ``coverage`` and ``best_iteration``. S uses the run's ``rs_cost`` when the variant has one
-        (the multi-objective cost), else :data:`jaco.metrics.SAFETY_RADIUS`, so S and E are those
-        of the cost. A failed run has length inf and no path figures."""
-        from .metrics import SAFETY_RADIUS, path_metrics
-
-        run = {"cost": self.cost, "coverage": self.coverage, "best_iteration": self.best_iteration}
-        if not self.success:
-            return {"length": math.inf, "valid": False, **run}
-        rs = self.params.get("rs_cost", SAFETY_RADIUS)
-        return {**path_metrics(self.grid, self.path, optimal=self.optimal, rs=rs), **run}
-
-    def to_dict(self) -> dict:
-        """JSON-ready dict (no numpy types; inf written as None where JSON has no inf)."""
-
-        def num(x):
-            x = float(x)
-            return x if math.isfinite(x) else None
-
-        return {
-            "variant": self.variant,
-            "path": self.path.tolist(),
-            "length": num(self.length),
-            "success": bool(self.success),
-            "cost": num(self.cost),
-            "optimal": num(self.optimal),
-            "gap": num(self.gap),
-            "best_iteration": int(self.best_iteration),
-            "coverage": float(self.coverage),
-            "seed": int(self.seed),
-            "params": {k: float(v) for k, v in self.params.items()},
-            "n_ants": self.n_ants,
-            "n_iters": self.n_iters,
-            "steplimit": self.steplimit,
-            "start": list(self.start),
-            "goal": list(self.goal),
-            "map": None if self.grid is None else self.grid.name,
-            "history": {k: [num(x) for x in v] for k, v in self.history.items()},
-        }
-
-    # -- records and world coordinates (jaco.records, docs/records.md) ------------------------
-    def save(self, path):
-        """Write this run as a JSON record (parameters, seed, variant, the map embedded with its
-        sha256, sizes, connectivity, result and history, jaco/jax versions); returns the path.
-        ``jaco.load_run(path).rerun()`` or ``jaco rerun PATH`` reruns it and checks it bit for bit."""
-        from .records import save_run
-
-        return save_run(self, path)
-
-    def to_world(self) -> np.ndarray:
-        """The path as ``(K, 2)`` world ``(x, y)`` in metres (cell centres), from the map's ROS
-        ``resolution`` and ``origin``; a ProblemError when the map has none."""
-        if self.grid is None:
-            raise JacoError("this Result has no grid: world coordinates need the map")
-        return self.grid.cell_to_world(np.asarray(self.path, np.int64).reshape(-1, 2))
-
-    def save_path(self, path, frame: str | None = None):
-        """Write the path as ``.csv`` (columns ``row,col`` and, in the world frame, ``x,y``
-        in metres) or ``.json``; ``frame`` is ``"world"`` or ``"cells"`` (default: world when the
-        map has a resolution). Returns the path written."""
-        from .records import save_path
-
-        return save_path(self, path, frame)
-
-
-def path_cells(grid: Grid, start, best_cells) -> np.ndarray:
-    """``(K, 2)`` path from the start cell and the best ant's entered cells."""
-    cells = np.asarray(best_cells)
-    flat = np.concatenate([[grid.index(start)], cells[cells >= 0]])
-    return np.stack(np.divmod(flat, grid.width), axis=1).astype(np.int64)
-
-
-def gap(length, optimal) -> float:
-    if not math.isfinite(length):
-        return math.inf
-    return 0.0 if optimal == 0 else (length - optimal) / optimal
-
-
-def to_result(
-    out, *, grid, variant, start, goal, optimal, seed, params, n_ants, n_iters, steplimit, connectivity=8
-) -> Result:
-    """Convert one (unbatched) :class:`RunOutput` to a :class:`Result`."""
-    success = bool(np.isfinite(out.best_cost))
-    length = float(out.best_length) * grid.cell_size if success else math.inf
-    opt = float(optimal) * grid.cell_size
-    return Result(
-        variant=variant.name,
-        path=path_cells(grid, start, out.best_cells) if success else np.empty((0, 2), np.int64),
-        length=length,
-        success=success,
-        cost=float(out.best_cost),
-        optimal=opt,
-        gap=gap(length, opt),
-        best_iteration=int(out.best_iteration),
-        history={k: np.asarray(v) for k, v in out.history._asdict().items()},
-        coverage=int(out.covered) / grid.n_free,
-        seed=int(seed),
-        params={k: float(params[k]) for k in variant.params},
-        n_ants=n_ants,
-        n_iters=n_iters,
-        steplimit=steplimit,
-        start=tuple(int(v) for v in start),
-        goal=tuple(int(v) for v in goal),
-        grid=grid,
-        pheromone=None if out.tau is None else np.asarray(out.tau),
-        connectivity=int(connectivity),
-    )
-
-
-def solve(
-    grid: Grid,
-    start,
-    goal,
-    variant="mmas",
-    *,
-    seed: int = 0,
-    n_ants: int = 50,
-    n_iters: int = 100,
-    steplimit: int | None = None,
-    connectivity: int = 8,
-    keep_pheromone: bool = False,
-    waypoints=None,
-    **params,
-) -> Result:
-    """Plan a path from ``start`` to ``goal`` (``(row, col)`` cells) with one ACO variant.
-
-    Everything is validated before anything compiles: the map, start and goal (and that the goal
-    is reachable), the sizes, and every parameter (unknown names list the valid ones).
-    ``waypoints=[(r, c), ...]``: visit them in order, then the goal; one leg per target, all legs
-    in one batched call, one combined Result (:mod:`jaco.waypoints`).
-
-    >>> import jaco
-    >>> grid = jaco.Grid.from_rows(["....", ".##.", "...."])
-    >>> r = jaco.solve(grid, (0, 0), (2, 3), "mmas", seed=1, n_ants=8, n_iters=5)
-    >>> r.success, round(r.length, 3), round(r.optimal, 3)
-    (True, 5.0, 5.0)
-    """
-    variant = get_variant(variant)
+def prepare(grid: Grid, variant: Variant, *, seed, n_ants, n_iters, steplimit, params: dict) -> tuple[int, dict]:
+    """Validate one call with numpy before anything compiles: the sizes, the seed and every
+    parameter (unknown names list the valid ones). Returns the step limit (the default when
+    ``steplimit`` is None) and the parameter values over the variant's defaults."""
     steplimit = default_steplimit(grid) if steplimit is None else steplimit
     check_sizes(n_ants, n_iters, steplimit)
     if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool):
@@ -368,13 +206,16 @@ def solve(
     for k, v in values.items():
         if v.ndim:
             raise JacoError(f"solve takes one value per parameter; {k!r} has {v.size} (use jaco.sweep)")
-    if waypoints is not None:  # several targets (ALGORITHMS.md §8.5)
-        from .waypoints import solve_waypoints
+    return steplimit, values
 
-        return solve_waypoints(
-            grid, start, goal, variant, waypoints, seed=seed, n_ants=n_ants, n_iters=n_iters,
-            steplimit=steplimit, connectivity=connectivity, keep_pheromone=keep_pheromone, values=values,
-        )
+
+def solve(grid: Grid, start, goal, variant: Variant, *, seed, n_ants, n_iters, steplimit, connectivity, keep_pheromone,
+          **params) -> Result:
+    """One run of ``variant`` from ``start`` to ``goal``: the body of :func:`jaco.solve` without
+    waypoints (whose signature has the defaults). The call is validated by :func:`prepare` and
+    :func:`~jaco.engine.problem.make_problem` (map, start, goal, reachability) before anything
+    compiles."""
+    steplimit, values = prepare(grid, variant, seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, params=params)
     problem = make_problem(grid, start, goal, connectivity=connectivity)
     run = compiled_run(variant, n_ants, n_iters, steplimit, keep_pheromone, batched=False)
     out = run(jax.random.key(seed), problem, params_from(values))

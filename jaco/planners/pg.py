@@ -23,7 +23,7 @@ sets T_t, ``log p(path_k) = Σ_t log p_{i_t j_t}(T_t)`` and
 (a softmax's log-derivative, summed over the steps where the ant stood at i; 0 for cells it never
 left). :func:`score` evaluates (2) for every ant at once from the recorded walk, rebuilding each
 step's tabu set from the first-visit times of the cells; the roulette's safety clip of the
-weights to [1e-30, 1e30] (:func:`jaco.colony.move_weights`) is ignored by (2). An ant that dies
+weights to [1e-30, 1e30] (:func:`jaco.engine.colony.move_weights`) is ignored by (2). An ant that dies
 at a dead end contributes the steps it took.
 
 **REINFORCE with a baseline.** With C_k the cost of ant k and b the baseline, the gradient of
@@ -63,7 +63,7 @@ finite. Both the initial logits θ = 0 (τ = 1) and (4) are exact optax steps; w
 **Where the optimiser's state lives.** The engine carries one pheromone trail through its
 ``lax.scan``; a rule's ``init`` returns it and the construct step and the rule's ``update`` return
 it again. :class:`PGTrail` is a NamedTuple ``(tau, lo, hi, theta, opt)``: its first three fields
-are :class:`jaco.pheromone.Trail`'s, so the engine (which only reads ``trail.tau`` and hands the
+are :class:`jaco.engine.pheromone.Trail`'s, so the engine (which only reads ``trail.tau`` and hands the
 trail back) carries the logits and the optimiser's state (adam's moments and step count) without
 any change to ``Trail`` or to the loop. The REINFORCE step needs each step's tabu set and the
 roulette weights, which only the construct step has, so :func:`pg_colony` walks the colony and
@@ -86,17 +86,17 @@ import jax
 import jax.numpy as jnp
 import optax
 
-from . import pheromone as ph
-from .colony import move_weights, single_colony
-from .errors import JacoError
-from .variant import make_variant
+from ..engine import pheromone as ph
+from ..engine.colony import move_weights, single_colony
+from ..engine.variant import make_variant
+from ..errors import JacoError
 
 #: Bound on the logits |θ| (τ ∈ [e^−20, e^20]): a policy can still be all but deterministic.
 LOGIT_MAX = 20.0
 
 
 class PGTrail(NamedTuple):
-    """The pheromone trail of ``pg-aco``: :class:`jaco.pheromone.Trail`'s ``(tau, lo, hi)`` with
+    """The pheromone trail of ``pg-aco``: :class:`jaco.engine.pheromone.Trail`'s ``(tau, lo, hi)`` with
     ``tau = exp(theta)`` and fixed bounds ``[e^−θmax, e^θmax]``, plus the logits ``theta (8N,)``
     and the optax optimiser's state ``opt``."""
 
@@ -144,7 +144,7 @@ def score(problem, weights, cells, moves, advantages) -> jax.Array:
     """``Σ_k advantages[k] · ∂ log p(path_k)/∂θ`` as a flat ``(8N,)`` vector, eq. (2).
 
     ``weights (N, 8)`` are the roulette weights the ants walked with (``exp(θ)·η^β``);
-    ``cells``, ``moves`` ``(S, A)`` the recorded walks (:class:`jaco.construct.Tours`).
+    ``cells``, ``moves`` ``(S, A)`` the recorded walks (:class:`jaco.engine.walk.Tours`).
     """
     n = problem.nbr.shape[0]
     cur, p = step_probabilities(problem, weights, cells, moves)
@@ -216,7 +216,7 @@ PG_DEFAULTS = dict(beta=4.0, rho=0.03, q=0.2, penalty=0.3)
 def make_pg_aco(
     optimizer: optax.GradientTransformation | None = None, *, baseline: str = "all", name: str = "pg-aco"
 ):
-    """A policy-gradient ACO :class:`~jaco.variant.Variant` stepped by ``optimizer``.
+    """A policy-gradient ACO :class:`~jaco.engine.variant.Variant` stepped by ``optimizer``.
 
     ``optimizer`` is an optax ``GradientTransformation`` built with learning rate 1 (default
     ``optax.adam(1.0)``); the step size is the traced parameter ``q``. ``baseline`` is ``"all"``

@@ -1,22 +1,18 @@
-"""Planners as data: a :class:`Variant` is a NamedTuple of pure functions and small static
-choices (DESIGN.md concept 4), and :data:`VARIANTS` is the registry every test iterates over.
+"""The classic family: Ant System (ant-cycle, ant-density, ant-quantity), elitist and rank-based
+Ant System, Ant Colony System and MAX-MIN Ant System (thesis chapter 2).
 
-To change a piece of a planner, replace it: ``VARIANTS["as"]._replace(heuristic=inverse_step)``
-is textbook AS with η = 1/d_ij.
+Every one is the engine's single colony of dying ants (:func:`jaco.engine.colony.single_colony`)
+with its own pheromone rule, a chain of the pieces of :mod:`jaco.engine.pheromone`; ACS also
+takes the pseudo-random proportional rule.
+
+To change a piece of a planner, replace it: ``AS._replace(heuristic=inverse_step)`` is textbook
+AS with η = 1/d_ij (:func:`jaco.engine.heuristics.inverse_step`).
 """
 
 from __future__ import annotations
 
-from . import pheromone as ph
-from .apf import APF_ACO, PF_ACO  # APF-ACO and its PF-ACO baseline (seed 003)
-from .chaos import CHAOS_ACO  # chaos ACO (seed 004)
-from .double import DACA, IDACA  # thesis chapter 3
-from .errors import JacoError
-from .iaaco import IAACO, IAACO_PRINTED, with_cost  # noqa: F401 (IAACO, seed 002; with_cost re-exported)
-from .iaca import IACA  # thesis chapter 4
-from .pg import PG_ACO  # policy-gradient ACO (ALGORITHMS.md §9)
-from .variant import Variant, constant, make_variant, path_length  # noqa: F401 (re-exported)
-
+from ..engine import pheromone as ph
+from ..engine.variant import make_variant
 
 BASE = ("alpha", "beta", "rho", "q", "tau0")
 
@@ -100,23 +96,3 @@ MMAS = make_variant(
     dict(alpha=2.0, beta=8.0, rho=0.05, q=1.0, p_best=0.05),
     ph.chain(ph.init_mmas(), ph.evaporate(), ph.deposit_iteration_best(), ph.mmas_bounds(), ph.clamp()),
 )
-
-VARIANTS: dict[str, Variant] = {
-    v.name: v
-    for v in (
-        AS, AS_DENSITY, AS_QUANTITY, EAS, RAS, ACS, MMAS,  # the classic family (§2)
-        DACA, IDACA, IACA,  # the thesis (§3, §4)
-        IAACO, IAACO_PRINTED, APF_ACO, PF_ACO, CHAOS_ACO,  # the papers (§6, §7, §8)
-        PG_ACO,  # beyond the sources (§9)
-    )
-}
-
-
-
-def get_variant(variant) -> Variant:
-    """A registered variant by name, or a :class:`Variant` as it is."""
-    if isinstance(variant, Variant):
-        return variant
-    if variant not in VARIANTS:
-        raise JacoError(f"unknown variant {variant!r}; registered: {', '.join(sorted(VARIANTS))}")
-    return VARIANTS[variant]

@@ -1,6 +1,6 @@
 """What a planner is: a :class:`Variant`, a NamedTuple of pure functions and small static
-choices (DESIGN.md concept 4). Kept apart from the registry (:mod:`jaco.variants`) so that the
-modules defining variants (``double``, ``iaca``) and the registry import it without a cycle.
+choices (the fourth of the five concepts). The planners (:mod:`jaco.planners`) build variants
+with :func:`make_variant`; the registry (:mod:`jaco.planners.registry`) collects them.
 """
 
 from __future__ import annotations
@@ -11,6 +11,7 @@ from typing import Callable, Mapping, NamedTuple
 from . import heuristics
 from . import pheromone as ph
 from .colony import single_colony
+from .cost import path_length
 from .params import Params, param_names
 
 
@@ -19,17 +20,12 @@ def constant(params: Params, t, n_iters) -> Params:
     return params
 
 
-def path_length(tours, problem, params):
-    """Cost = path length (thesis eq. 3-2); multi-objective costs replace this function."""
-    return tours.length
-
-
 class Variant(NamedTuple):
     """One planner. ``params`` names the :class:`Params` fields it reads; ``defaults`` overrides
     the dataclass defaults; ``pheromone_on`` is ``"moves"`` (τ_ij) or ``"cells"`` (τ_j);
     ``transition`` is ``"roulette"`` or ``"pseudo-random"`` (q0 rule, eq. 2-14);
     ``schedule(params, t, n_iters)`` gives the parameters of iteration t (branch-free);
-    ``construct`` builds an iteration's candidate paths (:mod:`jaco.colony`: one colony of ants
+    ``construct`` builds an iteration's candidate paths (:mod:`jaco.engine.colony`: one colony of ants
     that die at dead ends by default)."""
 
     name: str
@@ -52,8 +48,6 @@ class Variant(NamedTuple):
         values = self.default_params().to_dict()
         shown = ", ".join(f"{k}={values[k]:g}" for k in self.params)
         return f"{self.name:12s} {self.source}  [{shown}]"
-
-
 
 
 def make_variant(name, source, doc, params, defaults, rule, **kw) -> Variant:

@@ -6,8 +6,8 @@ Every row of the table equals :func:`jaco.solve` with the same parameters and se
 
 Scale (docs/cluster.md):
 
-* **Designs** — ``params`` is a dict of axes (a full grid) or a :class:`jaco.designs.Design`
-  (grid, random, Latin hypercube, explicit rows), validated against :data:`jaco.params.SPECS`
+* **Designs** — ``params`` is a dict of axes (a full grid) or a :class:`jaco.research.designs.Design`
+  (grid, random, Latin hypercube, explicit rows), validated against :data:`jaco.engine.params.SPECS`
   before anything compiles.
 * **Chunking** — the configuration axis is cut into equal chunks so that one chunk fits in
   ``memory_budget`` bytes per device. The chunk size starts from :func:`bytes_per_run` (or from an
@@ -33,14 +33,14 @@ import numpy as np
 import pandas as pd
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
-from .construct import pad_steps
+from ..engine.params import ORDERED, check_values
+from ..engine.problem import make_problem, stack
+from ..engine.run import _COMPILED, cached, check_sizes, default_steplimit, make_run, params_from, resolve_params
+from ..engine.walk import pad_steps
+from ..errors import JacoError, ParamError
+from ..grid import Grid
+from ..planners.registry import get_variant
 from .designs import Design, as_design
-from .errors import JacoError, ParamError
-from .grid import Grid
-from .params import ORDERED, check_values
-from .problem import make_problem, stack
-from .run import _COMPILED, cached, check_sizes, default_steplimit, make_run, params_from, resolve_params
-from .variants import get_variant
 
 AXIS = "config"
 RESULT_COLUMNS = ("seed", "success", "length", "cost", "best_iteration", "optimal", "gap", "coverage")
@@ -369,7 +369,7 @@ def sweep(
     """Run every configuration of ``params`` × ``seeds`` × queries; one row per run.
 
     ``params``: a dict ``name -> list of values`` (every combination, first name slowest), a
-    :class:`jaco.designs.Design` (its rows as given: ``jaco.designs.random``, ``latin_hypercube``,
+    :class:`jaco.research.designs.Design` (its rows as given: ``jaco.research.designs.random``, ``latin_hypercube``,
     ``grid``, ``table``, ``product``) or a DataFrame of rows. ``seeds`` is a count
     (``range(seeds)``) or a list of integer seeds. ``grid`` may be a list of grids of one shape and
     ``start``/``goal`` lists of pairs (one per query, or one for all).

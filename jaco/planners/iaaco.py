@@ -9,9 +9,9 @@ evaporation rate (10) and the multi-objective cost J = kL·L + kS·S + kE·E.
 The per-move factors μ^λ (4) and ξ (5) depend only on the map and the parameters, so they are
 folded into the ``(N, 8)`` move-weight table once per iteration (:func:`guided_weights`, in log
 space, each cell's row scaled to a largest weight of 1); an ant step still gathers one row.
-The multi-objective cost (:func:`multi_objective`) is a ``Variant.cost`` that any variant can
-use: ``with_cost("acs", "multi")`` (cached, so repeated calls return the same object and never
-recompile).
+The multi-objective cost (:func:`jaco.engine.cost.multi_objective`) is a ``Variant.cost`` that
+any variant can use: ``jaco.planners.registry.with_cost("acs", "multi")`` (cached, so repeated calls return
+the same object and never recompile).
 
 Interpretations (ALGORITHMS.md §6; also in ``docs/variants.md``, section IAACO):
 
@@ -40,16 +40,13 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 
-from . import metrics
-from . import pheromone as ph
-from .colony import Colony, step_targets
-from .construct import pad_steps, walk
-from .errors import ParamError
-from .heuristics import goal_distance
-from .problem import MOVES
-from .variant import Variant, make_variant, path_length
+from ..engine import pheromone as ph
+from ..engine.colony import Colony, step_targets
+from ..engine.cost import COST_PARAMS, multi_objective
+from ..engine.heuristics import goal_distance
+from ..engine.variant import make_variant
+from ..engine.walk import pad_steps, walk
 
 __all__ = [
     "adaptive_eps",
@@ -64,13 +61,6 @@ __all__ = [
     "adaptive_rho",
     "init_floor",
     "best_worst",
-    "TURN",
-    "safety",
-    "energy",
-    "multi_objective",
-    "COSTS",
-    "COST_PARAMS",
-    "with_cost",
     "IAACO",
     "IAACO_PRINTED",
 ]
@@ -165,7 +155,7 @@ def guided_weights(variant, trail, problem, params, t, n_iters, mu):
 
 
 def guided_colony(mu):
-    """A construct step: :func:`jaco.colony.single_colony` with the weights of
+    """A construct step: :func:`jaco.engine.colony.single_colony` with the weights of
     :func:`guided_weights` (eq. 3, once per iteration), ``mu`` one of :func:`mu_robust`,
     :func:`mu_printed` (a static choice)."""
 
@@ -226,88 +216,6 @@ def best_worst() -> ph.Rule:
         return trail._replace(tau=jnp.where(jnp.any(ok), tau, trail.tau))
 
     return ph.Rule(ph._keep_init, update)
-
-
-# -- multi-objective cost J = kL·L + kS·S + kE·E ---------------------------------------------
-def _turn_table() -> np.ndarray:
-    """``TURN[a, b]``: heading change (radians) of move a followed by move b, by
-    :func:`jaco.metrics.heading_change` itself, so the two can never disagree."""
-    out = np.zeros((8, 8), np.float32)
-    for a in range(8):
-        for b in range(8):
-            out[a, b] = metrics.heading_change([(0, 0), MOVES[a], MOVES[a] + MOVES[b]])
-    return out
-
-
-#: Heading change of every pair of consecutive moves ``(8, 8)``.
-TURN = _turn_table()
-
-
-def safety(tours, problem, params):
-    """S per ant ``(A,)``: :func:`jaco.metrics.safety_terms` with radius ``rs_cost`` summed over
-    the start and every cell entered (the same cells and formula as :func:`jaco.metrics.safety_cost`)."""
-    took = tours.cells >= 0
-    d = problem.clearance[jnp.where(took, tours.cells, 0)]
-    terms = jnp.where(took, metrics.safety_terms(d, params.rs_cost, xp=jnp), 0.0)
-    return jnp.sum(terms, axis=0) + metrics.safety_terms(problem.clearance[problem.start], params.rs_cost, xp=jnp)
-
-
-def energy(tours, problem, params):
-    """E per ant ``(A,)``: total absolute heading change in radians (:func:`jaco.metrics.heading_change`)."""
-    prev, nxt = tours.moves[:-1], tours.moves[1:]
-    both = (prev >= 0) & (nxt >= 0)
-    turn = jnp.asarray(TURN)[jnp.where(both, prev, 0), jnp.where(both, nxt, 0)]
-    return jnp.sum(jnp.where(both, turn, 0.0), axis=0)
-
-
-def multi_objective(tours, problem, params):
-    """J = kL·L + kS·S + kE·E (seed 002 §3.4, ALGORITHMS.md §6.6): L the path length (cells),
-    S :func:`safety`, E :func:`energy`; a ``Variant.cost`` for any variant."""
-    return (
-        params.k_len * tours.length
-        + params.k_safe * safety(tours, problem, params)
-        + params.k_energy * energy(tours, problem, params)
-    )
-
-
-#: Cost functions by name, for :func:`with_cost`.
-COSTS = {"length": path_length, "multi": multi_objective}
-#: The parameters the multi-objective cost reads.
-COST_PARAMS = ("k_len", "k_safe", "k_energy", "rs_cost")
-
-_WITH_COST: dict = {}
-
-
-def with_cost(variant, cost: str = "multi") -> Variant:
-    """``variant`` (a name or a :class:`Variant`) with another cost: ``"multi"``
-    (:func:`multi_objective`, and its weights become sweepable parameters) or ``"length"``.
-
-    Cached: the same arguments return the same object, so repeated runs never recompile.
-    The new variant is named ``"<name>+<cost>"``.
-
-    >>> import jaco
-    >>> from jaco.iaaco import with_cost
-    >>> v = with_cost("acs", "multi")
-    >>> v.name, v is with_cost("acs", "multi"), "k_safe" in v.params
-    ('acs+multi', True, True)
-    """
-    from .variants import get_variant
-
-    if cost not in COSTS:
-        raise ParamError(f"unknown cost {cost!r}; valid: {', '.join(sorted(COSTS))}")
-    base = get_variant(variant)
-    key = (id(base), cost)
-    hit = _WITH_COST.get(key)
-    if hit is None:
-        if base.cost is COSTS[cost]:
-            new = base
-        else:
-            extra = COST_PARAMS if cost == "multi" else ()
-            params = base.params + tuple(p for p in extra if p not in base.params)
-            new = base._replace(name=f"{base.name}+{cost}", cost=COSTS[cost], params=params)
-        hit = (base, new)  # keep the base alive so its id is not reused
-        _WITH_COST[key] = hit
-    return hit[1]
 
 
 # -- the variants ----------------------------------------------------------------------------

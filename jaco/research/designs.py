@@ -1,18 +1,18 @@
-"""Experimental designs over :class:`~jaco.params.Params` fields: which configurations a sweep runs.
+"""Experimental designs over :class:`~jaco.engine.params.Params` fields: which configurations a sweep runs.
 
 A :class:`Design` is a table of configurations: equal-length float arrays, one per parameter
 name, one row per configuration. :func:`jaco.sweep` takes one as ``params`` and runs every row ×
 every seed × every query in one compiled call (a plain dict of lists is still a full grid).
 
 >>> import jaco
->>> d = jaco.designs.grid(alpha=[0.5, 1.0], beta=[1.0, 2.0, 4.0])
+>>> d = jaco.research.designs.grid(alpha=[0.5, 1.0], beta=[1.0, 2.0, 4.0])
 >>> len(d), d.names
 (6, ('alpha', 'beta'))
->>> h = jaco.designs.latin_hypercube(0, 8, {"alpha": (0.5, 4.0), "rho": (0.01, 0.5)}, log=["rho"])
+>>> h = jaco.research.designs.latin_hypercube(0, 8, {"alpha": (0.5, 4.0), "rho": (0.01, 0.5)}, log=["rho"])
 >>> len(h), bool((h["rho"] >= 0.01).all() and (h["rho"] <= 0.5).all())
 (8, True)
 
-Ranges and values are checked against :data:`jaco.params.SPECS` when the design is built, so a
+Ranges and values are checked against :data:`jaco.engine.params.SPECS` when the design is built, so a
 bad range is a :class:`~jaco.errors.ParamError` before anything compiles. Random designs take an
 explicit integer ``seed`` (numpy's PCG64 generator): the same seed gives the same design.
 """
@@ -25,8 +25,8 @@ from typing import Mapping
 
 import numpy as np
 
-from .errors import ParamError
-from .params import SPECS, check_values, param_names
+from ..engine.params import SPECS, check_values, param_names
+from ..errors import ParamError
 
 
 class Design:

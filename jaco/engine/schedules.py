@@ -4,13 +4,12 @@ A variant's ``schedule`` is called once per iteration with the engine's iteratio
 (0-based, traced) and the static iteration budget ``n_iters``; it returns the :class:`Params`
 that iteration uses. Every schedule here is written with ``jnp.where``/``jnp.maximum`` and never
 branches in Python on a value, so its own parameters (slopes, break points, floors) are traced
-leaves and can be swept with ``jax.vmap`` like any other hyperparameter (DESIGN.md: "schedules
-are branch-free functions of the iteration").
+leaves and can be swept with ``jax.vmap`` like any other hyperparameter.
 
 The sources count iterations from 1, so every schedule below uses ``i = t + 1``.
 
 >>> import jax.numpy as jnp
->>> from jaco.params import Params
+>>> from jaco.engine.params import Params
 >>> p = alpha_beta(Params(), jnp.int32(9), 100)           # iteration i = 10
 >>> round(float(p.alpha), 4), round(float(p.beta), 4)
 (0.3, 2.85)

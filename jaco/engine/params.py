@@ -1,8 +1,9 @@
-"""Hyperparameters as one frozen dataclass of traced floats (DESIGN.md concept 2).
+"""Hyperparameters as one frozen dataclass of traced floats (the second of the five concepts).
 
 Every field is a pytree leaf, so a search grid is simply a ``Params`` whose leaves carry a
 leading axis, and ``jax.vmap`` runs the whole grid in one compiled call. Shapes (ants,
-iterations, step limit) are never here: they are static arguments of :func:`jaco.make_run`.
+iterations, step limit) are never here: they are static arguments of
+:func:`jaco.engine.run.make_run`.
 Each variant uses a subset of the fields (``Variant.params``) and overrides some defaults.
 """
 
@@ -14,7 +15,7 @@ from dataclasses import dataclass, fields, replace
 import jax
 import numpy as np
 
-from .errors import ParamError
+from ..errors import ParamError
 
 INF = math.inf
 
@@ -71,9 +72,9 @@ class Params:
     k_safe: float = 0.1
     k_energy: float = 0.2
     rs_cost: float = 1.0
-    # Policy-gradient ACO (pg-aco, ALGORITHMS.md §9; jaco.pg)
+    # Policy-gradient ACO (pg-aco, ALGORITHMS.md §9; jaco.planners.pg)
     penalty: float = 0.3
-    # PF-ACO baseline of APF-ACO (seed 003, ALGORITHMS.md §7.6; jaco.apf): classic APF repulsion
+    # PF-ACO baseline of APF-ACO (seed 003, ALGORITHMS.md §7.6; jaco.planners.apf_guided): classic APF repulsion
     k_rep: float = 100.0
     d0: float = 3.0
 
@@ -153,9 +154,9 @@ SPECS: dict[str, Spec] = {
     "k_safe": Spec(0, INF, "multi-objective cost: weight kS of the safety cost S", hi_open=True),
     "k_energy": Spec(0, INF, "multi-objective cost: weight kE of the heading change E (radians)", hi_open=True),
     "rs_cost": Spec(0, INF, "multi-objective cost: radius (cells) of S = Σ max(0, 2r − d_b)/(2r)", lo_open=True, hi_open=True),
-    # Policy-gradient ACO (pg-aco, ALGORITHMS.md §9; jaco.pg)
+    # Policy-gradient ACO (pg-aco, ALGORITHMS.md §9; jaco.planners.pg)
     "penalty": Spec(0, INF, "pg-aco: a failed ant costs (1 + penalty)·L̄, L̄ the mean cost of the iteration's successful ants", hi_open=True),
-    # PF-ACO baseline of APF-ACO (seed 003, ALGORITHMS.md §7.6; jaco.apf)
+    # PF-ACO baseline of APF-ACO (seed 003, ALGORITHMS.md §7.6; jaco.planners.apf_guided)
     "k_rep": Spec(0, INF, "pf-aco: repulsion gain k_rep of the classic APF, U_rep = ½k_rep(1/d − 1/d0)² (attraction ½ρ²)", hi_open=True),
     "d0": Spec(0, INF, "pf-aco: range d0 (cells) of the classic APF's repulsion", lo_open=True, hi_open=True),
 }

@@ -5,12 +5,12 @@ Hangkong University, 2011, chapter 3 (sections 3.4, 3.5; eqs. 3-3..3-10), and it
 Sun Chunzhe, Lin Juguang, Lou Ganfei et al., *Double ant colony complete crossover algorithm for
 global path planning with concave obstacles*, Trans. CSAM 39(7):149–153, 2008.
 
-One iteration (:func:`double_colony`, a ``construct`` function of :mod:`jaco.colony`):
+One iteration (:func:`double_colony`, a ``construct`` function of :mod:`jaco.engine.colony`):
 
 1. Colony 1 (``n_ants`` ants) walks start → goal, colony 2 (another ``n_ants`` ants) walks
    goal → start (the same problem with start and goal swapped, its heuristic computed toward its
    own goal), both with the random-proportional rule, a tabu list and the step limit
-   (:func:`jaco.construct.walk`). An ant that does not arrive is dead (thesis 3.5, Steps 2–3).
+   (:func:`jaco.engine.walk.walk`). An ant that does not arrive is dead (thesis 3.5, Steps 2–3).
 2. Complete crossover (:func:`crossover`): where the walk of colony-1 ant a and the walk of
    colony-2 ant b share a cell x, ``start → x`` (a's walk) + ``x → goal`` (b's walk reversed) is a
    path. For every colony-1 ant the shortest such splice over all partners b and all common cells
@@ -33,13 +33,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from . import heuristics
-from . import pheromone as ph
-from . import schedules
-from .colony import Colony, move_weights, step_targets
-from .construct import Tours, pad_steps, walk
-from .problem import MOVES
-from .variant import make_variant as _variant
+from ..engine import heuristics
+from ..engine import pheromone as ph
+from ..engine import schedules
+from ..engine.colony import Colony, move_weights, step_targets
+from ..engine.variant import make_variant as _variant
+from ..engine.walk import Tours, pad_steps, walk
+from ..moves import MOVES
 
 SQRT2 = np.float32(np.sqrt(2.0))
 
@@ -193,7 +193,7 @@ def double_walk(variant, problem, trail, params, t, n_iters, key, *, n_ants: int
     """Walk both colonies, cross them over and cost the three populations.
 
     Colony 2 walks the problem with start and goal swapped, so a heuristic must read the goal
-    from ``problem.goal`` (as :mod:`jaco.heuristics` does); the precomputed ``goal_dist`` table
+    from ``problem.goal`` (as :mod:`jaco.engine.heuristics` does); the precomputed ``goal_dist`` table
     still refers to the original goal and must not be used by a double-colony heuristic."""
     exploit = variant.transition == "pseudo-random"
     shape = (pad_steps(steplimit), n_ants)
@@ -235,7 +235,7 @@ def double_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: i
     """Construct step of a double colony with complete crossover (thesis 3.5, Steps 2–4).
 
     ``n_ants`` ants per colony (2·n_ants walks per iteration). Returns the candidates of the best
-    population as a :class:`~jaco.colony.Colony` of ``n_ants`` paths in a ``(2·S, n_ants)``
+    population as a :class:`~jaco.engine.colony.Colony` of ``n_ants`` paths in a ``(2·S, n_ants)``
     buffer; ``n_steps`` counts the steps of both colonies; ``visited`` the cells either entered.
     """
     x = double_walk(variant, problem, trail, params, t, n_iters, key, n_ants=n_ants, steplimit=steplimit)
@@ -259,7 +259,7 @@ def init_max() -> ph.Rule:
 
 
 def rho_ant_cycle(walks, params):
-    """ρ·Q/L_k on every step of feasible candidate k: with :func:`jaco.pheromone.evaporate`,
+    """ρ·Q/L_k on every step of feasible candidate k: with :func:`jaco.engine.pheromone.evaporate`,
     τ ← (1−ρ)τ + ρ·Σ_k Q/L_k (thesis 3.4.2)."""
     return params.rho * ph.ant_cycle(walks, params)
 

@@ -30,10 +30,10 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from . import pheromone as ph
-from .colony import move_weights, walk_colony
-from .problem import MOVES
-from .variant import make_variant
+from ..engine import pheromone as ph
+from ..engine.colony import move_weights, walk_colony
+from ..engine.variant import make_variant
+from ..moves import MOVES
 
 # A successful path is "above the mean" only when longer by more than this relative margin, so
 # that equal lengths never count as above through the round-off of the float32 mean.
@@ -106,7 +106,7 @@ def chaos_weights(variant, trail, problem, params, t, n_iters) -> jax.Array:
 def chaos_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
     """One colony start → goal with p ∝ τ^α η^β (P_free·P_θ)^γ (transition rule (11)).
 
-    The same as :func:`jaco.colony.single_colony` except that the weight table is multiplied by
+    The same as :func:`jaco.engine.colony.single_colony` except that the weight table is multiplied by
     the selection factor. It is done here and not through ``heuristic`` (η' = η·sel^(γ/β)) so
     that γ still acts at β = 0. A zero share (P_θ = 0 for the widest-angle move of a cell with
     few moves) is floored at 1e-30, like every allowed weight, so an ant whose only non-tabu move

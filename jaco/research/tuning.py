@@ -4,7 +4,7 @@
 ``jaco.tune(grid, start, goal, variant, tune=("alpha", "beta", "rho"), ...) -> TuneResult``
 
 **Transforms.** Each tuned parameter lives in an unconstrained coordinate z, mapped into its range
-from :data:`jaco.params.SPECS` by
+from :data:`jaco.engine.params.SPECS` by
 
 * ``[lo, hi]`` finite (``(0, 1)`` included): scaled logit, ``x = lo + (hi − lo)·sigmoid(z)``;
 * ``[lo, ∞)``: shifted log, ``x = lo + exp(z)``.
@@ -39,12 +39,13 @@ import numpy as np
 import optax
 import pandas as pd
 
-from .errors import JacoError, ParamError
-from .grid import Grid
-from .params import ORDERED, SPECS, Params, param_names
-from .problem import make_problem
-from .run import cached, check_sizes, default_steplimit, make_run, params_from, resolve_params
-from .variants import Variant, get_variant
+from ..engine.params import ORDERED, SPECS, Params, param_names
+from ..engine.problem import make_problem
+from ..engine.run import cached, check_sizes, default_steplimit, make_run, params_from, resolve_params
+from ..engine.variant import Variant
+from ..errors import JacoError, ParamError
+from ..grid import Grid
+from ..planners.registry import get_variant
 
 #: Parameters that can be tuned: every parameter with a range, except those in an order relation
 #: (τmin < τmax, Q1 < Q2 < Q3, ρ2 < ρ1), which one-parameter-at-a-time transforms cannot keep.
@@ -246,7 +247,7 @@ def tune(
     """Tune continuous hyperparameters of ``variant`` on one query by evolution strategies.
 
     ``tune``: the parameters to tune (each must be used by the variant and have a range in
-    :data:`jaco.params.SPECS`); ``init``: starting values of the tuned parameters and fixed
+    :data:`jaco.engine.params.SPECS`); ``init``: starting values of the tuned parameters and fixed
     values of any other parameter of the variant (default: the variant's defaults); ``steps``
     optimiser steps of ``population`` members (even: antithetic pairs), each run on ``n_seeds``
     seeds; ``sigma``: the perturbation in the unconstrained coordinates (about ±50 % of a value

@@ -1,0 +1,61 @@
+"""The front door: :func:`solve` and :func:`make_run` as ``jaco.solve`` / ``jaco.make_run``.
+
+They take a planner by name or as a :class:`~jaco.engine.variant.Variant`, resolve the name
+through the registry (:mod:`jaco.planners.registry`) and hand the variant to the engine:
+:func:`jaco.engine.run.solve` for one run, :func:`jaco.waypoints.solve_waypoints` when there are
+waypoints. This is the one place where the engine, the registry and the waypoints meet, so the
+engine never imports the planners and the waypoints sit above the single run.
+"""
+
+from __future__ import annotations
+
+from .engine import run as _run
+from .engine.result import Result
+from .grid import Grid
+from .planners.registry import get_variant
+from .waypoints import solve_waypoints
+
+__all__ = ["solve", "make_run"]
+
+
+def solve(
+    grid: Grid,
+    start,
+    goal,
+    variant="mmas",
+    *,
+    seed: int = 0,
+    n_ants: int = 50,
+    n_iters: int = 100,
+    steplimit: int | None = None,
+    connectivity: int = 8,
+    keep_pheromone: bool = False,
+    waypoints=None,
+    **params,
+) -> Result:
+    """Plan a path from ``start`` to ``goal`` (``(row, col)`` cells) with one ACO variant.
+
+    Everything is validated before anything compiles: the map, start and goal (and that the goal
+    is reachable), the sizes, and every parameter (unknown names list the valid ones).
+    ``waypoints=[(r, c), ...]``: visit them in order, then the goal; one leg per target, all legs
+    in one batched call, one combined Result (:mod:`jaco.waypoints`).
+
+    >>> import jaco
+    >>> grid = jaco.Grid.from_rows(["....", ".##.", "...."])
+    >>> r = jaco.solve(grid, (0, 0), (2, 3), "mmas", seed=1, n_ants=8, n_iters=5)
+    >>> r.success, round(r.length, 3), round(r.optimal, 3)
+    (True, 5.0, 5.0)
+    """
+    variant = get_variant(variant)
+    kw = dict(seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, connectivity=connectivity,
+              keep_pheromone=keep_pheromone, **params)
+    if waypoints is not None:
+        return solve_waypoints(grid, start, goal, variant, waypoints, **kw)
+    return _run.solve(grid, start, goal, variant, **kw)
+
+
+def make_run(variant, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromone: bool | str = False):
+    """:func:`jaco.engine.run.make_run` for a variant given by name or as a :class:`Variant`:
+    ``run(key, problem, params) -> RunOutput`` for fixed shapes (not jitted here)."""
+    return _run.make_run(get_variant(variant), n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,
+                         keep_pheromone=keep_pheromone)

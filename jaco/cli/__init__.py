@@ -1,0 +1,41 @@
+"""Command line interface: ``jaco demo | solve | sweep | rerun | variants | maps``.
+
+Run ``jaco --help`` or ``jaco COMMAND --help`` for the options. Every user mistake (bad argument,
+unknown map / variant / parameter, missing file, blocked or unreachable start/goal, out-of-range
+parameter) ends as one line ``jaco: error: ...`` on stderr and exit code 2, never a traceback.
+
+Heavy modules (jax, matplotlib, pandas) are imported inside the command functions, so building the
+parser and printing help cost nothing beyond importing the :mod:`jaco` package itself.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from .args import UsageError, _one_line
+from .parser import _join_negative_xy, build_parser
+
+__all__ = ["main", "build_parser"]
+
+
+def main(argv=None) -> int:
+    """Entry point of the ``jaco`` console script; returns the exit code."""
+    from ..errors import JacoError
+
+    try:
+        parser = build_parser()
+        try:
+            args = parser.parse_args(_join_negative_xy(argv))
+        except SystemExit as e:  # --help / --version
+            return e.code if isinstance(e.code, int) else 0
+        return args.func(args)
+    except (UsageError, JacoError) as e:
+        print(f"jaco: error: {_one_line(e)}", file=sys.stderr)
+        return 2
+    except OSError as e:
+        text = f"{e.filename}: {e.strerror}" if e.strerror and e.filename else str(e)
+        print(f"jaco: error: {_one_line(text)}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("jaco: interrupted", file=sys.stderr)
+        return 130

@@ -1,0 +1,135 @@
+"""Argument types of the command line and how a mistake is reported (:class:`UsageError`)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+
+class UsageError(Exception):
+    """A command-line mistake: reported as one ``jaco: error: ...`` line, exit code 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser whose errors raise :class:`UsageError` instead of printing usage and
+    exiting, so that :func:`main` reports every mistake the same way and returns 2."""
+
+    def error(self, message):  # noqa: D401 - argparse API
+        raise UsageError(f"{message} (see '{self.prog} --help')")
+
+
+# -- argument types -------------------------------------------------------------------------------
+def _cell(text: str) -> tuple[int, int]:
+    """``"R,C"`` -> ``(R, C)``."""
+    parts = text.replace(" ", "").split(",")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        return int(parts[0]), int(parts[1])
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a cell as ROW,COL (two integers, e.g. 3,7), got {text!r}"
+        ) from None
+
+
+def _xy(text: str) -> tuple[float, float]:
+    """``"X,Y"`` (metres) -> ``(X, Y)``; finite numbers only."""
+    parts = text.replace(" ", "").split(",")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        x, y = float(parts[0]), float(parts[1])
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise ValueError
+        return x, y
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a world point as X,Y in metres (two finite numbers, e.g. 1.5,-0.25), got {text!r}"
+        ) from None
+
+
+def _int_at_least(low: int, what: str):
+    """An argparse type: an integer >= ``low``, with one clear message for both mistakes."""
+
+    def parse(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            v = low - 1
+        if v < low:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}")
+        return v
+
+    return parse
+
+
+_nonneg_int = _int_at_least(0, "an integer >= 0")
+_pos_int = _int_at_least(1, "a positive integer")
+
+
+def _float(name: str, text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise UsageError(f"--param {name}: {text!r} is not a number") from None
+
+
+def _split_params(items) -> list[tuple[str, str]]:
+    """``["alpha=1", ...]`` -> ``[("alpha", "1"), ...]``; duplicates and missing '=' rejected."""
+    out, seen = [], set()
+    for item in items or ():
+        name, sep, value = item.partition("=")
+        name, value = name.strip(), value.strip()
+        if not sep or not name or not value:
+            raise UsageError(f"--param expects NAME=VALUE (e.g. alpha=1.5), got {item!r}")
+        if name in seen:
+            raise UsageError(f"--param {name} given more than once")
+        seen.add(name)
+        out.append((name, value))
+    return out
+
+
+def parse_params(items) -> dict[str, float]:
+    """``--param NAME=VALUE`` for one run: one float per name."""
+    out = {}
+    for name, value in _split_params(items):
+        if any(ch in value for ch in ",:"):
+            raise UsageError(
+                f"--param {name}={value}: solve takes one value per parameter "
+                "(lists a,b,c and ranges a:b:n are for 'jaco sweep')"
+            )
+        out[name] = _float(name, value)
+    return out
+
+
+def parse_axis(name: str, value: str) -> list[float]:
+    """A sweep axis: ``a:b:n`` (n values from a to b inclusive), ``a,b,c`` or one number."""
+    import numpy as np
+
+    if ":" in value:
+        parts = value.split(":")
+        if len(parts) != 3:
+            raise UsageError(f"--param {name}={value}: a range is START:STOP:COUNT, e.g. 0.5:3:6")
+        a, b = _float(name, parts[0]), _float(name, parts[1])
+        try:
+            n = int(parts[2])
+        except ValueError:
+            n = 0
+        if n < 1:
+            raise UsageError(
+                f"--param {name}={value}: COUNT in START:STOP:COUNT must be a positive integer"
+            )
+        return [float(x) for x in np.linspace(a, b, n)]
+    if "," in value:
+        return [_float(name, v) for v in value.split(",") if v.strip() != ""] or [
+            _float(name, value)
+        ]
+    return [_float(name, value)]
+
+
+def parse_sweep_params(items) -> dict[str, list[float]]:
+    return {name: parse_axis(name, value) for name, value in _split_params(items)}
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())

@@ -1,0 +1,159 @@
+"""The outcome of a run as a person reads it: :class:`Result` (path, length, optimum, gap,
+history, ...), built from the engine's raw arrays by :func:`to_result`.
+
+:meth:`Result.save` and :meth:`Result.save_path` are conveniences that delegate to
+:mod:`jaco.research.record_format`, which writes files and never imports the engine back.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import JacoError
+from ..grid import Grid
+
+
+@dataclass
+class Result:
+    """The outcome of one run: the best path and how the colony got there.
+
+    ``path`` is a ``(K, 2)`` array of ``(row, col)`` (empty when no ant reached the goal);
+    ``length`` and ``optimal`` are in cell units times the grid's ``cell_size``; ``cost`` is the
+    variant's objective (the length in cell units unless the variant says otherwise).
+    """
+
+    variant: str
+    path: np.ndarray
+    length: float
+    success: bool
+    cost: float
+    optimal: float
+    gap: float
+    best_iteration: int
+    history: dict
+    coverage: float
+    seed: int
+    params: dict
+    n_ants: int
+    n_iters: int
+    steplimit: int
+    start: tuple
+    goal: tuple
+    grid: Grid | None = field(default=None, repr=False)
+    pheromone: np.ndarray | None = field(default=None, repr=False)
+    connectivity: int = 8  # records: a rerun needs the move set (jaco.research.records)
+    waypoints: tuple = ()  # the targets visited between start and goal (jaco.waypoints)
+
+    def metrics(self) -> dict:
+        """:func:`jaco.metrics.path_metrics` of the best path (length, turns, heading change E,
+        clearance, safety cost S, any-angle length, valid, gap) plus the run's ``cost``,
+        ``coverage`` and ``best_iteration``. S uses the run's ``rs_cost`` when the variant has one
+        (the multi-objective cost), else :data:`jaco.metrics.SAFETY_RADIUS`, so S and E are those
+        of the cost. A failed run has length inf and no path figures."""
+        from ..metrics import SAFETY_RADIUS, path_metrics
+
+        run = {"cost": self.cost, "coverage": self.coverage, "best_iteration": self.best_iteration}
+        if not self.success:
+            return {"length": math.inf, "valid": False, **run}
+        rs = self.params.get("rs_cost", SAFETY_RADIUS)
+        return {**path_metrics(self.grid, self.path, optimal=self.optimal, rs=rs), **run}
+
+    def to_dict(self) -> dict:
+        """JSON-ready dict (no numpy types; inf written as None where JSON has no inf)."""
+
+        def num(x):
+            x = float(x)
+            return x if math.isfinite(x) else None
+
+        return {
+            "variant": self.variant,
+            "path": self.path.tolist(),
+            "length": num(self.length),
+            "success": bool(self.success),
+            "cost": num(self.cost),
+            "optimal": num(self.optimal),
+            "gap": num(self.gap),
+            "best_iteration": int(self.best_iteration),
+            "coverage": float(self.coverage),
+            "seed": int(self.seed),
+            "params": {k: float(v) for k, v in self.params.items()},
+            "n_ants": self.n_ants,
+            "n_iters": self.n_iters,
+            "steplimit": self.steplimit,
+            "start": list(self.start),
+            "goal": list(self.goal),
+            "map": None if self.grid is None else self.grid.name,
+            "history": {k: [num(x) for x in v] for k, v in self.history.items()},
+        }
+
+    # -- records and world coordinates (jaco.research.records, docs/records.md) ---------------
+    def save(self, path):
+        """Write this run as a JSON record (parameters, seed, variant, the map embedded with its
+        sha256, sizes, connectivity, result and history, jaco/jax versions); returns the path.
+        ``jaco.load_run(path).rerun()`` or ``jaco rerun PATH`` reruns it and checks it bit for bit."""
+        from ..research.record_format import save_run
+
+        return save_run(self, path)
+
+    def to_world(self) -> np.ndarray:
+        """The path as ``(K, 2)`` world ``(x, y)`` in metres (cell centres), from the map's ROS
+        ``resolution`` and ``origin``; a ProblemError when the map has none."""
+        if self.grid is None:
+            raise JacoError("this Result has no grid: world coordinates need the map")
+        return self.grid.cell_to_world(np.asarray(self.path, np.int64).reshape(-1, 2))
+
+    def save_path(self, path, frame: str | None = None):
+        """Write the path as ``.csv`` (columns ``row,col`` and, in the world frame, ``x,y``
+        in metres) or ``.json``; ``frame`` is ``"world"`` or ``"cells"`` (default: world when the
+        map has a resolution). Returns the path written."""
+        from ..research.record_format import save_path
+
+        return save_path(self, path, frame)
+
+
+def path_cells(grid: Grid, start, best_cells) -> np.ndarray:
+    """``(K, 2)`` path from the start cell and the best ant's entered cells."""
+    cells = np.asarray(best_cells)
+    flat = np.concatenate([[grid.index(start)], cells[cells >= 0]])
+    return np.stack(np.divmod(flat, grid.width), axis=1).astype(np.int64)
+
+
+def gap(length, optimal) -> float:
+    """Relative gap to the optimum: inf for a failed run, 0 when the optimum is 0."""
+    if not math.isfinite(length):
+        return math.inf
+    return 0.0 if optimal == 0 else (length - optimal) / optimal
+
+
+def to_result(
+    out, *, grid, variant, start, goal, optimal, seed, params, n_ants, n_iters, steplimit, connectivity=8
+) -> Result:
+    """Convert one (unbatched) :class:`jaco.engine.run.RunOutput` to a :class:`Result`."""
+    success = bool(np.isfinite(out.best_cost))
+    length = float(out.best_length) * grid.cell_size if success else math.inf
+    opt = float(optimal) * grid.cell_size
+    return Result(
+        variant=variant.name,
+        path=path_cells(grid, start, out.best_cells) if success else np.empty((0, 2), np.int64),
+        length=length,
+        success=success,
+        cost=float(out.best_cost),
+        optimal=opt,
+        gap=gap(length, opt),
+        best_iteration=int(out.best_iteration),
+        history={k: np.asarray(v) for k, v in out.history._asdict().items()},
+        coverage=int(out.covered) / grid.n_free,
+        seed=int(seed),
+        params={k: float(params[k]) for k in variant.params},
+        n_ants=n_ants,
+        n_iters=n_iters,
+        steplimit=steplimit,
+        start=tuple(int(v) for v in start),
+        goal=tuple(int(v) for v in goal),
+        grid=grid,
+        pheromone=None if out.tau is None else np.asarray(out.tau),
+        connectivity=int(connectivity),
+    )

@@ -1,0 +1,143 @@
+"""Images as maps (``.png``, ``.pgm``, ``.ppm``, ``.bmp``): a pixel is free when its brightness over
+the format's largest value is above a threshold. PNM is read here (Pillow cannot read ascii P2),
+everything else through Pillow."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import MapFormatError
+from ..grid import Grid
+
+_PNM_CHANNELS = {b"P2": 1, b"P5": 1, b"P3": 3, b"P6": 3}
+
+
+def read_pnm(path) -> tuple[np.ndarray, int]:
+    """Read a PGM/PPM file (P2/P5 grey, P3/P6 colour): ``(values (H, W[, 3]) int64, maxval)``.
+
+    Comments (``#`` to the end of the line) are allowed anywhere in the header, and in the body of
+    the ascii forms. Binary data with maxval > 255 is two bytes per sample, big-endian. Raises
+    :class:`MapFormatError` on a bad magic number, a bad header, or truncated pixel data.
+    """
+    path = Path(path)
+    fname = path.name
+    data = path.read_bytes()
+    magic = data[:2]
+    if magic not in _PNM_CHANNELS:
+        raise MapFormatError(
+            f"{fname}: bad PGM magic number {magic!r}; expected b'P5' (binary) or b'P2' (ascii) "
+            f"(or P6/P3 colour)"
+        )
+    channels = _PNM_CHANNELS[magic]
+    # Header: three integers (width, height, maxval) separated by whitespace and/or comments.
+    pos, fields = 2, []
+    if pos >= len(data) or data[pos : pos + 1] not in b" \t\r\n#":
+        raise MapFormatError(f"{fname}: malformed PGM header after the magic number")
+    while len(fields) < 3:
+        while pos < len(data) and data[pos : pos + 1] in b" \t\r\n\v\f":
+            pos += 1
+        if pos < len(data) and data[pos : pos + 1] == b"#":
+            end = data.find(b"\n", pos)
+            pos = len(data) if end < 0 else end + 1
+            continue
+        start = pos
+        while pos < len(data) and data[pos : pos + 1] not in b" \t\r\n\v\f#":
+            pos += 1
+        token = data[start:pos]
+        if not token:
+            raise MapFormatError(f"{fname}: truncated PGM header (needs width, height and maxval)")
+        if not token.isdigit():
+            raise MapFormatError(f"{fname}: PGM header field {token!r} is not a positive integer")
+        fields.append(int(token))
+    w, h, maxval = fields
+    if w < 1 or h < 1:
+        raise MapFormatError(f"{fname}: PGM size must be positive, got {w}x{h}")
+    if not 1 <= maxval <= 65535:
+        raise MapFormatError(f"{fname}: PGM maxval must be in 1..65535, got {maxval}")
+    n = w * h * channels
+    shape = (h, w, channels) if channels > 1 else (h, w)
+    if magic in (b"P5", b"P6"):
+        pos += 1  # exactly one whitespace byte separates the header from the raster
+        bps = 1 if maxval < 256 else 2
+        raster = data[pos : pos + n * bps]
+        if len(raster) < n * bps:
+            raise MapFormatError(
+                f"{fname}: truncated PGM pixel data: {w}x{h} needs {n * bps} bytes, "
+                f"found {len(raster)}"
+            )
+        values = np.frombuffer(raster, dtype=np.uint8 if bps == 1 else ">u2").astype(np.int64)
+    else:
+        body = re.sub(rb"#[^\n]*", b" ", data[pos:])
+        tokens = body.split()
+        if len(tokens) < n:
+            raise MapFormatError(
+                f"{fname}: truncated PGM pixel data: {w}x{h} needs {n} values, found {len(tokens)}"
+            )
+        if len(tokens) > n:
+            raise MapFormatError(
+                f"{fname}: PGM has {len(tokens)} pixel values, {w}x{h} needs {n}"
+            )
+        try:
+            values = np.array([int(t) for t in tokens], dtype=np.int64)
+        except ValueError:
+            bad = next(t for t in tokens if not t.isdigit())
+            raise MapFormatError(f"{fname}: PGM pixel value {bad!r} is not an integer") from None
+    if (values > maxval).any() or (values < 0).any():
+        raise MapFormatError(f"{fname}: PGM pixel value above maxval {maxval}")
+    return values.reshape(shape), maxval
+
+
+def read_image(path: Path) -> tuple[np.ndarray, bool, int]:
+    """Pixels ``(H, W, C)`` as float, whether the last channel is alpha, and maxval."""
+    if path.suffix.lower() in (".pgm", ".ppm", ".pnm"):
+        values, maxval = read_pnm(path)
+        if values.ndim == 2:
+            values = values[..., None]
+        return values.astype(np.float64), False, maxval
+    try:
+        from PIL import Image, UnidentifiedImageError
+    except ImportError:  # pragma: no cover - pillow is a dependency
+        raise MapFormatError(f"{path.name}: reading this image format needs Pillow") from None
+    try:
+        with Image.open(path) as img:
+            img.load()
+            if img.mode == "P":
+                img = img.convert("RGBA" if "transparency" in img.info else "RGB")
+            elif img.mode == "1":
+                img = img.convert("L")
+            mode = img.mode
+            arr = np.asarray(img)
+    except (UnidentifiedImageError, OSError, SyntaxError) as e:
+        raise MapFormatError(f"{path.name}: cannot read image ({e})") from None
+    if mode in ("I;16", "I;16B", "I;16L", "I"):
+        return arr.astype(np.float64)[..., None], False, 65535
+    if mode in ("L", "LA", "RGB", "RGBA"):
+        arr = arr.astype(np.float64)
+        return (arr if arr.ndim == 3 else arr[..., None]), mode.endswith("A"), 255
+    raise MapFormatError(f"{path.name}: unsupported image mode {mode!r}")
+
+
+def grey(pixels: np.ndarray, has_alpha: bool) -> np.ndarray:
+    """Mean of the colour channels (alpha left out)."""
+    return pixels[..., :-1].mean(axis=2) if has_alpha else pixels.mean(axis=2)
+
+
+def load_image(
+    path: Path, *, threshold: float = 0.5, negate: bool = False, cell_size: float = 1.0
+) -> Grid:
+    """An image as a map: free where ``brightness / maxval > threshold`` (``negate``: darkness)."""
+    if not 0.0 <= threshold < 1.0:
+        raise MapFormatError(f"threshold must be in [0, 1), got {threshold}")
+    pixels, has_alpha, maxval = read_image(path)
+    level = grey(pixels, has_alpha) / maxval
+    if negate:
+        level = 1.0 - level
+    return Grid(
+        level > threshold,
+        name=path.stem,
+        cell_size=cell_size,
+        meta={"source": path.name, "format": "image", "threshold": threshold, "negate": negate},
+    )

@@ -1,0 +1,182 @@
+"""APF-ACO: ant colony optimisation guided by an improved artificial potential field (seed 003).
+
+Dong Xuanliang, Zhao Guiqing, *Robot navigation path planning based on ant colony algorithm guided
+by artificial potential field*, Machinery Design & Manufacture 2021(6):169–173: the heuristic
+built on the APF path length (eq. 10) and the best-half, fitness-weighted pheromone update (eqs. 11,
+12). ``pf-aco`` is the paper's baseline (its ref. 10, Wang, Yang & Zhang 2018): the same scheme
+with the path length of the *classic* APF (attraction plus repulsion), which has local minima.
+
+The APF path length r_jg of every cell is a table of :mod:`jaco.potential`, computed once per run
+by the pheromone rule's init (:func:`apf_init`) and carried in the trail; the improved APF itself
+(3.1 intermediate points, eqs. 3, 4; 3.2 attraction-only local moves, eq. 5) and its
+interpretations are in :mod:`jaco.apf`.
+
+Interpretations of the ACO part (ALGORITHMS.md §7; also in ``docs/variants.md``, section APF-ACO):
+
+* **Heuristic (10)** ``η_ij = 1/(d_ij + r_jg) · (Nmax − Nc + 1)/Nmax`` with Nc = t + 1. The time
+  factor is common to every move of an iteration, so it cancels in the normalised rule (6):
+  computed as printed, it changes no choice.
+* **Update (11, 12).** No deposit while walking; after the iteration the best ⌈k/2⌉ of the k
+  successful ants (ranked by cost, ties to the lower ant index) deposit
+  ``s_i·Δτ_i = (fit_i/Σ fit)·Q/L_i`` on their moves (Δτ = Q/L of eq. 8, fit = 1/L), after the
+  evaporation ``(1 − ρ)τ`` of every move. No successful ant: evaporation only.
+* **τ0** (not printed) = 1: with Q = 1 and ρ = 0.7 a smaller τ0 lets the first iteration's
+  deposits decide the run (docs/variants.md has the sweep).
+* **Weights in log space.** At ρ = 0.7 an unused move's τ falls below float32's range within
+  about 70 iterations (0.3^70 ≈ 1e-37), and τ^α long before: ``τ^α η^β`` would then be 0 (or the
+  engine's floor) for every unused move and η would stop guiding the ants. The construct step
+  computes ``α·log τ + β·log η`` (τ floored at the smallest normal float32), subtracts each
+  cell's maximum and exponentiates: the same probabilities (6), without underflow.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..engine import pheromone as ph
+from ..engine.colony import Colony, step_targets
+from ..engine.variant import make_variant
+from ..engine.walk import pad_steps, walk
+from ..potential import D0, K_REP, apf_distance, classic_distance
+
+__all__ = [
+    "apf_eta",
+    "APFTrail",
+    "apf_init",
+    "deposit_best_half",
+    "log_weights",
+    "apf_colony",
+    "APF_ACO",
+    "PF_ACO",
+    "PAPER_PARAMS",
+]
+
+
+def apf_eta(problem, r, t, n_iters) -> jax.Array:
+    """Eq. (10): ``η_ij = 1/(d_ij + r_jg) · (Nmax − Nc + 1)/Nmax`` ``(N, 8)``, Nc = t + 1
+    (0 where the map forbids the move)."""
+    valid = problem.nbr >= 0
+    rj = r[jnp.where(valid, problem.nbr, 0)]
+    factor = (n_iters - jnp.asarray(t).astype(jnp.float32)) / n_iters
+    return jnp.where(valid, factor / jnp.maximum(problem.step + rj, 1e-6), 0.0)
+
+
+def _heuristic(table):
+    def heuristic(problem, params, t, n_iters):
+        """Eq. (10) with the table computed on the spot (for tools that want one (N, 8) table;
+        the variants' construct step reads the table computed once per run instead)."""
+        return apf_eta(problem, table(problem, params), t, n_iters)
+
+    return heuristic
+
+
+class APFTrail(NamedTuple):
+    """:class:`jaco.engine.pheromone.Trail`'s ``(tau, lo, hi)`` plus the APF distance ``r (N,)``,
+    computed once per run by :func:`apf_init` and carried unchanged through the iterations."""
+
+    tau: jax.Array
+    lo: jax.Array
+    hi: jax.Array
+    r: jax.Array
+
+
+def apf_init(table) -> ph.Rule:
+    """τ = τ0 everywhere and ``r = table(problem, params)`` (once per run, inside the run)."""
+
+    def init(trail, problem, params):
+        tau = jnp.full_like(trail.tau, params.tau0)
+        return APFTrail(tau, trail.lo, trail.hi, table(problem, params).astype(jnp.float32))
+
+    return ph.Rule(init, ph._keep_update)
+
+
+def deposit_best_half() -> ph.Rule:
+    """Eqs. (11, 12): the best ⌈k/2⌉ of the k successful ants deposit ``s_i·Q/L_i`` on each
+    move they took, ``s_i = fit_i / Σ_{depositors} fit``, fit = 1/L (evaporation is a separate
+    piece)."""
+
+    def update(trail, walks, problem, params):
+        fit = ph.inverse(walks.cost)
+        ok = fit > 0
+        k = jnp.sum(ok)
+        rank = jnp.argsort(jnp.argsort(walks.cost, stable=True), stable=True)  # 0 = best
+        dep = ok & (rank < (k + 1) // 2)
+        fit = jnp.where(dep, fit, 0.0)
+        s = fit / jnp.maximum(jnp.sum(fit), 1e-30)
+        per_ant = s * params.q * fit
+        amounts = jnp.broadcast_to(per_ant[None, :], walks.targets.shape)
+        return trail._replace(tau=ph._scatter_add(trail.tau, walks.targets, amounts))
+
+    return ph.Rule(ph._keep_init, update)
+
+
+_TINY = float(np.finfo(np.float32).tiny)
+
+
+def log_weights(tau, eta, valid, params):
+    """``τ^α η^β`` per move, scaled per cell by its largest allowed value (log space, no
+    underflow); exactly 0 where ``valid`` is False, in [1e-30, 1] elsewhere."""
+    lw = params.alpha * jnp.log(jnp.maximum(tau, _TINY)) + params.beta * jnp.log(jnp.maximum(eta, _TINY))
+    lw = jnp.where(valid, lw, -jnp.inf)
+    top = jnp.max(lw, axis=1, keepdims=True)
+    top = jnp.where(jnp.isfinite(top), top, 0.0)
+    return jnp.where(valid, jnp.clip(jnp.exp(lw - top), 1e-30, 1.0), 0.0)
+
+
+def apf_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
+    """One APF-ACO iteration: the random-proportional rule (6) with η of eq. (10) from the table
+    the rule's init stored in the trail (``trail.r``); dead ants fail (cost inf)."""
+    n = problem.nbr.shape[0]
+    valid = problem.nbr >= 0
+    eta = apf_eta(problem, trail.r, t, n_iters)
+    weights = log_weights(trail.tau.reshape(n, 8), eta, valid, params)
+    u = jax.random.uniform(key, (pad_steps(steplimit), n_ants), jnp.float32)
+    tours = walk(problem, weights, u, params.q0, steplimit=steplimit, exploit=variant.transition == "pseudo-random")
+    cost = jnp.where(tours.arrived, variant.cost(tours, problem, params), jnp.inf)
+    targets = step_targets("moves", tours.cells, tours.moves, problem.start, n)
+    return trail, Colony(tours.cells, targets, tours.step_len, cost, tours.length, tours.n_steps, tours.visited)
+
+
+_APF_BASE = ("alpha", "beta", "rho", "q", "tau0")
+#: The paper prints α = 2, β = 6, ρ = 0.7, Q = 1 (``PAPER_PARAMS``). The defaults move β to 20 and
+#: ρ to 0.3: with β = 6 no ant of 50 × 100 ever reached the goal on two dense 30 % maps and the
+#: maze of tests/test_quality.py (before the first arrival only β steers), and ρ = 0.7 locks in
+#: the first iterations' paths (docs/variants.md, APF-ACO).
+PAPER_PARAMS = dict(alpha=2.0, beta=6.0, rho=0.7, q=1.0)
+_APF_DEFAULTS = dict(alpha=2.0, beta=20.0, rho=0.3, q=1.0, tau0=1.0)
+
+APF_ACO = make_variant(
+    "apf-aco",
+    "Dong & Zhao 2021 (seed 003): 3.1, 3.2, eqs. 4, 5, 6, 10, 11, 12",
+    "Dong & Zhao 2021, Machinery Design & Manufacture 2021(6):169–173, eqs. 4, 5 (improved APF), "
+    "6, 10, 11, 12: ACO guided by the improved artificial potential field. η_ij = 1/(d_ij + r_jg)·"
+    "(Nmax − Nc + 1)/Nmax with r_jg the length of the improved APF's path from j to the goal "
+    "(intermediate points beside the last obstacle the straight line crosses, attraction-only "
+    "moves; Euclidean where it loops or is stuck), computed once per run for every cell; roulette "
+    "rule; no deposit while walking; after each iteration τ ← (1−ρ)τ and the best half of the "
+    "successful ants deposit (fit_i/Σfit)·Q/L_i. Pheromone on moves. Interpretations: jaco.apf "
+    "and docs/variants.md (APF-ACO).",
+    _APF_BASE,
+    _APF_DEFAULTS,
+    ph.chain(apf_init(apf_distance), ph.evaporate(), deposit_best_half()),
+    heuristic=_heuristic(apf_distance),
+    construct=apf_colony,
+)
+
+PF_ACO = make_variant(
+    "pf-aco",
+    "Dong & Zhao 2021 (seed 003), baseline of its ref. 10 (Wang, Yang & Zhang 2018)",
+    "The PF-ACO baseline of Dong & Zhao 2021 (their ref. 10): APF-ACO with r_jg from the classic "
+    "artificial potential field, U = ½ρ_g² + ½k_rep(1/d − 1/d0)² within d0 (descent to the lowest "
+    "neighbour; Euclidean where it ends in a local minimum). Everything else as apf-aco "
+    "(eqs. 6, 10, 11, 12). Interpretations: jaco.apf and docs/variants.md (APF-ACO).",
+    _APF_BASE + ("k_rep", "d0"),
+    dict(_APF_DEFAULTS, k_rep=K_REP, d0=D0),
+    ph.chain(apf_init(classic_distance), ph.evaporate(), deposit_best_half()),
+    heuristic=_heuristic(classic_distance),
+    construct=apf_colony,
+)

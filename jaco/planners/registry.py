@@ -1,0 +1,87 @@
+"""The registry: every planner of :mod:`jaco.planners` by name, in :data:`VARIANTS`.
+
+``jaco.solve(..., "mmas")`` and every other entry point that takes a name resolves it here
+(:func:`get_variant`), and the contract test (``tests/test_variants.py``) runs on every entry, so
+a planner added to the folder and listed below is checked with no other edit
+(docs/adding_a_planner.md). The registry imports the planners; no planner imports the registry.
+"""
+
+from __future__ import annotations
+
+from ..engine.cost import COST_PARAMS, COSTS
+from ..engine.variant import Variant
+from ..errors import JacoError, ParamError
+from .apf_guided import APF_ACO, PF_ACO  # APF-ACO and its PF-ACO baseline (seed 003)
+from .chaos import CHAOS_ACO  # chaos ACO (seed 004)
+from .classic import ACS, AS, AS_DENSITY, AS_QUANTITY, EAS, MMAS, RAS  # the classic family (§2)
+from .double import DACA, IDACA  # thesis chapter 3
+from .iaaco import IAACO, IAACO_PRINTED  # IAACO (seed 002)
+from .iaca import IACA  # thesis chapter 4
+from .pg import PG_ACO  # policy-gradient ACO (ALGORITHMS.md §9)
+
+__all__ = ["VARIANTS", "get_variant", "register", "with_cost"]
+
+VARIANTS: dict[str, Variant] = {
+    v.name: v
+    for v in (
+        AS, AS_DENSITY, AS_QUANTITY, EAS, RAS, ACS, MMAS,  # the classic family (§2)
+        DACA, IDACA, IACA,  # the thesis (§3, §4)
+        IAACO, IAACO_PRINTED, APF_ACO, PF_ACO, CHAOS_ACO,  # the papers (§6, §7, §8)
+        PG_ACO,  # beyond the sources (§9)
+    )
+}
+
+
+def get_variant(variant) -> Variant:
+    """A registered variant by name, or a :class:`Variant` as it is."""
+    if isinstance(variant, Variant):
+        return variant
+    if variant not in VARIANTS:
+        raise JacoError(f"unknown variant {variant!r}; registered: {', '.join(sorted(VARIANTS))}")
+    return VARIANTS[variant]
+
+
+def register(variant: Variant) -> Variant:
+    """Add a planner defined outside :mod:`jaco.planners` to :data:`VARIANTS` (so it is found by
+    name, recorded and rerun like the built-in ones); returns it. Registering the same object
+    twice is harmless; another variant under a taken name is an error."""
+    if not isinstance(variant, Variant):
+        raise JacoError(f"only a Variant can be registered, got {type(variant).__name__}")
+    taken = VARIANTS.get(variant.name)
+    if taken is not None and taken is not variant:
+        raise JacoError(f"a different variant is already registered as {variant.name!r}")
+    VARIANTS[variant.name] = variant
+    return variant
+
+
+_WITH_COST: dict = {}
+
+
+def with_cost(variant, cost: str = "multi") -> Variant:
+    """``variant`` (a name or a :class:`Variant`) with another cost: ``"multi"``
+    (:func:`jaco.engine.cost.multi_objective`, and its weights become sweepable parameters) or
+    ``"length"``.
+
+    Cached: the same arguments return the same object, so repeated runs never recompile.
+    The new variant is named ``"<name>+<cost>"``.
+
+    >>> import jaco
+    >>> v = jaco.planners.registry.with_cost("acs", "multi")
+    >>> v.name, v is jaco.planners.registry.with_cost("acs", "multi"), "k_safe" in v.params
+    ('acs+multi', True, True)
+    """
+    if cost not in COSTS:
+        raise ParamError(f"unknown cost {cost!r}; valid: {', '.join(sorted(COSTS))}")
+    base = get_variant(variant)
+    key = (id(base), cost)
+    hit = _WITH_COST.get(key)
+    if hit is None:
+        if base.cost is COSTS[cost]:
+            new = base
+        else:
+            extra = COST_PARAMS if cost == "multi" else ()
+            params = base.params + tuple(p for p in extra if p not in base.params)
+            new = base._replace(name=f"{base.name}+{cost}", cost=COSTS[cost], params=params)
+        hit = (base, new)  # keep the base alive so its id is not reused
+        _WITH_COST[key] = hit
+    return hit[1]

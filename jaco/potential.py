@@ -1,0 +1,280 @@
+"""The artificial potential fields of :mod:`jaco.apf` as per-cell tables, in JAX.
+
+For every cell at once: the next cell of the improved APF (:func:`apf_next`, Dong & Zhao 2021,
+seed 003, 3.1–3.2) and of the classic APF (:func:`classic_next`, attraction plus repulsion), and
+the length r_jg of the walk from each cell to the goal (:func:`chain_lengths`,
+:func:`apf_distance`, :func:`classic_distance`; the Euclidean distance where the walk loops or
+is stuck). The tables are traced from the :class:`~jaco.engine.problem.Problem`'s arrays (no
+static map size is needed, so one compiled run serves every map and start/goal pair of one shape).
+They are the heuristic of the guided planners ``apf-aco`` and ``pf-aco``
+(:mod:`jaco.planners.apf_guided`); :mod:`jaco.apf` holds the same improved APF as a planner of
+its own, in numpy, with the interpretations of the paper both follow, and the tests compare the
+two cell by cell.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .moves import MOVES
+
+__all__ = [
+    "K_ATT",
+    "K_REP",
+    "D0",
+    "MOVE_LEN",
+    "apf_next",
+    "classic_next",
+    "obstacle_distance",
+    "chain_lengths",
+    "apf_distance",
+    "classic_distance",
+]
+
+#: Classic APF (PF-ACO baseline): attraction gain (fixed: only k_rep/k_att matters), default
+#: repulsion gain and range (cells). The sources print none of them; see docs/variants.md.
+K_ATT = 1.0
+K_REP = 100.0
+D0 = 3.0
+
+_SQRT2 = np.float32(np.sqrt(2.0))
+#: |e_k| of the eight moves, float32 (the local-move scores are computed alike in numpy and JAX).
+MOVE_LEN = np.where(np.abs(MOVES).sum(axis=1) == 2, _SQRT2, np.float32(1.0)).astype(np.float32)
+
+
+def _dims(problem):
+    """Width and height (traced int32): move 0 is (−1, 0), so ``offsets[0] = −W``."""
+    w = -problem.offsets[0]
+    return w, problem.nbr.shape[0] // w
+
+
+def _last_blocked_j(free, w, a, b):
+    """The last effective obstacle (flat index, −1 if none) of the segment between cells
+    ``a, b ((2,) int32)``: walk the closed supercover with an exact integer DDA (at a grid vertex
+    the two side cells are touched too) and keep the blocked cell of largest (projection, index)."""
+    dr, dc = b[0] - a[0], b[1] - a[1]
+    sy, sx = jnp.sign(dr), jnp.sign(dc)
+    adr, adc = jnp.abs(dr), jnp.abs(dc)
+
+    def consider(best, r, c, ok):
+        proj = (r - a[0]) * dr + (c - a[1]) * dc
+        idx = r * w + c
+        ok = ok & ~free[jnp.clip(idx, 0, free.shape[0] - 1)]
+        better = ok & ((proj > best[0]) | ((proj == best[0]) & (idx > best[1])))
+        return jnp.where(better, proj, best[0]), jnp.where(better, idx, best[1])
+
+    def body(s):
+        i, j, r, c, best = s
+        lhs, rhs = (2 * i + 1) * adr, (2 * j + 1) * adc
+        vx, vy = lhs <= rhs, lhs >= rhs  # both: through a vertex
+        vertex = vx & vy
+        best = consider(best, r, c + sx, vertex)
+        best = consider(best, r + sy, c, vertex)
+        r, c = r + jnp.where(vy, sy, 0), c + jnp.where(vx, sx, 0)
+        best = consider(best, r, c, jnp.bool_(True))
+        return i + vx, j + vy, r, c, best
+
+    def more(s):
+        return (s[0] < adc) | (s[1] < adr)
+
+    init = (jnp.int32(0), jnp.int32(0), a[0], a[1], (jnp.int32(-(2**31) + 1), jnp.int32(-1)))
+    *_, best = jax.lax.while_loop(more, body, init)
+    return best[1]
+
+
+def _dia_j(x, y):
+    """:func:`jaco.apf._dia` in JAX (same float32 operations, so the same bits)."""
+    f = y / (jnp.abs(x) + jnp.abs(y))
+    return jnp.where(x >= 0, f, jnp.where(y >= 0, jnp.float32(2) - f, jnp.float32(-2) - f))
+
+
+class _Map(NamedTuple):
+    """What the improved APF needs of a map, computed once per problem (all traced)."""
+
+    w: jax.Array
+    h: jax.Array
+    rc: jax.Array  # (N, 2) int32 (row, col)
+    free: jax.Array  # (N,) bool
+    lab: jax.Array  # (N,) obstacle component (smallest flat index in it), −1 on free cells
+    nb_lab: jax.Array  # (N, 8) component of each 8-neighbour, −1 for free or off-map
+
+
+def _map(problem) -> _Map:
+    """Obstacle components (8-connected blocked cells) by min-label propagation with pointer
+    jumping, and each cell's neighbours' components."""
+    w, h = _dims(problem)
+    n = problem.nbr.shape[0]
+    rc = problem.xy.astype(jnp.int32)
+    free = problem.clearance > 0
+    moves = jnp.asarray(MOVES)
+    nr, nc = rc[:, None, 0] + moves[None, :, 0], rc[:, None, 1] + moves[None, :, 1]
+    inb = (nr >= 0) & (nr < h) & (nc >= 0) & (nc < w)
+    nb = jnp.where(inb, nr * w + nc, 0)
+    link = inb & ~free[nb] & ~free[:, None]  # blocked cell next to a blocked cell
+    idx = jnp.arange(n, dtype=jnp.int32)
+    big = jnp.int32(n)
+
+    def body(state):
+        lab, _ = state
+        new = jnp.minimum(lab, jnp.min(jnp.where(link, lab[nb], big), axis=1))
+        new = jnp.where(new < big, jnp.minimum(new, new[jnp.minimum(new, n - 1)]), big)
+        return new, jnp.any(new != lab)
+
+    lab, _ = jax.lax.while_loop(lambda s: s[1], body, (jnp.where(free, big, idx), jnp.bool_(True)))
+    lab = jnp.where(free, -1, lab)
+    nb_lab = jnp.where(inb, lab[nb], -1)
+    return _Map(w, h, rc, free, lab, nb_lab)
+
+
+_CORNERS_J = np.array([(-1, -1), (-1, 1), (1, -1), (1, 1)], np.int32)
+
+
+def _pick_j(m: _Map, pi, p, t, o):
+    """Eq. (4) in JAX (see :meth:`jaco.apf._Ref.pick`): ``(cell (2,), found)``."""
+    k = m.lab[o]
+    u = t - p
+    v = 2 * (m.rc - p[None, :])
+    # Rotated frame: x = u·v, y = u×v, exact integers (held exactly in float32); a corner's
+    # coordinates are the centre's plus one of four per-walker offsets.
+    x = (v[:, 0] * u[0] + v[:, 1] * u[1]).astype(jnp.float32)
+    y = (u[0] * v[:, 1] - u[1] * v[:, 0]).astype(jnp.float32)
+    cr = jnp.asarray(_CORNERS_J)
+    dx = (cr[:, 0] * u[0] + cr[:, 1] * u[1]).astype(jnp.float32)
+    dy = (u[0] * cr[:, 1] - u[1] * cr[:, 0]).astype(jnp.float32)
+    ca = _dia_j(x[:, None] + dx[None, :], y[:, None] + dy[None, :])  # (N, 4)
+    in_k = (m.lab == k)[:, None]
+    hi = jnp.max(jnp.where(in_k, ca, -jnp.inf))
+    lo = jnp.min(jnp.where(in_k, ca, jnp.inf))
+    phi = _dia_j(x, y)
+    idx = jnp.arange(m.rc.shape[0], dtype=jnp.int32)
+    ti = t[0] * m.w + t[1]
+    cand = m.free & jnp.any(m.nb_lab == k, axis=1) & ((phi > hi) | (phi < lo)) & (idx != pi) & (idx != ti)
+    dev = jnp.where(cand, jnp.abs(phi), jnp.inf)
+    tie = cand & (dev == jnp.min(dev))
+    near = jnp.sum((m.rc - p[None, :]) ** 2, axis=1)
+    best = jnp.argmin(jnp.where(tie, near, jnp.iinfo(jnp.int32).max))
+    return m.rc[best], jnp.any(cand)
+
+
+def _apf_next_cell(problem, m: _Map, i):
+    """``next(i)`` of the improved APF (flat index, −1 when stuck; the goal maps to itself)."""
+    p, g = m.rc[i], m.rc[problem.goal]
+    maxlev = m.h + m.w
+    live = m.free[i] & (i != problem.goal)
+
+    def more(s):
+        t, o, level, ok, _ = s
+        return (o >= 0) & ok & (level < maxlev)
+
+    def body(s):
+        t, o, level, ok, (saved, power, lam) = s
+        c, found = _pick_j(m, i, p, t, o)
+        t = jnp.where(found, c, t)
+        o = jnp.where(found, _last_blocked_j(m.free, m.w, p, t), o)
+        # Brent's cycle detection: the chain is a function of T alone, so a repeated T repeats
+        # forever; stop at once instead of running to the level bound.
+        ok = found & ~jnp.all(t == saved)
+        lam = lam + 1
+        reset = lam == power
+        saved = jnp.where(reset, t, saved)
+        return t, o, level + 1, ok, (saved, jnp.where(reset, 2 * power, power), jnp.where(reset, 0, lam))
+
+    o0 = jnp.where(live, _last_blocked_j(m.free, m.w, p, g), -1)
+    brent = (g, jnp.int32(1), jnp.int32(0))
+    t, o, _, ok, _ = jax.lax.while_loop(more, body, (g, o0, jnp.int32(0), jnp.bool_(True), brent))
+    ok = ok & (o < 0)
+    d = t - p
+    allowed = problem.nbr[i] >= 0
+    dot = (jnp.asarray(MOVES[:, 0]) * d[0] + jnp.asarray(MOVES[:, 1]) * d[1]).astype(jnp.float32)
+    score = jnp.where(allowed, dot / jnp.asarray(MOVE_LEN), -jnp.inf)
+    k = jnp.argmax(score)
+    nxt = jnp.where(ok & jnp.any(allowed), problem.nbr[i, k], -1)
+    return jnp.where(i == problem.goal, i, jnp.where(live, nxt, -1))
+
+
+#: Walkers per vmapped batch of :func:`apf_next` (each holds a few ``(N, 8)`` temporaries, and
+#: a batch runs as many levels as its slowest walker needs).
+_WALKERS = 256
+_WALKER_CELLS = 1 << 24
+
+
+def apf_next(problem) -> jax.Array:
+    """``next (N,)`` of the improved APF for every cell (one walker per cell, vmapped in
+    batches): the cell it moves to, −1 where it is stuck or blocked, the goal at the goal."""
+    m = _map(problem)
+    n = problem.nbr.shape[0]
+    cells = jnp.arange(n, dtype=jnp.int32)
+    batch = max(1, min(n, _WALKERS, _WALKER_CELLS // max(n, 1)))
+    return jax.lax.map(lambda i: _apf_next_cell(problem, m, i), cells, batch_size=batch)
+
+
+def obstacle_distance(problem) -> jax.Array:
+    """Distance ``(N,)`` from each cell centre to the nearest blocked cell centre, the map's
+    outside **not** counting (inf on a map without obstacles): brute force over the blocked
+    cells, in batches of cells (``problem.clearance`` counts the outside, which would make every
+    goal on the border a local maximum of the repulsion)."""
+    blocked = problem.clearance <= 0
+    n = problem.nbr.shape[0]
+
+    def one(xy):
+        d2 = jnp.sum((problem.xy - xy[None, :]) ** 2, axis=1)
+        return jnp.sqrt(jnp.min(jnp.where(blocked, d2, jnp.inf)))
+
+    return jax.lax.map(one, problem.xy, batch_size=max(1, min(n, (1 << 22) // max(n, 1))))
+
+
+def classic_next(problem, k_rep, d0, k_att=K_ATT) -> jax.Array:
+    """``next (N,)`` of the classic APF: the allowed neighbour of lowest
+    ``U = ½k_att·ρ_g² + ½k_rep(1/d − 1/d0)²·[d ≤ d0]`` if lower than U here, else −1 (a local
+    minimum); the goal maps to itself. ``d`` = :func:`obstacle_distance` (ρ_g and d Euclidean,
+    in cells)."""
+    free = problem.clearance > 0
+    diff = problem.xy - problem.xy[problem.goal][None, :]
+    d = jnp.maximum(obstacle_distance(problem), 1e-6)
+    rep = jnp.where(d <= d0, 0.5 * k_rep * (1.0 / d - 1.0 / d0) ** 2, 0.0)
+    u = jnp.where(free, 0.5 * k_att * jnp.sum(diff * diff, axis=1) + rep, jnp.inf)
+    valid = problem.nbr >= 0
+    un = jnp.where(valid, u[jnp.where(valid, problem.nbr, 0)], jnp.inf)
+    k = jnp.argmin(un, axis=1)
+    best = jnp.take_along_axis(un, k[:, None], axis=1)[:, 0]
+    nxt = jnp.where(best < u, jnp.take_along_axis(problem.nbr, k[:, None], axis=1)[:, 0], -1)
+    cells = jnp.arange(problem.nbr.shape[0], dtype=jnp.int32)
+    return jnp.where(cells == problem.goal, cells, jnp.where(free, nxt, -1))
+
+
+
+def chain_lengths(problem, nxt):
+    """Length of the walk ``j, next(j), next(next(j)), …`` to the goal for every cell j, by
+    pointer doubling (⌈log2 N⌉ rounds of every walker jumping 2^k steps at once): ``(r (N,),
+    reached (N,))``; r is ``n_straight + √2·n_diagonal`` where the walk reaches the goal and the
+    Euclidean distance to the goal elsewhere (loops, stuck walkers, blocked cells)."""
+    n = problem.nbr.shape[0]
+    cells = jnp.arange(n, dtype=jnp.int32)
+    ok = (nxt >= 0) & (cells != problem.goal)
+    jump = jnp.where(ok, nxt, cells)
+    rc = problem.xy.astype(jnp.int32)
+    diag = jnp.all(jnp.abs(rc[jump] - rc) == 1, axis=1)
+    n1 = (ok & ~diag).astype(jnp.int32)
+    n2 = (ok & diag).astype(jnp.int32)
+    for _ in range(max(1, math.ceil(math.log2(max(n, 2))))):
+        n1, n2, jump = n1 + n1[jump], n2 + n2[jump], jump[jump]
+    reached = jump == problem.goal
+    euclid = jnp.sqrt(jnp.sum((problem.xy - problem.xy[problem.goal][None, :]) ** 2, axis=1))
+    r = n1.astype(jnp.float32) + jnp.float32(_SQRT2) * n2.astype(jnp.float32)
+    return jnp.where(reached, r, euclid), reached
+
+
+def apf_distance(problem, params=None) -> jax.Array:
+    """r_jg (N,) of the improved APF (seed 003, 3.1–3.2), Euclidean where it fails."""
+    return chain_lengths(problem, apf_next(problem))[0]
+
+
+def classic_distance(problem, params) -> jax.Array:
+    """r_jg (N,) of the classic APF with ``params.k_rep``, ``params.d0`` (PF-ACO, ref. 10),
+    Euclidean where it ends in a local minimum."""
+    return chain_lengths(problem, classic_next(problem, params.k_rep, params.d0))[0]
