@@ -349,6 +349,53 @@ def test_p5_binary_equals_p2(tmp_path):
     np.testing.assert_array_equal(maps.load(_ros(tmp_path)).meta["occupancy"], P2_CODES)
 
 
+def _pillow_values(path):
+    with Image.open(path) as img:
+        return np.asarray(img).astype(np.int64)
+
+
+PNM_AS_WRITTEN = {  # maxval 255, or 65535 in grey: Pillow keeps the samples as they are
+    "p2-comments.pgm": P2_TEXT.encode(),
+    "p5.pgm": b"P5\n# c\n3 2\n255\n" + np.array(P2_VALUES, np.uint8).tobytes(),
+    "p3.ppm": b"P3 2 1 255\n255 0 0  10 20 30\n",
+    "p6.ppm": b"P6\n2 1\n255\n" + bytes([255, 0, 0, 10, 20, 30]),
+    "p2-16.pgm": b"P2 3 1 65535\n65535 0 30000\n",
+    "p5-16.pgm": b"P5 3 1 65535\n" + np.array([[65535, 0, 30000]], ">u2").tobytes(),
+}
+
+
+def test_pillow_reads_the_usual_pnm_files_as_written(tmp_path):
+    """Files of maxval 255 (and grey 65535), the bundled ROS images included, go through Pillow:
+    its pixels are the file's samples, exactly what the raster reader finds."""
+    from jaco.maps import image
+
+    paths = [DATA / "ros" / f"{n}.pgm" for n in ROS_COUNTS]
+    for name, data in PNM_AS_WRITTEN.items():
+        (tmp_path / name).write_bytes(data)
+        paths.append(tmp_path / name)
+    for p in paths:
+        written = image._pnm_raster(p.read_bytes(), p.name)
+        np.testing.assert_array_equal(_pillow_values(p), written, err_msg=p.name)
+        values, _ = maps.read_pnm(p)
+        np.testing.assert_array_equal(values, written, err_msg=p.name)
+
+
+def test_pillow_stretches_other_maxvals_so_they_are_read_here(tmp_path):
+    """Pillow rescales the samples of any other maxval to 8 bits (16 for grey) and cuts 16-bit
+    colour to 8 bits; read_pnm keeps the file's values, so brightness = value / maxval exactly."""
+    (tmp_path / "half.pgm").write_bytes(b"P2 3 1 100\n0 50 100\n")
+    assert _pillow_values(tmp_path / "half.pgm").tolist() == [[0, 128, 255]]  # 128/255 > 1/2
+    values, maxval = maps.read_pnm(tmp_path / "half.pgm")
+    assert values.tolist() == [[0, 50, 100]] and maxval == 100
+    # Exactly half is not brighter than the threshold 0.5: blocked (Pillow's 128/255 would be free).
+    assert maps.load(tmp_path / "half.pgm").free.tolist() == [[False, False, True]]
+    colour = np.array([[[65535, 0, 1234]]], ">u2")
+    (tmp_path / "deep.ppm").write_bytes(b"P6 1 1 65535\n" + colour.tobytes())
+    assert _pillow_values(tmp_path / "deep.ppm").tolist() == [[[255, 0, 5]]]
+    values, maxval = maps.read_pnm(tmp_path / "deep.ppm")
+    assert values.tolist() == [[[65535, 0, 1234]]] and maxval == 65535
+
+
 def test_pgm_maxval_scaling_and_16_bit(tmp_path):
     # maxval 15: 15 is white (free), 0 black (occupied), 8 is p = 7/15 = 0.47 (unknown)
     (tmp_path / "m.pgm").write_text("P2 3 1 15\n15 0 8\n")
@@ -438,12 +485,19 @@ def test_ros_yaml_missing_keys_and_bad_yaml(tmp_path):
     [
         (b"P7\n3 2\n255\n" + bytes(6), r"m\.pgm: bad PGM magic number b'P7'"),
         (b"GIF89a", r"bad PGM magic number"),
-        (b"P5\n3 2\n255\n" + bytes(5), r"truncated PGM pixel data: 3x2 needs 6 bytes, found 5"),
-        (b"P2\n3 2\n255\n1 2 3 4 5\n", r"truncated PGM pixel data: 3x2 needs 6 values, found 5"),
+        # maxval 255: Pillow reads the pixels, and says what is wrong
+        (b"P5\n3 2\n255\n" + bytes(5), r"m\.pgm: cannot read image \(image file is truncated"),
+        (b"P2\n3 2\n255\n1 2 3 4 5\n", r"m\.pgm: cannot read image \(not enough image data\)"),
+        (b"P2\n2 1\n255\n1 z\n", r"m\.pgm: cannot read image \(invalid literal for int\(\) with base 10: b'z'\)"),
+        (b"P2\n2 1\n255\n1 300\n", r"m\.pgm: cannot read image \(Channel value too large"),
+        # other maxvals: read here
+        (b"P5\n3 2\n100\n" + bytes(5), r"truncated PGM pixel data: 3x2 needs 6 bytes, found 5"),
+        (b"P2\n3 2\n100\n1 2 3 4 5\n", r"truncated PGM pixel data: 3x2 needs 6 values, found 5"),
+        (b"P2\n2 1\n100\n1 z\n", r"pixel value b'z' is not an integer"),
+        (b"P2\n2 1\n100\n1 200\n", r"above maxval 100"),
+        # the header is read here in every case
         (b"P5\n3 2\n", r"truncated PGM header"),
         (b"P5\n3 x 255\n", r"header field b'x' is not a positive integer"),
-        (b"P2\n2 1\n255\n1 z\n", r"pixel value b'z' is not an integer"),
-        (b"P2\n2 1\n100\n1 200\n", r"above maxval 100"),
         (b"P5\n3 2\n70000\n" + bytes(12), r"maxval must be in 1\.\.65535"),
     ],
 )

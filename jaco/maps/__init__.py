@@ -4,7 +4,7 @@ Loaders (:func:`load` dispatches on the file suffix)
 
 * MovingAI ``.map`` (Sturtevant 2012): ``.``, ``G``, ``S`` passable; ``@``, ``O``, ``T``, ``W``
   blocked.
-* ROS map_server ``.yaml`` + image (PGM P2/P5 read here, PNG etc. through Pillow), with the
+* ROS map_server ``.yaml`` + image (through Pillow, :mod:`jaco.maps.image`), with the
   trinary/scale/raw rules of ROS 1 ``map_server/src/image_loader.cpp``. Unknown cells are not free.
 * Plain text ``.txt``: ``.`` free, ``#`` or ``@`` blocked (:func:`save_text` writes it).
 * numpy ``.npy``: a 2-D boolean array, or integers in {0, 1}; True / 1 = free.

@@ -1,6 +1,12 @@
-"""Images as maps (``.png``, ``.pgm``, ``.ppm``, ``.bmp``): a pixel is free when its brightness over
-the format's largest value is above a threshold. PNM is read here (Pillow cannot read ascii P2),
-everything else through Pillow."""
+"""Images as maps (``.png``, ``.pgm``, ``.ppm``, ``.bmp``), read through Pillow.
+
+A pixel is free when its brightness over the format's largest value (``maxval``) is above a
+threshold. Pillow decodes every format; for PGM/PPM it keeps the samples as the file has them when
+``maxval`` is 255, or 65535 in a grey map, but stretches any other ``maxval`` to the full 8 or 16
+bits (with rounding: a value 50 of ``maxval`` 100 becomes 128 of 255, brighter than half) and cuts
+16-bit colour to 8 bits. Only for those files :func:`read_pnm` reads the raster itself, so that
+``value / maxval`` is exactly the file's.
+"""
 
 from __future__ import annotations
 
@@ -15,24 +21,36 @@ from ..grid import Grid
 _PNM_CHANNELS = {b"P2": 1, b"P5": 1, b"P3": 3, b"P6": 3}
 
 
-def read_pnm(path) -> tuple[np.ndarray, int]:
-    """Read a PGM/PPM file (P2/P5 grey, P3/P6 colour): ``(values (H, W[, 3]) int64, maxval)``.
+def _pillow(path: Path) -> tuple[np.ndarray, str]:
+    """The decoded pixels and Pillow's mode (palette images expanded, bilevel ones as grey)."""
+    try:
+        from PIL import Image, UnidentifiedImageError
+    except ImportError:  # pragma: no cover - pillow is a dependency
+        raise MapFormatError(f"{path.name}: reading this image format needs Pillow") from None
+    try:
+        with Image.open(path) as img:
+            img.load()
+            if img.mode == "P":
+                img = img.convert("RGBA" if "transparency" in img.info else "RGB")
+            elif img.mode == "1":
+                img = img.convert("L")
+            return np.asarray(img), img.mode
+    except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as e:
+        raise MapFormatError(f"{path.name}: cannot read image ({e})") from None
 
-    Comments (``#`` to the end of the line) are allowed anywhere in the header, and in the body of
-    the ascii forms. Binary data with maxval > 255 is two bytes per sample, big-endian. Raises
-    :class:`MapFormatError` on a bad magic number, a bad header, or truncated pixel data.
-    """
-    path = Path(path)
-    fname = path.name
-    data = path.read_bytes()
+
+def _pnm_header(data: bytes, fname: str) -> tuple[bytes, int, int, int, int]:
+    """``(magic, width, height, maxval, end of the header)`` of a PGM/PPM file.
+
+    Comments (``#`` to the end of the line) are allowed anywhere in the header. Raises
+    :class:`MapFormatError` on a bad magic number or a bad header."""
     magic = data[:2]
     if magic not in _PNM_CHANNELS:
         raise MapFormatError(
             f"{fname}: bad PGM magic number {magic!r}; expected b'P5' (binary) or b'P2' (ascii) "
             f"(or P6/P3 colour)"
         )
-    channels = _PNM_CHANNELS[magic]
-    # Header: three integers (width, height, maxval) separated by whitespace and/or comments.
+    # Three integers (width, height, maxval) separated by whitespace and/or comments.
     pos, fields = 2, []
     if pos >= len(data) or data[pos : pos + 1] not in b" \t\r\n#":
         raise MapFormatError(f"{fname}: malformed PGM header after the magic number")
@@ -57,6 +75,17 @@ def read_pnm(path) -> tuple[np.ndarray, int]:
         raise MapFormatError(f"{fname}: PGM size must be positive, got {w}x{h}")
     if not 1 <= maxval <= 65535:
         raise MapFormatError(f"{fname}: PGM maxval must be in 1..65535, got {maxval}")
+    return magic, w, h, maxval, pos
+
+
+def _pnm_raster(data: bytes, fname: str) -> np.ndarray:
+    """The samples ``(H, W[, 3])`` of a PGM/PPM file as written, whatever its ``maxval``.
+
+    Binary data with maxval > 255 is two bytes per sample, big-endian; the ascii forms may hold
+    comments in the body too. Raises :class:`MapFormatError` on truncated pixel data or a value
+    above maxval."""
+    magic, w, h, maxval, pos = _pnm_header(data, fname)
+    channels = _PNM_CHANNELS[magic]
     n = w * h * channels
     shape = (h, w, channels) if channels > 1 else (h, w)
     if magic in (b"P5", b"P6"):
@@ -87,7 +116,24 @@ def read_pnm(path) -> tuple[np.ndarray, int]:
             raise MapFormatError(f"{fname}: PGM pixel value {bad!r} is not an integer") from None
     if (values > maxval).any() or (values < 0).any():
         raise MapFormatError(f"{fname}: PGM pixel value above maxval {maxval}")
-    return values.reshape(shape), maxval
+    return values.reshape(shape)
+
+
+def read_pnm(path) -> tuple[np.ndarray, int]:
+    """Read a PGM/PPM file (P2/P5 grey, P3/P6 colour): ``(values (H, W[, 3]) int64, maxval)``.
+
+    The values are the file's samples, ``0..maxval``. Pillow decodes files whose samples it keeps
+    as they are (``maxval`` 255, or 65535 in a grey map); the others are read by
+    :func:`_pnm_raster` (see the module docstring). Raises :class:`MapFormatError` on a bad magic
+    number, a bad header, or pixel data that cannot be read.
+    """
+    path = Path(path)
+    data = path.read_bytes()
+    magic, _, _, maxval, _ = _pnm_header(data, path.name)
+    if maxval == 255 or (maxval == 65535 and _PNM_CHANNELS[magic] == 1):
+        values, _ = _pillow(path)
+        return values.astype(np.int64), maxval
+    return _pnm_raster(data, path.name), maxval
 
 
 def read_image(path: Path) -> tuple[np.ndarray, bool, int]:
@@ -97,21 +143,7 @@ def read_image(path: Path) -> tuple[np.ndarray, bool, int]:
         if values.ndim == 2:
             values = values[..., None]
         return values.astype(np.float64), False, maxval
-    try:
-        from PIL import Image, UnidentifiedImageError
-    except ImportError:  # pragma: no cover - pillow is a dependency
-        raise MapFormatError(f"{path.name}: reading this image format needs Pillow") from None
-    try:
-        with Image.open(path) as img:
-            img.load()
-            if img.mode == "P":
-                img = img.convert("RGBA" if "transparency" in img.info else "RGB")
-            elif img.mode == "1":
-                img = img.convert("L")
-            mode = img.mode
-            arr = np.asarray(img)
-    except (UnidentifiedImageError, OSError, SyntaxError) as e:
-        raise MapFormatError(f"{path.name}: cannot read image ({e})") from None
+    arr, mode = _pillow(path)
     if mode in ("I;16", "I;16B", "I;16L", "I"):
         return arr.astype(np.float64)[..., None], False, 65535
     if mode in ("L", "LA", "RGB", "RGBA"):
