@@ -245,7 +245,7 @@ def test_console_script_user_error_subprocess():
     assert proc.stderr.strip().startswith("jaco: error:") and "Traceback" not in proc.stderr
 
 
-# -- ROS world coordinates: --start-xy / --goal-xy, --path-csv (records feature, issue 5) ------
+# -- ROS world coordinates: --start-xy / --goal-xy, --path-csv ---------------------------------
 def test_solve_with_world_points_on_a_bundled_ros_map(tmp_path, capsys):
     # lse_arena.yaml: 60x80 cells, resolution 0.05 m, origin [0, 0, 0]. (0.31, 0.52) m lies in
     # column floor(0.31 / 0.05) = 6, row 59 - floor(0.52 / 0.05) = 49; its centre is (0.325, 0.525).

@@ -1,4 +1,4 @@
-"""Quality against the exact optimum (issue: mmas and acs within 5 % of it in median).
+"""Quality against the exact optimum (mmas and acs within 5 % of it in median).
 
 Random maps 20-40 cells a side with 10-30 % obstacles and MovingAI 32x32 scenarios, 50 ants x
 100 iterations, default parameters. Every returned path is checked cell by cell.
@@ -45,7 +45,7 @@ def test_median_gap_within_five_percent(variant):
     assert np.isfinite(gaps).mean() >= 0.8, gaps
 
 
-# Issue 5: the papers' planners, default parameters. Measured (seed 0): failures / median gap
+# The papers' planners, default parameters. Measured (seed 0): failures / median gap
 # iaaco 1 / 0.5 %, iaaco-printed 1 / 0.0 %, apf-aco 1 / 5.4 %, pf-aco 0 / 1.9 %, chaos-aco 1;
 # the bound on the median gap leaves margin for other engines' random streams.
 @pytest.mark.parametrize("variant", ["iaaco", "iaaco-printed", "apf-aco", "pf-aco", "chaos-aco"])
