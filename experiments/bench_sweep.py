@@ -34,6 +34,8 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
+sys.path.insert(0, str(HERE))
+from report import write_section  # noqa: E402 (the experiments' shared helpers)
 SECTION = "bench_sweep"
 RANGES = {"alpha": (0.5, 4.0), "beta": (1.0, 8.0), "rho": (0.02, 0.5)}
 FULL = dict(configs=10_000, n_ants=20, n_iters=20, budget=2 << 30, variants=["mmas", "daca"], estimate=True)
@@ -167,18 +169,6 @@ def report(R: dict, command: str) -> str:
     return "\n".join(lines)
 
 
-def write_section(path: Path, body: str):
-    """Replace this script's section of ``path`` (between markers), or append it."""
-    start, end = f"<!-- {SECTION}:start -->", f"<!-- {SECTION}:end -->"
-    block = f"{start}\n{body.rstrip()}\n{end}\n"
-    text = path.read_text() if path.exists() else "# Benchmarks\n"
-    if start in text and end in text:
-        text = text[: text.index(start)] + block + text[text.index(end) + len(end) + 1 :]
-    else:
-        text = text.rstrip() + "\n\n" + block
-    path.write_text(text)
-
-
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--smoke", action="store_true", help="tiny sizes (8 ants × 5 iterations, 64 MiB budget)")
@@ -215,7 +205,7 @@ def main(argv=None):
     text = report(R, " ".join(["python experiments/bench_sweep.py"] + [shlex.quote(a) for a in shown]))
     print(text)
     if out is not None:
-        write_section(out, text)
+        write_section(out, SECTION, text)
         print(f"wrote {out}")
     if args.json:
         Path(args.json).write_text(json.dumps(R, indent=1))

@@ -42,7 +42,8 @@ from jaco.metrics import SAFETY_RADIUS, path_metrics, validate_path
 from jaco.planners.classic import BASE
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from thesis_tables import fmt, write_section  # noqa: E402 (same folder; shared section writer)
+from report import write_section  # noqa: E402 (the experiments' shared helpers)
+from thesis_tables import fmt  # noqa: E402
 
 MAPS = ["simple-20", "complex-30"]
 SQRT2 = math.sqrt(2.0)

@@ -1,28 +1,25 @@
 #!/usr/bin/env python
-"""Where one colony iteration spends its time, against the native loop: why jaco's sweep runs at a
-fraction of a hand-written numba loop on XLA:CPU, and what a work-queue walk would change.
+"""Where one colony iteration spends its time, part by part, with the native walk and with the JAX
+walk, against the native numba loop.
 
     python experiments/profile_iteration.py            # full size, updates BENCHMARKS.md (its section)
     python experiments/profile_iteration.py --smoke    # tiny sizes, writes nothing unless --out
 
 Workload: one iteration of the throughput benchmark's sweep (``bench_throughput.py``): ant-cycle AS,
 ``B`` configurations (β ∈ {1, 2, 4, 8} cycled, first-iteration pheromone) × 50 ants on the 30×30,
-25 % map, step limit 240, all configurations vmapped as ``jaco.sweep`` runs them. Each part of
-the iteration is jitted and timed alone (process CPU time, best of ``reps``):
+25 % map, step limit 240, all configurations vmapped as ``jaco.sweep`` runs them. Each part is
+jitted and timed alone (process CPU time and wall time, best of ``reps``), once per walk:
 
-* uniforms: the iteration's ``(S_pad, ants)`` uniforms per configuration (threefry);
-* weights: τ^α η^β for every move, once per iteration;
-* walk: :func:`jaco.engine.walk.walk`, every ant in lock-step, chunks of 8 steps in a while-loop;
-* construct: the whole construction step (uniforms + weights + walk + cells, lengths, targets);
-* update: the pheromone rule (evaporation + ant-cycle deposit).
+* weights: τ^α η^β for every move (:func:`jaco.engine.colony.move_weights`);
+* walk: the ants' walks alone — the C++ kernel (:func:`jaco.engine.native.walk`) or the JAX walk
+  (:func:`jaco.engine.walk.jax_walk`), the same moves;
+* tours: step lengths, path lengths and the pheromone element of every step;
+* pheromone update: evaporation and the ant-cycle deposit (the kernel's deposit with the native
+  walk, XLA's scatter-add with the JAX walk);
+* whole iteration: the mean over a 20-iteration run, everything in one compiled program.
 
-It also measures the two costs that bound a lock-step walk (every ant on its own lane until the
-batch's last ant stops): the fixed cost of one loop step (the walk with a single ant) and the cost
-per lane-step, and the share of lane-steps that are real ant steps (lane utilisation). jaco's
-engine walks a batch of more than ``jaco.engine.walk.POOL`` ants on a pool of that many lanes, each
-lane taking the next ant of any configuration when its ant stops; the last table times that walk
-for several pool sizes (same moves as the lock-step walk, checked bit for bit). The native loop
-(``native_reference.py``) gives the per-iteration bar. Nothing here asserts a time.
+The native loop (``native_reference.py``) gives the per-iteration bar. The script exits 1 when the
+two walks' moves differ. Nothing here asserts a time.
 """
 
 from __future__ import annotations
@@ -36,12 +33,13 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 SECTION = "profile_iteration"
-FULL = dict(configs=64, n_ants=50, reps=7, lanes=[128, 256, 512, 1024], native_iters=20)
-SMOKE = dict(configs=4, n_ants=8, reps=1, lanes=[8, 16], native_iters=2)
+FULL = dict(configs=64, n_ants=50, reps=15, run_iters=20, native_iters=20)
+SMOKE = dict(configs=4, n_ants=8, reps=1, run_iters=2, native_iters=2)
+WALKS = ("native", "jax")
 
 
-def cpu_ms(fn, *args, reps):
-    """Best process CPU time (ms) and wall time (ms) of ``reps`` calls after one warm-up call."""
+def timed_ms(fn, *args, reps):
+    """Best process CPU time (ms) and best wall time (ms) of ``reps`` calls after one warm-up call."""
     import jax
 
     jax.block_until_ready(fn(*args))
@@ -60,80 +58,69 @@ def measure(cfg) -> dict:
     import numpy as np
 
     import jaco
-    from jaco.engine.colony import move_weights, single_colony
+    import jaco.engine.run as jr
+    from jaco.engine import native
+    from jaco.engine.colony import move_weights, step_targets
     from jaco.engine.pheromone import Trail, Walks
     from jaco.engine.problem import make_problem, to_device
-    from jaco.engine.walk import CHUNK, pad_steps, walk
+    from jaco.engine.walk import _tours, jax_walk, key_words
 
     B, A, reps = cfg["configs"], cfg["n_ants"], cfg["reps"]
     grid = jaco.maps.random_map(30, 0.25, seed=0)
     start, goal = (0, 0), (29, 29)
     prob = to_device(make_problem(grid, start, goal))
-    steplimit = jaco.engine.run.default_steplimit(grid)
-    s_pad = pad_steps(steplimit)
+    steplimit = jr.default_steplimit(grid)
     var = jaco.VARIANTS["as"]
     betas = jnp.asarray(np.resize([1.0, 2.0, 4.0, 8.0], B), jnp.float32)
     P = jax.vmap(lambda b: var.default_params().replace(beta=b))(betas)
     empty = Trail(jnp.zeros(8 * prob.nbr.shape[0]), jnp.float32(0), jnp.float32(jnp.inf))
     trail = jax.vmap(lambda p: var.rule.init(empty, prob, p))(P)
     keys = jax.random.split(jax.random.key(0), B)
+    words = jax.vmap(key_words)(keys)
+    n = prob.nbr.shape[0]
 
-    uniforms = jax.jit(jax.vmap(lambda k: jax.random.uniform(k, (s_pad, A))))
-    weights = jax.jit(jax.vmap(lambda tr, p: move_weights(var, tr, prob, p, 0, 100)))
-    W, U = weights(trail, P), uniforms(keys)
-    from jaco.engine.walk import _lockstep_walk
+    walk_fns = {"native": native.walk, "jax": jax_walk}
+    parts, moves, real = {}, {}, None
+    for walk in WALKS:
+        if walk == "native" and not native.available():
+            continue
+        jaco.set_walk(walk)
+        try:
+            weights = jax.jit(jax.vmap(lambda tr, p: move_weights(var, tr, prob, p, 0, 100)))
+            W = weights(trail, P)
+            walk_only = jax.jit(jax.vmap(lambda w, k: walk_fns[walk](
+                w, k, prob.start, prob.goal, jnp.float32(0), prob.offsets, n_ants=A, steplimit=steplimit, exploit=False)))
+            out = walk_only(W, words)
+            moves[walk] = np.asarray(out[0])
+            real = int(np.sum(np.asarray(out[2])))
 
-    lockstep = jax.jit(jax.vmap(lambda w, u: _lockstep_walk(w, u, prob.start, prob.goal, 0.0, offsets=prob.offsets,
-                                                             steplimit=steplimit, exploit=False)))
+            def tours_of(walks):
+                t = _tours(*walks)
+                return t, step_targets("moves", t.cells, t.moves, prob.start, n)
 
-    def pooled():  # jaco's walk under vmap, traced anew so that it reads the current POOL
-        return jax.jit(jax.vmap(lambda w, u: walk(prob, w, u, 0.0, steplimit=steplimit, exploit=False)))
+            tours = jax.jit(jax.vmap(tours_of))
+            t, targets = tours(out)
+            cost = jnp.where(t.arrived, t.length, jnp.inf)
 
-    construct = jax.jit(jax.vmap(lambda tr, p, k: single_colony(var, prob, tr, p, 0, 100, k, n_ants=A, steplimit=steplimit)))
-    _, col = construct(trail, P, keys)
+            def update(tr, targets, step_len, cost, p):
+                walks = Walks(targets, step_len, cost, targets[:, 0], step_len[:, 0], cost[0])
+                return var.rule.update(tr, walks, prob, p)
 
-    def update(tr, c, p):
-        walks = Walks(c.targets, c.step_len, c.cost, c.targets[:, 0], c.step_len[:, 0], c.cost[0])
-        return var.rule.update(tr, walks, prob, p)
+            update = jax.jit(jax.vmap(update))
+            iters = cfg["run_iters"]
+            run = jax.jit(jax.vmap(jr.make_run(var, n_ants=A, n_iters=iters, steplimit=steplimit), in_axes=(0, None, 0)))
+            c, w = timed_ms(run, keys, prob, P, reps=max(1, reps // 3))
+            parts[walk] = {
+                "weights (τ^α η^β of every move)": timed_ms(weights, trail, P, reps=reps),
+                "walk": timed_ms(walk_only, W, words, reps=reps),
+                "tours (lengths, pheromone elements of every step)": timed_ms(tours, out, reps=reps),
+                "pheromone update (evaporation, deposit)": timed_ms(update, trail, targets, t.step_len, cost, P, reps=reps),
+                f"whole iteration (mean over a {iters}-iteration run)": (c / iters, w / iters),
+            }
+        finally:
+            jaco.set_walk(None)
 
-    update = jax.jit(jax.vmap(update))
-    parts = {
-        "uniforms": cpu_ms(uniforms, keys, reps=reps),
-        "weights": cpu_ms(weights, trail, P, reps=reps),
-        "walk, lock-step (every ant its own lane)": cpu_ms(lockstep, W, U, reps=reps),
-        f"walk, jaco (pool of {jaco.engine.walk.POOL} lanes beyond {jaco.engine.walk.POOL} ants)": cpu_ms(pooled(), W, U, reps=reps),
-        "construct (all of the above + cells, lengths)": cpu_ms(construct, trail, P, keys, reps=reps),
-        "pheromone update": cpu_ms(update, trail, col, P, reps=reps),
-    }
-    iters = 10
-    run = jax.jit(jax.vmap(jaco.make_run(var, n_ants=A, n_iters=iters, steplimit=steplimit), in_axes=(0, None, 0)))
-    c, w = cpu_ms(run, keys, prob, P, reps=max(1, reps // 3))
-    parts["whole iteration (mean over a 10-iteration run)"] = (c / iters, w / iters)
-
-    moves, _ = lockstep(W, U)
-    n_steps = jnp.sum(moves >= 0, axis=1)
-    real = int(jnp.sum(n_steps))
-    loop_steps = int(-(-int(jnp.max(n_steps)) // CHUNK) * CHUNK)
-    lanes = B * A
-
-    # Fixed cost of a loop step: the same walk with one ant (its own steps, one lane).
-    one = jax.jit(lambda w, u: walk(prob, w, u, 0.0, steplimit=steplimit, exploit=False))
-    single_steps = int(-(-int(one(W[0], U[0][:, :1]).n_steps[0]) // CHUNK) * CHUNK)
-    one_ms, _ = cpu_ms(one, W[0], U[0][:, :1], reps=reps)
-
-    queue = []
-    default_pool = jaco.engine.walk.POOL
-    try:
-        for L in cfg["lanes"]:
-            jaco.engine.walk.POOL = L
-            f = pooled()
-            same = bool(jnp.array_equal(f(W, U).moves, moves))
-            cpu, wall = cpu_ms(f, W, U, reps=reps)
-            queue.append(dict(lanes=L, cpu_ms=cpu, wall_ms=wall, same=same))
-    finally:
-        jaco.engine.walk.POOL = default_pool
-
-    native = None
+    native_bar = None
     try:
         import native_reference as nr
 
@@ -149,53 +136,52 @@ def measure(cfg) -> dict:
         native_all()  # compile
         c0 = time.process_time()
         steps = native_all()
-        native = dict(ms_per_iteration=1e3 * (time.process_time() - c0) / n_it, steps_per_iteration=steps / n_it)
+        native_bar = dict(ms_per_iteration=1e3 * (time.process_time() - c0) / n_it, steps_per_iteration=steps / n_it)
     except ImportError:
         pass
-    return dict(cfg=cfg, B=B, A=A, steplimit=steplimit, parts=parts, real=real, loop_steps=loop_steps, lanes=lanes,
-                one_ms=one_ms, single_steps=single_steps, queue=queue, native=native, jax=jax.__version__)
+    same = len(moves) < 2 or bool(np.array_equal(moves["native"], moves["jax"]))
+    return dict(cfg=cfg, B=B, A=A, steplimit=steplimit, parts=parts, real=real, same=same, native=native_bar,
+                jax=jax.__version__, built=native.available())
 
 
 def report(R, command) -> str:
-    from bench_throughput import fmt, table
+    from report import fmt, table
 
-    walk_cpu = R["parts"]["walk, lock-step (every ant its own lane)"][0]
-    lane_ns = 1e6 * walk_cpu / (R["lanes"] * R["loop_steps"])
-    step_us = 1e3 * R["one_ms"] / max(R["single_steps"], 1)
+    walks = [w for w in WALKS if w in R["parts"]]
+    names = list(R["parts"][walks[0]])
+    header = ["part"] + [f"{w} walk: {kind} ms" for w in walks for kind in ("CPU", "wall")]
+    rows = [[name] + [R["parts"][w][name][i] for w in walks for i in (0, 1)] for name in names]
     lines = [
         "## One iteration, part by part (`experiments/profile_iteration.py`)",
         "",
-        f"Command: `{command}` (jax {R['jax']}). Process CPU time, best of the repetitions; one iteration of the "
-        f"throughput sweep: {R['B']} configurations × {R['A']} ants, vmapped, 30x30 map with 25 % obstacles, "
-        f"step limit {R['steplimit']}, first-iteration pheromone.",
+        f"Command: `{command}` (jax {R['jax']}). Process CPU time and wall time, best of the repetitions, "
+        f"each part jitted alone; one iteration of the throughput sweep: {R['B']} configurations × {R['A']} ants, "
+        f"vmapped, 30x30 map with 25 % obstacles, step limit {R['steplimit']}, first-iteration pheromone. "
+        "CPU time above wall time means both cores worked.",
         "",
-        table(["part", "CPU ms", "wall ms"], [(k, c, w) for k, (c, w) in R["parts"].items()]),
+        table(header, rows),
         "",
-        f"Lock-step walk: {fmt(R['real'])} real ant-steps in {R['loop_steps']} loop steps × {R['lanes']} lanes: "
-        f"lane utilisation {100 * R['real'] / (R['lanes'] * R['loop_steps']):.0f} %, "
-        f"{lane_ns:.0f} ns CPU per lane-step, {1e6 * walk_cpu / max(R['real'], 1):.0f} ns per real step. "
-        f"Fixed cost of one loop step (the same walk with a single ant): {step_us:.1f} µs.",
+        f"The walks take {fmt(R['real'])} real ant-steps; "
+        + "; ".join(f"{w} walk {1e6 * R['parts'][w]['walk'][0] / max(R['real'], 1):.0f} ns CPU per step" for w in walks)
+        + ". The two walks' moves are identical: " + ("yes" if R["same"] else "**NO**") + ".",
     ]
+    if not R["built"]:
+        lines += ["", "The native walk was not built on this machine: only the JAX walk is shown."]
     if R["native"]:
-        n = R["native"]
+        nb = R["native"]
         lines += [
             "",
-            f"Native loop (numba, one core), same workload: {n['ms_per_iteration']:.2f} ms CPU per iteration for all "
-            f"{R['B']} configurations ({fmt(n['steps_per_iteration'])} real steps, "
-            f"{1e6 * n['ms_per_iteration'] / max(n['steps_per_iteration'], 1):.0f} ns per step including τ^α η^β).",
+            f"Native loop (numba, one core), same workload: {nb['ms_per_iteration']:.2f} ms CPU per iteration for "
+            f"all {R['B']} configurations ({fmt(nb['steps_per_iteration'])} real steps, "
+            f"{1e6 * nb['ms_per_iteration'] / max(nb['steps_per_iteration'], 1):.0f} ns per step including τ^α η^β).",
         ]
     lines += [
         "",
-        "jaco's pool walk by pool size (`jaco.engine.walk.POOL`; identical moves to the lock-step walk: "
-        + ("yes" if all(q["same"] for q in R["queue"]) else "**NO**") + "):",
-        "",
-        table(["lanes", "CPU ms", "wall ms"], [(q["lanes"], q["cpu_ms"], q["wall_ms"]) for q in R["queue"]]),
-        "",
-        "Reading: XLA:CPU runs every operation of a loop step as its own kernel, so a step has a fixed cost of "
-        "microseconds whatever the number of lanes, and a lane-step (a gather of 8 weights, 8 tabu "
-        "lookups, a roulette on 8 numbers, a scatter) costs tens of ns where the numba loop spends ~15–30 ns "
-        "on a whole real step. A pool of lanes that take the next ant keeps the lanes busy; fewer lanes "
-        "raise the utilisation but multiply the loop steps, whose fixed cost then dominates.",
+        "Reading: the native walk costs tens of ns per real step on one core and splits the configurations "
+        "over both cores. The JAX walk runs every ant on its own lane in lock-step until the batch's last "
+        "ant stops, and XLA:CPU runs each operation of a step as its own kernel: microseconds per loop step "
+        "and tens of ns per lane-step, most lanes idle. With the native walk, the deposit is a kernel too "
+        "(it adds the steps walked, not every step slot); weights and tours are elementwise XLA kernels.",
     ]
     return "\n".join(lines)
 
@@ -205,7 +191,7 @@ def main(argv=None):
     ap.add_argument("--smoke", action="store_true", help="tiny sizes")
     ap.add_argument("--out", default=None, help="markdown file to update (default BENCHMARKS.md; nothing with --smoke)")
     args = ap.parse_args(argv)
-    from bench_throughput import write_section
+    from report import write_section
 
     R = measure(SMOKE if args.smoke else FULL)
     command = "python experiments/profile_iteration.py" + (" --smoke" if args.smoke else "")
@@ -213,12 +199,9 @@ def main(argv=None):
     print(text)
     out = args.out or (None if args.smoke else str(HERE.parent / "BENCHMARKS.md"))
     if out:
-        import bench_throughput
-
-        bench_throughput.SECTION = SECTION
-        write_section(Path(out), text)
+        write_section(Path(out), SECTION, text)
         print(f"wrote {out}")
-    return 0 if all(q["same"] for q in R["queue"]) else 1
+    return 0 if R["same"] else 1
 
 
 if __name__ == "__main__":

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 import time
 from pathlib import Path
 
@@ -23,6 +24,9 @@ import numpy as np
 
 import jaco
 from jaco.metrics import performance_indices, validate_path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from report import write_section  # noqa: E402 (the experiments' shared helpers)
 
 RANDOM = [f"random-{n}-{p}" for n in (20, 30, 40) for p in ("05", "10", "30", "50")]
 TRAPS = ["utrap-15", "utrap-20", "utrap-30"]
@@ -67,19 +71,6 @@ def run_cell(grid, variant, runs, n_ants, n_iters, steplimit):
     assert not problems, (grid.name, variant.name, problems)
     return dict(best=idx["c_best"], mean=idx["c_mean"], optimal=optimal, success=idx["success_rate"],
                 E0=idx["E0"], Et=idx["Et"], Er=idx["Er"], time=per_run, result=r)
-
-
-def write_section(path: Path, tag: str, body: str) -> None:
-    """Replace the text between ``<!-- tag:start -->`` and ``<!-- tag:end -->`` in ``path`` (append
-    the section when it is not there), so hand-written notes around it survive a re-run."""
-    start, end = f"<!-- {tag}:start -->", f"<!-- {tag}:end -->"
-    text = path.read_text() if path.exists() else ""
-    block = f"{start}\n{body}{end}\n"
-    if start in text and end in text:
-        text = text[: text.index(start)] + block + text[text.index(end) + len(end) + 1 :]
-    else:
-        text = text + ("\n" if text else "") + block
-    path.write_text(text)
 
 
 def fmt(x, digits=2):

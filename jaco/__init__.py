@@ -36,6 +36,8 @@ _LAZY = {
     "VARIANTS": "planners.registry",
     "Variant": "engine.variant",
     "load_run": "research.records",
+    # which ant walk compiled programs use: the native kernel or the JAX walk
+    "set_walk": "engine.native",
     # tuning with optax (the module is jaco.research.tuning: jaco.tune is the function)
     "tune": "research.tuning",
     "TuneResult": "research.tuning",

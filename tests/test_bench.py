@@ -56,17 +56,20 @@ def test_smoke_writes_the_throughput_table(smoke):
     assert "Command: `python experiments/bench_throughput.py --smoke" in md
     for label in (
         "native (numba loop, 1 core)",
-        "jaco, 1 device",
-        "jaco, 2 devices: threads",
-        "jaco, 2 devices: sharded",
+        "jaco, native walk, 1 device",
+        "jaco, native walk, 2 devices",
+        "jaco, JAX walk, 1 device",
+        "jaco, JAX walk, 2 devices",
     ):
         row = table_row(md, label)
         vals = numbers(row[1:])
         assert len(vals) == 7, row  # wall, CPU, configs/s, steps, steps/s, steps per CPU s, x native
         assert all(math.isfinite(v) and v > 0 for v in vals), row
         assert label in stdout
-    assert re.search(r"\*\*Ratio jaco / native: [\d.]+×\*\*", md)
-    assert "threads yes, sharding yes" in md  # multi-device results equal 1-device ones
+    for walk in ("native walk", "JAX walk"):
+        assert re.search(rf"\*\*{walk}: [\d.]+× the native loop\*\*", md)
+    # sharded over 2 devices, and the other walk: the same tables
+    assert "native, 2 devices: yes; jax, 2 devices: yes; native walk, JAX walk: yes" in md
 
 
 def test_smoke_reports_solve_scaling_and_targets(smoke):
@@ -74,11 +77,11 @@ def test_smoke_reports_solve_scaling_and_targets(smoke):
     for label in ("first `solve` call", "compile time", "`solve` latency after compile", "compiled run alone"):
         vals = numbers(table_row(md, label)[1:])
         assert vals and all(math.isfinite(v) and v > 0 for v in vals), label
-    for label in ("8x8", "12x12"):  # the grid-side table at smoke size
+    for label in ("8x8", "12x12"):  # the grid-side table at smoke size: both walks and the native loop
         vals = numbers(table_row(md, label)[1:])
-        assert len(vals) >= 9 and all(math.isfinite(v) and v > 0 for v in vals), label
-    assert "### Targets" in md and "Peak memory" in md
-    assert md.count("**met**") + md.count("**not met**") == 3
+        assert len(vals) == 13 and all(math.isfinite(v) and v > 0 for v in vals), label
+    assert "### Targets (native walk)" in md and "Peak memory" in md
+    assert md.count("**met**") + md.count("**not met**") == 4  # ratio, stretch, latency, compile
 
 
 def test_smoke_json_figures(smoke):
@@ -86,10 +89,9 @@ def test_smoke_json_figures(smoke):
     for k, fig in R["throughput"].items():
         for f in ("wall_s", "configs_per_s", "steps", "steps_per_s", "steps_per_cpu_s", "vs_native"):
             assert math.isfinite(fig[f]) and fig[f] > 0, (k, f)
-    assert R["multi_device_equal"] == {"threads": True, "sharding": True}
-    assert R["machine"]["xla_devices"] == 2
-    assert R["solve"]["median_ms"] > 0 and R["rss_peak_mib"] > 0
-    assert 0 < R["rng"]["used"] <= R["rng"]["drawn"]
+    assert R["equal"] == {"native, 2 devices": True, "jax, 2 devices": True, "native walk, JAX walk": True}
+    assert R["machine"]["xla_devices"] == 2 and R["walks"] == ["native", "jax"]
+    assert all(R["solve"][w]["median_ms"] > 0 for w in R["walks"]) and R["rss_peak_mib"] > 0
 
 
 # -- the native reference -------------------------------------------------------------------------
@@ -166,9 +168,9 @@ def test_sweep_native_runs_every_configuration():
     assert lengths[3] == single[0] and steps[3] == single[2]
 
 
-def test_profile_smoke_pool_walk_takes_the_same_moves(tmp_path):
-    """The per-part profile runs at smoke size; jaco's pool walk takes exactly the lock-step walk's
-    moves at every pool size (the script exits 1 otherwise) and every timed part is reported."""
+def test_profile_smoke_both_walks_take_the_same_moves(tmp_path):
+    """The per-part profile runs at smoke size for both walks; they take the same moves (the
+    script exits 1 otherwise) and every timed part is reported."""
     md = tmp_path / "BENCHMARKS.md"
     proc = subprocess.run(
         [sys.executable, str(ROOT / "experiments" / "profile_iteration.py"), "--smoke", "--out", str(md)],
@@ -176,8 +178,8 @@ def test_profile_smoke_pool_walk_takes_the_same_moves(tmp_path):
     )
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     text = md.read_text()
-    assert "<!-- profile_iteration:start -->" in text and "identical moves to the lock-step walk: yes" in text
-    for label in ("uniforms", "weights", "walk, lock-step", "walk, jaco (pool", "pheromone update", "whole iteration"):
+    assert "<!-- profile_iteration:start -->" in text and "The two walks' moves are identical: yes" in text
+    for label in ("weights", "walk", "tours", "pheromone update", "whole iteration"):
         vals = numbers(table_row(text, label)[1:])
-        assert len(vals) == 2 and all(math.isfinite(v) and v > 0 for v in vals), label
-    assert re.search(r"lane utilisation \d+ %", text)
+        assert len(vals) == 4 and all(math.isfinite(v) and v > 0 for v in vals), label  # CPU, wall x 2 walks
+    assert re.search(r"native walk \d+ ns CPU per step; jax walk \d+ ns CPU per step", text)

@@ -124,8 +124,8 @@ def test_chaos_perturbation_hand_values():
     np.testing.assert_allclose(np.asarray(out.tau), want, rtol=1e-5)
 
     # The global update after it: only the ants at or below the mean deposit Q/L.
-    amounts = np.asarray(chaos.at_or_below_mean_cycle(walks, jaco.Params(q=2.0)))
-    np.testing.assert_allclose(amounts[0], [1.0, 0.0, 0.0, 2.0])
+    amounts = np.asarray(chaos.at_or_below_mean_cycle(walks, jaco.Params(q=2.0)))  # one per ant
+    np.testing.assert_allclose(amounts, [1.0, 0.0, 0.0, 2.0])
 
 
 def test_no_perturbation_when_no_path_is_above_the_mean():
@@ -135,8 +135,8 @@ def test_no_perturbation_when_no_path_is_above_the_mean():
     tau = jnp.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
     out = chaos.chaos_perturb().update(ph.Trail(tau, 0.0, jnp.inf), walks, None, jaco.Params())
     np.testing.assert_array_equal(np.asarray(out.tau), np.asarray(tau))
-    amounts = np.asarray(chaos.at_or_below_mean_cycle(walks, jaco.Params(q=1.0)))
-    np.testing.assert_allclose(amounts[0], [1 / x, 1 / x, 1 / x, 0.0], rtol=1e-6)
+    amounts = np.asarray(chaos.at_or_below_mean_cycle(walks, jaco.Params(q=1.0)))  # one per ant
+    np.testing.assert_allclose(amounts, [1 / x, 1 / x, 1 / x, 0.0], rtol=1e-6)
 
 
 def test_chaos_aco_is_registered_and_sweeps_its_own_parameters():

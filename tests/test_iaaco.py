@@ -16,7 +16,7 @@ from jaco.engine.params import Params
 from jaco.engine.pheromone import Trail, Walks
 from jaco.engine.problem import make_problem, to_device
 from jaco.engine.result import path_cells
-from jaco.engine.walk import pad_steps, walk
+from jaco.engine.walk import walk
 from jaco.metrics import heading_change, path_length, safety_cost, validate_path
 from jaco.moves import MOVES
 from jaco.planners import iaaco
@@ -168,8 +168,8 @@ def test_multi_objective_equals_the_numpy_metrics_on_every_ant():
     # Goal-seeking random walks (η^4, η = 1/goal distance): some arrive, all differ.
     eta = inverse_goal_distance(to_device(prob), p, 0, 1)
     weights = jnp.where(jnp.asarray(prob.nbr) >= 0, eta**4, 0.0)
-    u = jax.random.uniform(jax.random.key(0), (pad_steps(steplimit), 32), jnp.float32)
-    tours = jax.jit(lambda pr, u: walk(pr, weights, u, 0.0, steplimit=steplimit, exploit=False))(prob, u)
+    tours = jax.jit(lambda pr, k: walk(pr, weights, k, 0.0, n_ants=32, steplimit=steplimit, exploit=False))(
+        prob, jax.random.key(0))
     s, e, j = (np.asarray(f(tours, prob, p)) for f in (costs.safety, costs.energy, costs.multi_objective))
     assert 0 < np.asarray(tours.arrived).sum() < 32 and (np.asarray(tours.n_steps) > 2).all()
     for a in range(32):

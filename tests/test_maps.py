@@ -29,6 +29,10 @@ MOVINGAI_MAPS = [
     "arena.map",
     "den312d.map",
     "bloodvenomfalls.map",
+    "lak303d.map",
+    "Berlin_1_256.map",
+    "maze-128-128-1.map",
+    "warehouse-10-20-10-2-1.map",
 ]
 SCENARIOS = {
     "empty-16-16-even-10.scen": "empty-16-16.map",
@@ -38,6 +42,10 @@ SCENARIOS = {
     "arena.map.scen": "arena.map",
     "den312d.map.scen": "den312d.map",
     "bloodvenomfalls.map.scen": "bloodvenomfalls.map",
+    "lak303d.map.scen": "lak303d.map",
+    "Berlin_1_256.map.scen": "Berlin_1_256.map",
+    "maze-128-128-1-even-1.scen": "maze-128-128-1.map",
+    "warehouse-10-20-10-2-1-even-10.scen": "warehouse-10-20-10-2-1.map",
 }
 # W x H as printed in movingai/SOURCES.md.
 MOVINGAI_W_H = {
@@ -48,6 +56,10 @@ MOVINGAI_W_H = {
     "arena.map": (49, 49),
     "den312d.map": (65, 81),
     "bloodvenomfalls.map": (512, 512),
+    "lak303d.map": (194, 194),
+    "Berlin_1_256.map": (256, 256),
+    "maze-128-128-1.map": (128, 128),
+    "warehouse-10-20-10-2-1.map": (161, 63),
 }
 # free / occupied / unknown as printed in ros/SOURCES.md.
 ROS_COUNTS = {

@@ -6,6 +6,7 @@ import csv
 import hashlib
 import json
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -310,3 +311,13 @@ def test_waypoint_trip_record_reruns_bit_for_bit(tmp_path):
     rerun = rec.rerun()
     assert rerun.matched, rerun.summary()
     assert_same_result(rerun.result, result)
+
+
+def test_a_record_of_format_1_says_why_its_rerun_no_longer_matches():
+    """A record written by jaco before counter-based random numbers (format 1, kept in
+    tests/data): it still loads and reruns, does not match, and the warning says why."""
+    path = Path(__file__).parent / "data" / "record-format-1.json"
+    with pytest.warns(RecordWarning, match="record format 1, this jaco writes format 2: .*Threefry"):
+        rerun = jaco.load_run(path).rerun()
+    assert not rerun.matched and rerun.differences
+    assert "record format 1" in rerun.summary()

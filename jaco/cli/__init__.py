@@ -1,4 +1,4 @@
-"""Command line interface: ``jaco demo | solve | sweep | rerun | variants | maps``.
+"""Command line interface: ``jaco demo | solve | sweep | rerun | variants | maps | info``.
 
 Run ``jaco --help`` or ``jaco COMMAND --help`` for the options. Every user mistake (bad argument,
 unknown map / variant / parameter, missing file, blocked or unreachable start/goal, out-of-range
@@ -28,6 +28,10 @@ def main(argv=None) -> int:
             args = parser.parse_args(_join_negative_xy(argv))
         except SystemExit as e:  # --help / --version
             return e.code if isinstance(e.code, int) else 0
+        if args.walk is not None:
+            from ..engine import native
+
+            native.set_walk(args.walk)
         return args.func(args)
     except (UsageError, JacoError) as e:
         print(f"jaco: error: {_one_line(e)}", file=sys.stderr)

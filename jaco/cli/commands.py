@@ -1,4 +1,4 @@
-"""The commands: ``demo``, ``solve``, ``sweep``, ``rerun``, ``variants``, ``maps`` (``cmd_*``), and
+"""The commands: ``demo``, ``solve``, ``sweep``, ``rerun``, ``variants``, ``maps``, ``info`` (``cmd_*``), and
 how a run is reported. Heavy modules are imported inside the functions."""
 
 from __future__ import annotations
@@ -278,4 +278,29 @@ def cmd_maps(args) -> int:
         "\nA MAP argument is a file path, a named map, or a bundled file name, e.g.\n"
         "  jaco solve random-32-32-10.map --scen random-32-32-10-even-10.scen --index 5"
     )
+    return 0
+
+
+def cmd_info(args) -> int:
+    import platform
+
+    import jax
+    import jaxlib
+    import numpy as np
+
+    from .. import __version__
+    from ..engine import native
+
+    print(f"jaco {__version__}")
+    print(f"jax {jax.__version__}, jaxlib {jaxlib.__version__}, numpy {np.__version__}, "
+          f"python {platform.python_version()} ({platform.machine()})")
+    devices = jax.devices()
+    print(f"devices: {len(devices)} x {devices[0].platform} ({', '.join(str(d) for d in devices)})")
+    walk = native.active_walk()
+    if walk == "native":
+        print("walk: native (the C++ kernel through jax.ffi on CPU; the JAX walk elsewhere)")
+    elif native.available():
+        print("walk: jax (chosen with --walk, jaco.set_walk or JACO_WALK; the native walk is built)")
+    else:
+        print(f"walk: jax ({native.unavailable_reason()}; the JAX walk gives the same results, slower on CPU)")
     return 0

@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from .args import _cell, _nonneg_int, _Parser, _pos_int, _xy
-from .commands import cmd_demo, cmd_maps, cmd_rerun, cmd_solve, cmd_sweep, cmd_variants
+from .commands import cmd_demo, cmd_info, cmd_maps, cmd_rerun, cmd_solve, cmd_sweep, cmd_variants
 
 DEMO_VARIANT = "mmas"  # on the demo map MMAS comes closer to the optimum than ACS (see --help)
 DEFAULT_ANTS = 50
@@ -53,6 +53,9 @@ def build_parser() -> argparse.ArgumentParser:
     from .. import __version__
 
     parser.add_argument("--version", action="version", version=f"jaco {__version__}")
+    parser.add_argument("--walk", choices=("auto", "native", "jax"), default=None,
+                        help="the ant walk: auto (default: native when built), native (C++ kernel) or jax; "
+                        "the same results either way (also JACO_WALK)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     p = sub.add_parser(
@@ -126,6 +129,11 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("maps", help="list the named maps and bundled map files",
                        description="List the named maps and bundled map files.")
     p.set_defaults(func=cmd_maps)
+
+    p = sub.add_parser("info", help="versions, devices and the active ant walk",
+                       description="Print the jaco, jax and jaxlib versions, the XLA devices and which ant "
+                       "walk runs: the native C++ kernel or the JAX walk (and why).")
+    p.set_defaults(func=cmd_info)
     return parser
 
 

@@ -18,6 +18,8 @@ from typing import Callable, NamedTuple
 import jax
 import jax.numpy as jnp
 
+from . import native
+
 
 class Trail(NamedTuple):
     """Pheromone ``tau (M,)`` and its current bounds (``lo = 0``, ``hi = inf`` when unbounded)."""
@@ -79,13 +81,31 @@ def inverse(cost):
     return jnp.where(ok, 1.0 / jnp.where(ok, cost, 1.0), 0.0)
 
 
-def _scatter_add(tau, targets, amounts):
-    return tau.at[targets.ravel()].add(amounts.ravel(), mode="drop")
+def deposit(tau, targets, amounts):
+    """``tau[targets] += amounts`` in the order of ``targets`` (row-major), targets outside
+    ``[0, M)`` dropped (steps not taken); ``amounts`` is a scalar, one value per ant (the last
+    axis of ``targets``) or one per target.
+
+    ``targets`` is step-major, ``(S, A)`` or ``(S,)``: each column is one walk whose steps come
+    first, then only targets out of range (as every walk records them). On CPU with the native
+    walk, a kernel adds in XLA's order (the same bits) but stops at the end of each walk, so
+    its cost is the steps taken, not ``S·A``."""
+    amounts = jnp.asarray(amounts, jnp.float32)
+    if amounts.ndim and amounts.shape != targets.shape:
+        if amounts.shape != targets.shape[-1:]:
+            raise ValueError(f"amounts {amounts.shape} fit neither targets {targets.shape} nor its last axis")
+
+    def xla(tau, targets, amounts):
+        return tau.at[targets.ravel()].add(jnp.broadcast_to(amounts, targets.shape).ravel(), mode="drop")
+
+    if native.active_walk() == "native":
+        return jax.lax.platform_dependent(tau, targets, amounts, cpu=native.deposit, default=xla)
+    return xla(tau, targets, amounts)
 
 
 def _on_path(tau, targets):
     """Mask ``(M,)`` of the elements a path uses."""
-    return jnp.zeros(tau.shape, bool).at[targets.ravel()].set(True, mode="drop")
+    return deposit(jnp.zeros(tau.shape, jnp.float32), targets, 1.0) > 0
 
 
 def octile(problem) -> jax.Array:
@@ -128,20 +148,19 @@ def deposit_all(amount: Callable) -> Rule:
     """Every successful ant deposits ``amount(walks, params) (S, A)`` on each element it used."""
 
     def update(trail, walks, problem, params):
-        return trail._replace(tau=_scatter_add(trail.tau, walks.targets, amount(walks, params)))
+        return trail._replace(tau=deposit(trail.tau, walks.targets, amount(walks, params)))
 
     return Rule(_keep_init, update)
 
 
 def ant_cycle(walks, params):
-    """Δτ^k = Q/L_k on every step of ant k (thesis eq. 2-6)."""
-    return jnp.broadcast_to(params.q * inverse(walks.cost)[None, :], walks.targets.shape)
+    """Δτ^k = Q/L_k on every step of ant k (thesis eq. 2-6), one amount per ant."""
+    return params.q * inverse(walks.cost)
 
 
 def ant_density(walks, params):
-    """Δτ^k = Q on every step of a successful ant (thesis eq. 2-4)."""
-    per_ant = jnp.where(jnp.isfinite(walks.cost), params.q, 0.0)
-    return jnp.broadcast_to(per_ant[None, :], walks.targets.shape)
+    """Δτ^k = Q on every step of a successful ant (thesis eq. 2-4), one amount per ant."""
+    return jnp.where(jnp.isfinite(walks.cost), params.q, 0.0)
 
 
 def ant_quantity(walks, params):
@@ -155,8 +174,7 @@ def deposit_best_so_far(weight: Callable = lambda params: 1.0) -> Rule:
 
     def update(trail, walks, problem, params):
         amount = weight(params) * params.q * inverse(walks.best_cost)
-        amounts = jnp.broadcast_to(amount, walks.best_targets.shape)
-        return trail._replace(tau=_scatter_add(trail.tau, walks.best_targets, amounts))
+        return trail._replace(tau=deposit(trail.tau, walks.best_targets, amount))
 
     return Rule(_keep_init, update)
 
@@ -166,8 +184,7 @@ def deposit_iteration_best() -> Rule:
 
     def update(trail, walks, problem, params):
         b = jnp.argmin(walks.cost)
-        amount = params.q * inverse(walks.cost[b]) * jnp.ones_like(walks.step_len[:, b])
-        return trail._replace(tau=_scatter_add(trail.tau, walks.targets[:, b], amount))
+        return trail._replace(tau=deposit(trail.tau, walks.targets[:, b], params.q * inverse(walks.cost[b])))
 
     return Rule(_keep_init, update)
 
@@ -179,9 +196,8 @@ def deposit_ranked() -> Rule:
     def update(trail, walks, problem, params):
         rank = jnp.argsort(jnp.argsort(walks.cost)) + 1  # 1 = best; failed ants sort last
         per_ant = jnp.maximum(params.w - rank, 0.0) * params.q * inverse(walks.cost)
-        tau = _scatter_add(trail.tau, walks.targets, jnp.broadcast_to(per_ant[None, :], walks.targets.shape))
-        best = params.w * params.q * inverse(walks.best_cost)
-        tau = _scatter_add(tau, walks.best_targets, jnp.broadcast_to(best, walks.best_targets.shape))
+        tau = deposit(trail.tau, walks.targets, per_ant)
+        tau = deposit(tau, walks.best_targets, params.w * params.q * inverse(walks.best_cost))
         return trail._replace(tau=tau)
 
     return Rule(_keep_init, update)
@@ -198,8 +214,8 @@ def acs_local() -> Rule:
     """
 
     def update(trail, walks, problem, params):
-        k = jnp.zeros_like(trail.tau).at[walks.targets.ravel()].add(1.0, mode="drop")
-        decay = jnp.power(1.0 - params.xi, k)
+        k = deposit(jnp.zeros_like(trail.tau), walks.targets, 1.0)
+        decay = jnp.exp(k * jnp.log1p(-params.xi))  # (1 − ξ)^k; pow costs 8x as much on CPU
         return trail._replace(tau=params.tau0 + decay * (trail.tau - params.tau0))
 
     return Rule(_keep_init, update)

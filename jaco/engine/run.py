@@ -21,6 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import JacoError
+from . import native
 from ..grid import Grid
 from .params import Params, check_order, check_values
 from .pheromone import Trail, Walks
@@ -143,10 +144,19 @@ def cached(key: tuple, build, *keep):
     """The one cache of every compiled program (runs, sweep chunks, waypoint legs, tuning loops):
     ``build()`` once per ``key``. Keys hold ``id()``s of variants and optimisers (they are not
     hashable by value); ``keep`` holds those objects alive so that an id is never reused."""
-    hit = _COMPILED.get(key)
+    hit = _COMPILED.get(_walk_key(key))
     if hit is None:
-        hit = _COMPILED[key] = (keep, build())
+        hit = _COMPILED[_walk_key(key)] = (keep, build())
     return hit[1]
+
+
+def is_cached(key: tuple) -> bool:
+    """Whether :func:`cached` holds a program for ``key``."""
+    return _walk_key(key) in _COMPILED
+
+
+def _walk_key(key: tuple) -> tuple:
+    return (native.active_walk(),) + key  # a program traced for one walk never serves the other
 
 
 def clear_compiled() -> None:

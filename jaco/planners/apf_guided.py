@@ -38,9 +38,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..engine import pheromone as ph
-from ..engine.colony import Colony, step_targets
+from ..engine.colony import walk_colony
 from ..engine.variant import make_variant
-from ..engine.walk import pad_steps, walk
 from ..potential import D0, K_REP, apf_distance, classic_distance
 
 __all__ = [
@@ -107,9 +106,7 @@ def deposit_best_half() -> ph.Rule:
         dep = ok & (rank < (k + 1) // 2)
         fit = jnp.where(dep, fit, 0.0)
         s = fit / jnp.maximum(jnp.sum(fit), 1e-30)
-        per_ant = s * params.q * fit
-        amounts = jnp.broadcast_to(per_ant[None, :], walks.targets.shape)
-        return trail._replace(tau=ph._scatter_add(trail.tau, walks.targets, amounts))
+        return trail._replace(tau=ph.deposit(trail.tau, walks.targets, s * params.q * fit))
 
     return ph.Rule(ph._keep_init, update)
 
@@ -134,11 +131,7 @@ def apf_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: int,
     valid = problem.nbr >= 0
     eta = apf_eta(problem, trail.r, t, n_iters)
     weights = log_weights(trail.tau.reshape(n, 8), eta, valid, params)
-    u = jax.random.uniform(key, (pad_steps(steplimit), n_ants), jnp.float32)
-    tours = walk(problem, weights, u, params.q0, steplimit=steplimit, exploit=variant.transition == "pseudo-random")
-    cost = jnp.where(tours.arrived, variant.cost(tours, problem, params), jnp.inf)
-    targets = step_targets("moves", tours.cells, tours.moves, problem.start, n)
-    return trail, Colony(tours.cells, targets, tours.step_len, cost, tours.length, tours.n_steps, tours.visited)
+    return trail, walk_colony(variant, problem, weights, params, key, n_ants=n_ants, steplimit=steplimit)
 
 
 _APF_BASE = ("alpha", "beta", "rho", "q", "tau0")

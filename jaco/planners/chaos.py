@@ -172,8 +172,8 @@ def chaos_perturb() -> ph.Rule:
         h = logistic(h0, params.chaos_mu, jnp.round(params.chaos_iters))
         new = base + h * span  # (A,)
         targets = jnp.where(on_long, walks.targets, m)  # only the N_L paths write
-        total = jnp.zeros_like(tau).at[targets.ravel()].add(jnp.broadcast_to(new, targets.shape).ravel(), mode="drop")
-        count = jnp.zeros_like(tau).at[targets.ravel()].add(1.0, mode="drop")
+        total = ph.deposit(jnp.zeros_like(tau), targets, new)
+        count = ph.deposit(jnp.zeros_like(tau), targets, 1.0)
         protected = ph._on_path(tau, jnp.where(used & below[None, :], walks.targets, m))
         hit = (count > 0) & ~protected
         return trail._replace(tau=jnp.where(hit, total / jnp.maximum(count, 1.0), tau))
@@ -185,8 +185,7 @@ def at_or_below_mean_cycle(walks, params):
     """Δτ^k = Q/L_k on every step of a successful ant whose length is at or below the mean
     (§8.4: these "update directly"; the longer ones were perturbed instead)."""
     _, below = above_mean(walks.cost)
-    per_ant = jnp.where(below, params.q * ph.inverse(walks.cost), 0.0)
-    return jnp.broadcast_to(per_ant[None, :], walks.targets.shape)
+    return jnp.where(below, params.q * ph.inverse(walks.cost), 0.0)  # one amount per ant
 
 
 def deposit_at_or_below_mean() -> ph.Rule:

@@ -38,7 +38,7 @@ from ..engine import pheromone as ph
 from ..engine import schedules
 from ..engine.colony import Colony, move_weights, step_targets
 from ..engine.variant import make_variant as _variant
-from ..engine.walk import Tours, pad_steps, walk
+from ..engine.walk import Tours, walk
 from ..moves import MOVES
 
 SQRT2 = np.float32(np.sqrt(2.0))
@@ -196,13 +196,11 @@ def double_walk(variant, problem, trail, params, t, n_iters, key, *, n_ants: int
     from ``problem.goal`` (as :mod:`jaco.engine.heuristics` does); the precomputed ``goal_dist`` table
     still refers to the original goal and must not be used by a double-colony heuristic."""
     exploit = variant.transition == "pseudo-random"
-    shape = (pad_steps(steplimit), n_ants)
 
     def colony(start, goal, k):
         prob = dataclasses.replace(problem, start=start, goal=goal)
         weights = move_weights(variant, trail, prob, params, t, n_iters)
-        u = jax.random.uniform(k, shape, jnp.float32)
-        return walk(prob, weights, u, params.q0, steplimit=steplimit, exploit=exploit)
+        return walk(prob, weights, k, params.q0, n_ants=n_ants, steplimit=steplimit, exploit=exploit)
 
     # Both colonies in one vmapped walk (one loop, one compiled body): colony 1 start → goal,
     # colony 2 goal → start, each with its own key and its heuristic toward its own goal.

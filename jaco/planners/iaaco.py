@@ -42,11 +42,10 @@ import jax
 import jax.numpy as jnp
 
 from ..engine import pheromone as ph
-from ..engine.colony import Colony, step_targets
+from ..engine.colony import walk_colony
 from ..engine.cost import COST_PARAMS, multi_objective
 from ..engine.heuristics import goal_distance
 from ..engine.variant import make_variant
-from ..engine.walk import pad_steps, walk
 
 __all__ = [
     "adaptive_eps",
@@ -161,11 +160,7 @@ def guided_colony(mu):
 
     def construct(variant, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
         w = guided_weights(variant, trail, problem, params, t, n_iters, mu)
-        u = jax.random.uniform(key, (pad_steps(steplimit), n_ants), jnp.float32)
-        tours = walk(problem, w, u, params.q0, steplimit=steplimit, exploit=variant.transition == "pseudo-random")
-        cost = jnp.where(tours.arrived, variant.cost(tours, problem, params), jnp.inf)
-        targets = step_targets(variant.pheromone_on, tours.cells, tours.moves, problem.start, problem.nbr.shape[0])
-        return trail, Colony(tours.cells, targets, tours.step_len, cost, tours.length, tours.n_steps, tours.visited)
+        return trail, walk_colony(variant, problem, w, params, key, n_ants=n_ants, steplimit=steplimit)
 
     return construct
 

@@ -52,15 +52,19 @@ Interpretations (ALGORITHMS.md §4; also in ``docs/variants_iaca.md``):
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..engine import native
 from ..engine import pheromone as ph
+from ..engine.bitexact import power, rounded
 from ..engine.colony import Colony, step_targets
 from ..engine.heuristics import goal_distance
 from ..engine.variant import make_variant
-from ..engine.walk import CHUNK, Tours, choose, pad_steps
+from ..engine.walk import CHUNK, Tours, choose, key_words, step_uniforms
 from ..moves import MOVE_LENGTHS, MOVES
 
 ETA_FLOOR = 1e-6
@@ -82,9 +86,11 @@ def eta_45(r, allowed) -> jax.Array:
     ``η_B = 1 − r_B / Σ_{C allowed} r_C``; 1 when B is the only allowed move; floored at
     :data:`ETA_FLOOR`; 0 where not allowed."""
     r = jnp.where(allowed, r, 0.0)
-    total = jnp.sum(r, axis=-1, keepdims=True)
+    total = r[..., 0]
+    for i in range(1, 8):  # left to right, as the native kernel adds
+        total = total + r[..., i]
     single = jnp.sum(allowed, axis=-1, keepdims=True) == 1
-    eta = jnp.where(single, 1.0, 1.0 - r / jnp.maximum(total, 1e-12))
+    eta = jnp.where(single, 1.0, 1.0 - r / jnp.maximum(total, 1e-12)[..., None])
     return jnp.where(allowed, jnp.maximum(eta, ETA_FLOOR), 0.0)
 
 
@@ -124,55 +130,97 @@ def infeasible_update(tau, params):
     )
 
 
-def local_update(tau, lo, hi, cells, amount, params):
+def int_power(x, k):
+    """``x^k`` for integer ``k`` in [0, 2^16) by binary exponentiation: multiplications in a fixed
+    order, so the kernel gets the same bits (``x^1`` is ``x`` exactly)."""
+    k = jnp.asarray(k, jnp.int32)
+    out = jnp.ones(jnp.broadcast_shapes(jnp.shape(x), k.shape), jnp.float32)
+    base = jnp.asarray(x, jnp.float32)
+    for bit in range(16):
+        out = jnp.where((k >> bit) & 1 == 1, out * base, out)
+        base = base * base
+    return out
+
+
+def local_update(tau, lo, hi, n_straight, n_diagonal, params):
     """Eqs. (4-2..4-4) for the forward steps of one walk step, all ants together.
 
-    ``cells (A,)``: the cell each ant entered (``N`` for none); ``amount (A,)``: its Q/d_ij. A
-    cell entered by k ants gets the k sequential updates averaged over their orders:
-    ``(1−ρ)^k τ + (Σ Q/d)(1 − (1−ρ)^k)/(kρ)``; then it is clamped to [lo, hi].
+    ``n_straight``, ``n_diagonal`` ``(N,)``: how many ants entered each cell by a straight or a
+    diagonal move. A cell entered by k ants gets the k sequential updates averaged over their
+    orders: ``(1−ρ)^k τ + (Σ Q/d)(1 − (1−ρ)^k)/(kρ)``; then it is clamped to [lo, hi]. Written
+    so that the native kernel rounds every operation identically (:mod:`jaco.bitexact`).
     """
-    n = tau.shape[0]
-    k = jnp.zeros((n,), tau.dtype).at[cells].add(1.0, mode="drop")
-    s = jnp.zeros((n,), tau.dtype).at[cells].add(amount, mode="drop")
+    k = n_straight + n_diagonal
+    a1, a2 = params.q / jnp.float32(MOVE_LENGTHS[0]), params.q / jnp.float32(MOVE_LENGTHS[4])
+    s = rounded(n_straight.astype(jnp.float32) * a1) + rounded(n_diagonal.astype(jnp.float32) * a2)
     keep = 1.0 - params.rho_local
-    decay = jnp.power(keep, k)
+    decay = int_power(keep, k)
     rho = params.rho_local
     # (1 − keep^k)/(kρ) → 1 as ρ → 0; k ≥ 1 wherever it is used.
-    mean_decay = jnp.where(rho > 1e-6, (1.0 - decay) / jnp.maximum(k * rho, 1e-12), 1.0)
-    new = jnp.clip(decay * tau + s * mean_decay, lo, hi)
+    mean_decay = jnp.where(rho > 1e-6, (1.0 - decay) / jnp.maximum(k.astype(jnp.float32) * rho, 1e-12), 1.0)
+    new = jnp.clip(rounded(decay * tau) + rounded(s * mean_decay), lo, hi)
     return jnp.where(k > 0, new, tau)
 
 
-# -- the backtracking walk --------------------------------------------------------------------
-def backtrack_walk(problem, trail, params, u, *, steplimit: int, exploit: bool = True):
-    """Walk ``A = u.shape[1]`` backtracking ants (thesis 4.3) with the local update (4-2..4-4).
+def step_weights(tau_nb, r, allowed, params):
+    """Eq. (4-1) for one step of every ant: ``τ_B^α η_B^β`` ``(A, 8)`` over the ``allowed`` moves
+    with η of eq. (4-5) from the detour rows ``r``, floored at 1e-30 (0 where not allowed). The
+    powers are :func:`jaco.engine.bitexact.power`, so the kernel computes the same weights."""
+    w = power(tau_nb, params.alpha) * power(eta_45(r, allowed), params.beta)
+    w = jnp.clip(jnp.where(jnp.isnan(w), 1e-30, w), 1e-30, 1e30)
+    return jnp.where(allowed, w, 0.0)
 
-    Returns ``(tau, stack (A, steplimit+1), sp (A,), arrived (A,), n_actions (A,), tabu (A, N))``:
-    ``stack[a, :sp[a]+1]`` is ant a's path from the start (``stack[a, 0]``) with the dead branches
-    removed; ``tabu`` every cell the ant entered (dead branches included).
-    """
-    s_pad, n_ants = u.shape
-    n_cells = problem.nbr.shape[0]
+
+# -- the backtracking walk --------------------------------------------------------------------
+class Backtracked(NamedTuple):
+    """What one iteration's backtracking walks leave: ``tau (N,)`` after the local updates;
+    ``stack (A, steplimit + 1)``: each ant's path from the start with the dead branches removed
+    (-1 beyond ``sp``); ``sp (A,)``; ``arrived (A,)``; ``actions (A,)``: forward and back steps;
+    ``visited (N,)``: cells any ant entered; ``infeasible (N,)``: the cells of eq. (4-6), entered
+    by an ant that failed or popped by backtracking and on no arrived ant's final path."""
+
+    tau: jax.Array
+    stack: jax.Array
+    sp: jax.Array
+    arrived: jax.Array
+    actions: jax.Array
+    visited: jax.Array
+    infeasible: jax.Array
+
+
+def backtrack_walk(problem, trail, params, key, *, n_ants: int, steplimit: int, exploit: bool = True) -> Backtracked:
+    """Walk ``n_ants`` backtracking ants (thesis 4.3) with the local update (4-2..4-4), in JAX or,
+    on CPU when it is active, in the native kernel (:mod:`jaco.engine.native`): the same results bit for bit."""
+    words = key_words(key)
+    rows = detour(problem)
+    scalars = jnp.stack([jnp.asarray(v, jnp.float32) for v in (
+        params.q0, params.alpha, params.beta, trail.lo, trail.hi, params.rho_local, params.q)])
+    args = (trail.tau, rows, words, problem.start, problem.goal, scalars, problem.offsets)
+    kw = dict(n_ants=n_ants, steplimit=steplimit, exploit=bool(exploit))
+    if native.active_walk() == "native":
+        return Backtracked(*jax.lax.platform_dependent(
+            *args, cpu=lambda *a: native.backtrack_walk(*a, **kw), default=lambda *a: jax_backtrack_walk(*a, **kw)
+        ))
+    return Backtracked(*jax_backtrack_walk(*args, **kw))
+
+
+def jax_backtrack_walk(tau, rows, words, start, goal, scalars, offsets, *, n_ants: int, steplimit: int, exploit: bool):
+    """The backtracking walk in JAX, all ants in lock-step (the definition; :class:`Backtracked`)."""
+    q0, alpha, beta, lo, hi, rho_local, q = (scalars[i] for i in range(7))
+    params = _Scalars(alpha, beta, rho_local, q)
+    n_cells = tau.shape[0]
     depth = steplimit + 1
     lanes = jnp.arange(n_ants)
-    offsets = problem.offsets
-    start, goal = problem.start, problem.goal
-    lo, hi = trail.lo, trail.hi
-    rows = detour(problem)
-    valid_rows = problem.nbr >= 0
-    lengths = jnp.asarray(MOVE_LENGTHS, jnp.float32)
+    valid_rows = rows > 0
 
-    def step(carry, xs):
+    def step(carry, t):
         tau, cur, sp, stack, tabu, running, actions = carry
-        u_t, t = xs
         nb = jnp.clip(cur[:, None] + offsets[None, :], 0, n_cells - 1)
         allowed = valid_rows[cur] & ~tabu[lanes[:, None], nb]
         live = running & (t < steplimit)
         has = jnp.any(allowed, axis=-1)
-        eta = eta_45(rows[cur], allowed)
-        w = jnp.power(tau[nb], params.alpha) * jnp.power(eta, params.beta)  # Eq. (4-1)
-        w = jnp.where(allowed, jnp.clip(jnp.nan_to_num(w, nan=1e-30, posinf=1e30), 1e-30, 1e30), 0.0)
-        k = choose(w, u_t, params.q0, exploit)
+        w = step_weights(tau[nb], rows[cur], allowed, params)
+        k = choose(w, step_uniforms(words, lanes, t), q0, exploit)
         fwd = live & has
         back = live & ~has & (sp > 0)  # 4.3: the dead-end cell stays tabu; return one cell
         nxt = cur + offsets[k]
@@ -181,8 +229,10 @@ def backtrack_walk(problem, trail, params, u, *, steplimit: int, exploit: bool =
         sp = sp + fwd.astype(jnp.int32) - back.astype(jnp.int32)
         stack = stack.at[lanes, sp].set(cur, indices_are_sorted=True, unique_indices=True)
         tabu = tabu.at[lanes, cur].set(True, indices_are_sorted=True, unique_indices=True)
-        amount = params.q / lengths[k]  # Eq. (4-4): Q/d_ij
-        tau = local_update(tau, lo, hi, jnp.where(fwd, cur, n_cells), amount, params)
+        entered = jnp.where(fwd, cur, n_cells)
+        n1 = jnp.zeros((n_cells,), jnp.int32).at[entered].add((k < 4).astype(jnp.int32), mode="drop")
+        n2 = jnp.zeros((n_cells,), jnp.int32).at[entered].add((k >= 4).astype(jnp.int32), mode="drop")
+        tau = local_update(tau, lo, hi, n1, n2, params)
         actions = actions + (fwd | back).astype(jnp.int32)
         # Back at the start with nothing left (~has, sp == 0): dead; at the goal: arrived.
         running = (fwd & (cur != goal)) | back
@@ -190,8 +240,7 @@ def backtrack_walk(problem, trail, params, u, *, steplimit: int, exploit: bool =
 
     def chunk(state):
         t0, carry = state
-        xs = (jax.lax.dynamic_slice_in_dim(u, t0, CHUNK), t0 + jnp.arange(CHUNK))
-        carry, _ = jax.lax.scan(step, carry, xs)  # not unrolled: compiles 2x faster, runs no slower
+        carry, _ = jax.lax.scan(step, carry, t0 + jnp.arange(CHUNK))  # not unrolled: compiles 2x faster, runs no slower
         return t0 + CHUNK, carry
 
     def more(state):
@@ -201,7 +250,7 @@ def backtrack_walk(problem, trail, params, u, *, steplimit: int, exploit: bool =
     stack = jnp.full((n_ants, depth), -1, jnp.int32).at[:, 0].set(start)
     tabu = jnp.zeros((n_ants, n_cells), bool).at[:, start].set(True)
     carry = (
-        trail.tau,
+        tau,
         jnp.full((n_ants,), start, jnp.int32),
         jnp.zeros((n_ants,), jnp.int32),
         stack,
@@ -210,16 +259,22 @@ def backtrack_walk(problem, trail, params, u, *, steplimit: int, exploit: bool =
         jnp.zeros((n_ants,), jnp.int32),
     )
     _, (tau, cur, sp, stack, tabu, _, actions) = jax.lax.while_loop(more, chunk, (jnp.int32(0), carry))
-    del s_pad
-    return tau, stack, sp, cur == goal, actions, tabu
+    arrived = cur == goal
+    stack = jnp.where(jnp.arange(depth)[None, :] <= sp[:, None], stack, -1)
+    return tau, stack, sp, arrived, actions, jnp.any(tabu, axis=0), infeasible_cells(stack, arrived, tabu)
 
 
-def stack_tours(problem, stack, sp, arrived, actions, tabu, s_pad: int) -> Tours:
-    """Step-major :class:`~jaco.engine.walk.Tours` ``(s_pad, A)`` of the final stacks."""
-    n_ants, depth = stack.shape
-    idx = jnp.arange(depth)[None, :]
-    path = jnp.where(idx <= sp[:, None], stack, -1)
-    cells = jnp.full((s_pad, n_ants), -1, jnp.int32).at[: depth - 1].set(path[:, 1:].T)
+class _Scalars(NamedTuple):
+    alpha: jax.Array
+    beta: jax.Array
+    rho_local: jax.Array
+    q: jax.Array
+
+
+def stack_tours(problem, walks: Backtracked) -> Tours:
+    """Step-major :class:`~jaco.engine.walk.Tours` ``(steplimit, A)`` of the final stacks."""
+    cells = walks.stack[:, 1:].T
+    n_ants = cells.shape[1]
     took = cells >= 0
     prev = jnp.concatenate([jnp.full((1, n_ants), problem.start, jnp.int32), cells[:-1]], axis=0)
     d = (problem.xy[jnp.where(took, cells, 0)] - problem.xy[jnp.where(took, prev, 0)]).astype(jnp.int32)
@@ -230,20 +285,20 @@ def stack_tours(problem, stack, sp, arrived, actions, tabu, s_pad: int) -> Tours
         cells=cells,
         moves=moves,
         step_len=jnp.where(diag, jnp.sqrt(jnp.float32(2)), jnp.where(straight, 1.0, 0.0)).astype(jnp.float32),
-        arrived=arrived,
-        n_steps=actions,
+        arrived=walks.arrived,
+        n_steps=walks.actions,
         # Integer counts, so a length is bit-identical however the runs are batched.
         length=jnp.sum(straight, axis=0) + jnp.sqrt(jnp.float32(2)) * jnp.sum(diag, axis=0),
-        visited=jnp.any(tabu, axis=0),
+        visited=walks.visited,
     )
 
 
-def infeasible_cells(stack, sp, arrived, tabu) -> jax.Array:
+def infeasible_cells(stack, arrived, tabu) -> jax.Array:
     """Cells ``(N,)`` for eq. (4-6): visited by a failed ant or popped by backtracking, and on no
-    arrived ant's final path."""
-    n_ants, depth = stack.shape
-    n_cells = tabu.shape[1]
-    kept = jnp.where(jnp.arange(depth)[None, :] <= sp[:, None], stack, n_cells)
+    arrived ant's final path (``stack (A, D)``: the final paths, -1 padded; ``tabu (A, N)``: the
+    cells each ant entered)."""
+    n_ants, n_cells = tabu.shape
+    kept = jnp.where(stack >= 0, stack, n_cells)
     on_path = jnp.zeros((n_ants, n_cells), bool).at[jnp.arange(n_ants)[:, None], kept].set(True, mode="drop")
     bad = jnp.any(tabu & (~on_path | ~arrived[:, None]), axis=0)
     good = jnp.any(on_path & arrived[:, None], axis=0)
@@ -254,14 +309,11 @@ def iaca_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: int
     """One IACA iteration (thesis 4.4, Steps 2–5): backtracking walks with the local update, then
     the infeasible-path update (4-6). Returns the updated trail and the final stacks as a
     :class:`~jaco.engine.colony.Colony`; the variant's ``rule.update`` (global update) follows."""
-    s_pad = pad_steps(steplimit)
-    u = jax.random.uniform(key, (s_pad, n_ants), jnp.float32)
     exploit = variant.transition == "pseudo-random"
-    tau, stack, sp, arrived, actions, tabu = backtrack_walk(problem, trail, params, u, steplimit=steplimit, exploit=exploit)
-    bad = infeasible_cells(stack, sp, arrived, tabu)
-    tau = jnp.where(bad, jnp.clip(infeasible_update(tau, params), trail.lo, trail.hi), tau)  # Eq. (4-6)
-    tours = stack_tours(problem, stack, sp, arrived, actions, tabu, s_pad)
-    cost = jnp.where(arrived, variant.cost(tours, problem, params), jnp.inf)
+    walks = backtrack_walk(problem, trail, params, key, n_ants=n_ants, steplimit=steplimit, exploit=exploit)
+    tau = jnp.where(walks.infeasible, jnp.clip(infeasible_update(walks.tau, params), trail.lo, trail.hi), walks.tau)  # Eq. (4-6)
+    tours = stack_tours(problem, walks)
+    cost = jnp.where(walks.arrived, variant.cost(tours, problem, params), jnp.inf)
     targets = step_targets("cells", tours.cells, tours.moves, problem.start, problem.nbr.shape[0])
     colony = Colony(tours.cells, targets, tours.step_len, cost, tours.length, tours.n_steps, tours.visited)
     return trail._replace(tau=tau), colony

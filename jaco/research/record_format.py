@@ -46,7 +46,13 @@ __all__ = [
 ]
 
 FORMAT = "jaco-record"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+#: Why a record of an older format no longer reruns bit for bit (the file itself still loads).
+FORMAT_CHANGES = {
+    2: "its random numbers were drawn as one uniform table per iteration; since format 2 each "
+       "uniform is Threefry of the iteration key, the ant and the step, so the rerun draws other "
+       "numbers and takes other paths (rerun it with the jaco that wrote it to reproduce it)",
+}
 #: Maps with at most this many cells are embedded as text rows ('.' free, '@' blocked), larger
 #: ones as a base64 zlib-compressed bit mask (np.packbits, row-major).
 EMBED_ROWS_MAX = 65536
@@ -88,10 +94,15 @@ def versions() -> dict:
     }
 
 
-def version_warnings(recorded: dict) -> list[str]:
-    """One line per checked version that differs between a record and this installation."""
+def version_warnings(recorded: dict, format_version: int = FORMAT_VERSION) -> list[str]:
+    """One line per checked version that differs between a record and this installation, and
+    one per format change since the record's format version."""
     now = versions()
-    out = []
+    out = [
+        f"record format {format_version}, this jaco writes format {FORMAT_VERSION}: {why}"
+        for version, why in sorted(FORMAT_CHANGES.items())
+        if format_version < version
+    ]
     for k in CHECKED_VERSIONS:
         old, new = recorded.get(k), now.get(k)
         if old != new:

@@ -398,7 +398,7 @@ def load_run(path):
             f"jaco reads ({FORMAT_VERSION}): upgrade jaco"
         )
     recorded = doc.get("versions", {})
-    notes = version_warnings(recorded)
+    notes = version_warnings(recorded, doc.get("format_version", 0))
     try:
         if doc.get("kind") == "run":
             grid, map_notes = grid_from_entry(doc["map"], path.name)

@@ -33,10 +33,10 @@ import numpy as np
 import pandas as pd
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
+from ..engine import native
 from ..engine.params import ORDERED, check_values
 from ..engine.problem import make_problem, stack
-from ..engine.run import _COMPILED, cached, check_sizes, default_steplimit, make_run, params_from, resolve_params
-from ..engine.walk import pad_steps
+from ..engine.run import cached, check_sizes, default_steplimit, is_cached, make_run, params_from, resolve_params
 from ..errors import JacoError, ParamError
 from ..grid import Grid
 from ..planners.registry import get_variant
@@ -67,18 +67,20 @@ def _queries(grid, start, goal):
 def bytes_per_run(n_cells: int, n_ants: int, n_iters: int, steplimit: int, path_len: int | None = None) -> int:
     """First guess of the peak bytes one run (one configuration, one query) adds to a batch.
 
-    Fitted to XLA's memory analysis of compiled sweeps (BENCHMARKS.md, "Sweeps at scale"): the
-    tabu bitmaps ``A·N`` bytes, about 20 bytes per ant and step slot (uniforms, moves, cells,
-    targets, lengths), the pheromone and move weights ``(N, 8)``, the history. ``path_len`` is the
-    length of the construct step's candidate buffer: when it is longer than one walk (two colonies
-    spliced by crossover), the crossover tables cost about 52 bytes per ant and candidate slot.
-    A 10 % margin on top. :func:`sweep` only starts from this guess: the compiled program's own
-    memory analysis decides.
+    Fitted to XLA's memory analysis of compiled sweeps (one and two colonies, both walks): about
+    8 bytes per ant and step slot with the native walk (moves, cells, targets, step lengths), 14
+    with the JAX walk, which also keeps every ant's tabu bitmap (``A·N`` bytes) in XLA's memory;
+    the pheromone, weights and heuristic tables ``(N, 8)``, about 100 bytes per cell; the
+    history. ``path_len`` is the length of the construct step's candidate buffer: when it is
+    longer than one walk (two colonies spliced by crossover), the crossover tables cost about 52
+    bytes per ant and candidate slot. A 10 % margin on top. :func:`sweep` only starts from this
+    guess: the compiled program's own memory analysis decides.
     """
-    s = pad_steps(steplimit)
+    s = steplimit
     path_len = s if path_len is None else path_len
-    per_slot = 20 if path_len <= s else 52
-    per = n_ants * n_cells + per_slot * path_len * n_ants + 96 * n_cells + 32 * n_iters
+    jax_walk = native.active_walk() == "jax"
+    per_slot = 52 if path_len > s else (14 if jax_walk else 8)
+    per = (n_ants * n_cells if jax_walk else 0) + per_slot * path_len * n_ants + 100 * n_cells + 32 * n_iters
     return int(1.1 * per)
 
 
@@ -113,7 +115,7 @@ def _devices(devices) -> list:
     return devs
 
 
-_PER_CONFIG: dict = {}  # (variant id, sizes, shapes) -> measured bytes per configuration and device
+_PER_CONFIG: dict = {}  # (walk, variant id, sizes, shapes) -> measured bytes per configuration and device
 
 
 def _program(variant, n_ants, n_iters, steplimit, mesh):
@@ -150,7 +152,7 @@ def _executable(variant, n_ants, n_iters, steplimit, mesh, batch, n_params: int,
     it was compiled by this call."""
     pkey, program = _program(variant, n_ants, n_iters, steplimit, mesh)
     key = (pkey, _shapes(batch), n_params, chunk)
-    new = key not in _COMPILED
+    new = not is_cached(key)
 
     def build():
         width = chunk * mesh.size
@@ -186,7 +188,7 @@ def _plan(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, n_rows, bu
     Returns ``(executable, configurations per device and chunk, info dict)``."""
     rows_per_device = math.ceil(n_rows / mesh.size)
     fixed = sum(int(np.asarray(x).nbytes) for x in jax.tree.leaves(batch))  # replicated problems
-    mkey = (id(variant), n_ants, n_iters, steplimit, _shapes(batch))
+    mkey = (native.active_walk(), id(variant), n_ants, n_iters, steplimit, _shapes(batch))
     path_len = _path_len(variant, n_ants, n_iters, steplimit, batch)
     guess = bytes_per_run(batch.n_cells, n_ants, n_iters, steplimit, path_len) * batch.nbr.shape[0]
     per = _PER_CONFIG.get(mkey, guess)

@@ -1,0 +1,62 @@
+"""What the experiment scripts share: number formatting, markdown tables, and writing one marked
+section of a markdown file (BENCHMARKS.md, docs/results.md) without touching the rest."""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from pathlib import Path
+
+INTRO = (
+    "# Benchmarks\n\n"
+    "Figures measured by the scripts in `experiments/`. Each section is written by the script it names, "
+    "with the command that produced it; run the command again to refresh the section. No test asserts a "
+    "time: the tests only run the scripts at `--smoke` size.\n"
+)
+
+
+def fmt(x, digits=3):
+    """A figure for a table: ints with thousands separators, floats to ``digits`` significant
+    digits, "–" for None and non-finite values."""
+    if isinstance(x, str):
+        return x
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "–"
+    if isinstance(x, int):
+        return f"{x:,}"
+    ax = abs(x)
+    if ax >= 1e6:
+        return f"{x:.3g}" if ax < 1e9 else f"{x:.3e}"
+    if ax >= 100:
+        return f"{x:,.0f}"
+    return f"{x:.{digits}g}"
+
+
+def table(header, rows) -> str:
+    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    out += ["| " + " | ".join(fmt(v) for v in r) + " |" for r in rows]
+    return "\n".join(out)
+
+
+def write_section(path: Path, tag: str, body: str, intro: str = INTRO) -> None:
+    """Replace the text between ``<!-- tag:start -->`` and ``<!-- tag:end -->`` in ``path``, or
+    append the section (to ``intro`` when the file does not exist), so that the rest of the file
+    survives a re-run. Written to a temporary file beside it and renamed into place: an
+    interrupted run leaves the old file whole."""
+    path = Path(path)
+    start, end = f"<!-- {tag}:start -->", f"<!-- {tag}:end -->"
+    block = f"{start}\n{body.rstrip()}\n{end}\n"
+    text = path.read_text() if path.exists() else intro
+    if start in text and end in text:
+        text = text[: text.index(start)] + block + text[text.index(end) + len(end) + 1 :]
+    else:
+        text = text.rstrip() + "\n\n" + block
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        os.unlink(tmp)
+        raise

@@ -1,0 +1,151 @@
+"""The native walks: the C++ kernels of ``jaco/engine/walk.cc``, called through ``jax.ffi``.
+
+The kernel is compiled when jaco is installed (``setup.py``; the XLA FFI headers come from
+jaxlib). Where that failed (no C++ compiler), jaco runs the JAX walk, which defines the walk
+anyway: the kernel takes the same moves bit for bit.
+
+Which walk runs: ``JACO_WALK`` in the environment (``auto``, ``native`` or ``jax``), or
+:func:`set_walk`; ``auto`` (the default) takes the native walk when it was built. The choice
+applies to programs compiled after it (it is part of every compiled program's cache key).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import importlib.util
+import os
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..errors import JacoError
+
+CHOICES = ("auto", "native", "jax")
+_TARGETS = {"jaco_walk": "JacoWalk", "jaco_backtrack": "JacoBacktrack", "jaco_deposit": "JacoDeposit",
+            "jaco_uniforms": "JacoUniforms", "jaco_power": "JacoPower"}
+_state: dict = {}
+
+
+def _load():
+    """Load the kernel library once: ``(library, None)`` or ``(None, reason)``."""
+    if "lib" not in _state:
+        lib, why = None, None
+        try:
+            spec = importlib.util.find_spec("jaco.engine._walk")
+            if spec is None or not spec.origin:
+                why = "the native walk was not built at install time (no C++ compiler?)"
+            else:
+                lib = ctypes.CDLL(spec.origin)
+                for name, symbol in _TARGETS.items():
+                    jax.ffi.register_ffi_target(name, jax.ffi.pycapsule(getattr(lib, symbol)), platform="cpu")
+        except (OSError, AttributeError) as e:  # a stale or broken build
+            lib, why = None, f"the native walk could not be loaded ({e})"
+        _state["lib"], _state["why"] = lib, why
+    return _state["lib"], _state["why"]
+
+
+def available() -> bool:
+    """Whether the native kernel was built and loads."""
+    return _load()[0] is not None
+
+
+def unavailable_reason() -> str | None:
+    return _load()[1]
+
+
+def _check(choice, where: str = "walk") -> str:
+    if choice not in CHOICES:
+        raise JacoError(f"{where} must be one of {', '.join(CHOICES)}, got {choice!r}")
+    if choice == "native" and not available():
+        raise JacoError(f"walk 'native' was asked for, but {unavailable_reason()}")
+    return choice
+
+
+def set_walk(choice: str | None) -> None:
+    """Choose the walk of programs compiled from now on: ``"auto"``, ``"native"`` or ``"jax"``
+    (``None``: back to ``JACO_WALK`` or ``auto``)."""
+    if choice is None:
+        _state.pop("choice", None)
+    else:
+        _state["choice"] = _check(choice)
+
+
+def active_walk() -> str:
+    """``"native"`` or ``"jax"``: the walk that CPU programs compiled now use."""
+    choice = _state.get("choice") or _check(os.environ.get("JACO_WALK") or "auto", "JACO_WALK")
+    if choice == "auto":
+        return "native" if available() else "jax"
+    return choice
+
+
+def walk(weights, words, start, goal, q0, offsets, *, n_ants: int, steplimit: int, exploit: bool):
+    """The kernel's walk; same arguments and results as :func:`jaco.engine.walk.jax_walk`."""
+    _load()
+    n = weights.shape[-2]
+    out = (
+        jax.ShapeDtypeStruct((steplimit, n_ants), jnp.int8),
+        jax.ShapeDtypeStruct((steplimit, n_ants), jnp.int32),
+        jax.ShapeDtypeStruct((n_ants,), jnp.int32),
+        jax.ShapeDtypeStruct((n_ants,), jnp.int32),
+        jax.ShapeDtypeStruct((n_ants,), jnp.bool_),
+        jax.ShapeDtypeStruct((n,), jnp.bool_),
+    )
+    call = jax.ffi.ffi_call("jaco_walk", out, vmap_method="broadcast_all")
+    return call(weights, words, start, goal, q0, offsets, steplimit=np.int64(steplimit), exploit=bool(exploit))
+
+
+def backtrack_walk(tau, rows, words, start, goal, scalars, offsets, *, n_ants: int, steplimit: int, exploit: bool):
+    """The kernel's backtracking walk; same arguments and results as
+    :func:`jaco.planners.iaca.jax_backtrack_walk`."""
+    from .bitexact import TABLES
+
+    _load()
+    n, depth = tau.shape[-1], steplimit + 1
+    out = (
+        jax.ShapeDtypeStruct((n,), jnp.float32),
+        jax.ShapeDtypeStruct((n_ants, depth), jnp.int32),
+        jax.ShapeDtypeStruct((n_ants,), jnp.int32),
+        jax.ShapeDtypeStruct((n_ants,), jnp.bool_),
+        jax.ShapeDtypeStruct((n_ants,), jnp.int32),
+        jax.ShapeDtypeStruct((n,), jnp.bool_),
+        jax.ShapeDtypeStruct((n,), jnp.bool_),
+    )
+    call = jax.ffi.ffi_call("jaco_backtrack", out, vmap_method="broadcast_all")
+    return call(tau, rows, words, start, goal, scalars, offsets, jnp.asarray(TABLES),
+                steplimit=np.int64(steplimit), exploit=bool(exploit))
+
+
+def deposit(tau, targets, amounts):
+    """The kernel's scatter-add ``tau[targets] += amounts`` (out-of-range targets dropped), in
+    XLA's order: same arguments and result as :func:`jaco.engine.pheromone.deposit`'s JAX form;
+    ``targets (S, C)`` or ``(S,)``, each column a walk (the steps it took first, then targets out
+    of range); ``amounts`` a scalar, one value per column, or one per target."""
+    _load()
+    targets = jnp.asarray(targets, jnp.int32)
+    amounts = jnp.asarray(amounts, jnp.float32)
+    flat = targets.reshape(targets.shape[0], -1)
+    per = amounts.reshape(-1)
+    call = jax.ffi.ffi_call("jaco_deposit", jax.ShapeDtypeStruct(tau.shape, jnp.float32), vmap_method="broadcast_all",
+                            input_output_aliases={0: 0})
+    return call(tau, flat, per)
+
+
+def power(x, a):
+    """The kernel's :func:`jaco.engine.bitexact.power` (for tests)."""
+    from .bitexact import TABLES
+
+    _load()
+    x = jnp.asarray(x, jnp.float32)
+    call = jax.ffi.ffi_call("jaco_power", jax.ShapeDtypeStruct(x.shape, jnp.float32))
+    return call(x, jnp.broadcast_to(jnp.asarray(a, jnp.float32), x.shape), jnp.asarray(TABLES))
+
+
+def uniforms(words, ants, steps):
+    """The kernel's uniforms of ``(ant, step)`` pairs (for tests against
+    :func:`jaco.engine.walk.step_uniforms`)."""
+    _load()
+    out = jax.ShapeDtypeStruct(jnp.shape(ants), jnp.float32)
+    return jax.ffi.ffi_call("jaco_uniforms", out)(
+        jnp.asarray(words, jnp.uint32), jnp.asarray(ants, jnp.uint32), jnp.asarray(steps, jnp.uint32)
+    )

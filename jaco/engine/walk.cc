@@ -1,0 +1,528 @@
+// The ant walks of jaco as XLA FFI kernels for the CPU.
+//
+// The JAX walks define what an ant does (jaco/engine/walk.py: jax_walk; jaco/planners/iaca.py:
+// jax_backtrack_walk); these kernels take the same moves bit for bit. Every float operation below
+// is one the JAX walk performs in the same order on the same float32 values: sums added left to
+// right, no fused multiply-add (built with -ffp-contract=off), powers by the integer tables of
+// jaco/engine/bitexact.py. The uniforms are counter-based (Threefry-2x32 on (ant, step / 2)), so nothing
+// depends on how ants are spread over threads.
+//
+// Leading (batch) dimensions of every argument are colonies: vmap, sweeps and seeds all become
+// one call, whose colonies are split over the threads of XLA's intra-op pool.
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <condition_variable>
+#include <cstdint>
+#include <cstring>
+#include <memory>
+#include <mutex>
+#include <vector>
+
+#include "xla/ffi/api/ffi.h"
+
+namespace ffi = xla::ffi;
+
+namespace {
+
+// ---- counter-based uniforms ----------------------------------------------------------------
+inline uint32_t rotl(uint32_t x, int r) { return (x << r) | (x >> (32 - r)); }
+
+// Threefry-2x32, 20 rounds (Salmon et al. 2011), as jax.extend.random.threefry2x32_p.
+inline void threefry(uint32_t k0, uint32_t k1, uint32_t& x0, uint32_t& x1) {
+  const uint32_t ks[3] = {k0, k1, k0 ^ k1 ^ 0x1BD11BDAu};
+  static const int rot[2][4] = {{13, 15, 26, 6}, {17, 29, 16, 24}};
+  x0 += ks[0];
+  x1 += ks[1];
+  for (int i = 0; i < 5; ++i) {
+    for (int j = 0; j < 4; ++j) {
+      x0 += x1;
+      x1 = rotl(x1, rot[i % 2][j]);
+      x1 ^= x0;
+    }
+    x0 += ks[(i + 1) % 3];
+    x1 += ks[(i + 2) % 3] + uint32_t(i + 1);
+  }
+}
+
+inline float unit_float(uint32_t bits) {
+  const uint32_t b = (bits >> 9) | 0x3F800000u;
+  float f;
+  std::memcpy(&f, &b, sizeof f);
+  return f - 1.0f;
+}
+
+// The uniforms of one ant: step s uses word s % 2 of Threefry(key; ant, s / 2).
+struct AntRng {
+  uint32_t k0, k1, ant;
+  uint32_t block = 0xFFFFFFFFu;
+  uint32_t words[2] = {0, 0};
+  float at(uint32_t step) {
+    if ((step >> 1) != block) {
+      block = step >> 1;
+      words[0] = ant;
+      words[1] = block;
+      threefry(k0, k1, words[0], words[1]);
+    }
+    return unit_float(words[step & 1]);
+  }
+};
+
+// ---- the roulette (jaco.engine.walk.choose) --------------------------------------------------
+inline int choose(const float* w, float u, float q0, bool exploit) {
+  float c[8];
+  c[0] = w[0];
+  for (int k = 1; k < 8; ++k) c[k] = c[k - 1] + w[k];
+  const float total = c[7];
+  if (exploit) {
+    if (u < q0) {  // the argmax; ties to the lowest index
+      int best = 0;
+      for (int k = 1; k < 8; ++k)
+        if (w[k] > w[best]) best = k;
+      return best;
+    }
+    u = (u - q0) / std::max(1.0f - q0, 1e-12f);
+  }
+  // The largest float below total (std::nextafter(total, 0) for a positive total, without the call).
+  uint32_t tb;
+  std::memcpy(&tb, &total, sizeof tb);
+  tb -= 1;
+  float below;
+  std::memcpy(&below, &tb, sizeof below);
+  const float x = std::min(u * total, below);
+  int k = 0;
+  for (int i = 0; i < 8; ++i) k += (c[i] <= x);
+  return k;
+}
+
+// ---- powers from tables (jaco.engine.bitexact) ----------------------------------------------------
+constexpr int kBits = 10;
+constexpr int kTable = (1 << kBits) + 1;
+
+inline float bits_float(int32_t b) {
+  float f;
+  std::memcpy(&f, &b, sizeof f);
+  return f;
+}
+
+inline float table_log2(float x, const int32_t* log_table) {
+  int32_t b;
+  std::memcpy(&b, &x, sizeof b);
+  const int32_t e = (b >> 23) - 127;
+  const int32_t m = b & 0x7FFFFF;
+  const int32_t i = m >> (23 - kBits);
+  const int32_t f = m & ((1 << (23 - kBits)) - 1);
+  const int32_t lo = log_table[i], hi = log_table[i + 1];
+  const int32_t frac = lo + (((hi - lo) * f) >> (23 - kBits));
+  return float(e) + float(frac) * 0x1p-24f;
+}
+
+inline float table_exp2(float y, const int32_t* exp_table) {
+  const float n = std::floor(y);
+  const float r = y - n;
+  const int32_t fx = std::min(int32_t(r * 0x1p24f), (1 << 24) - 1);
+  const int32_t j = fx >> (24 - kBits);
+  const int32_t g = fx & ((1 << (24 - kBits)) - 1);
+  const int32_t lo = exp_table[j], hi = exp_table[j + 1];
+  const int32_t mant = lo + (((hi - lo) * g) >> (24 - kBits));
+  const int32_t ni = int32_t(std::min(std::max(n, -126.0f), 127.0f));
+  const float value = float(mant) * 0x1p-23f * bits_float((ni + 127) << 23);
+  return n < -126.0f ? 0.0f : (n > 127.0f ? INFINITY : value);
+}
+
+inline float table_power(float x, float a, const int32_t* tables) {
+  if (!(x > 0.0f)) return 0.0f;
+  return table_exp2(a * table_log2(x, tables), tables + kTable);
+}
+
+// ---- running colonies on the intra-op threads ------------------------------------------------
+// Colonies are taken in turn by the calling thread and the pool's threads. State is shared
+// through a shared_ptr so that a task that starts after all colonies are done finds nothing to do.
+template <typename PerThread>
+void for_each_colony(ffi::ThreadPool& pool, int64_t n_colonies, PerThread make_worker) {
+  const int64_t n_threads = std::min<int64_t>(std::max<int64_t>(pool.num_threads(), 1), n_colonies);
+  if (n_threads <= 1) {
+    auto worker = make_worker();
+    for (int64_t b = 0; b < n_colonies; ++b) worker(b);
+    return;
+  }
+  struct Shared {
+    std::atomic<int64_t> next{0}, done{0};
+    std::mutex m;
+    std::condition_variable cv;
+  };
+  auto sh = std::make_shared<Shared>();
+  auto task = [sh, n_colonies, make_worker]() {
+    auto worker = make_worker();
+    int64_t mine = 0;
+    for (int64_t b; (b = sh->next.fetch_add(1)) < n_colonies; ++mine) worker(b);
+    if (mine && sh->done.fetch_add(mine) + mine == n_colonies) {
+      std::lock_guard<std::mutex> lock(sh->m);
+      sh->cv.notify_all();
+    }
+  };
+  for (int64_t i = 1; i < n_threads; ++i) {
+    auto copy = task;
+    pool.Schedule(std::move(copy));
+  }
+  task();
+  std::unique_lock<std::mutex> lock(sh->m);
+  sh->cv.wait(lock, [&] { return sh->done.load() == n_colonies; });
+}
+
+int64_t leading(const ffi::AnyBuffer::Dimensions& dims, int trailing) {
+  int64_t n = 1;
+  for (size_t i = 0; i + trailing < dims.size(); ++i) n *= dims[i];
+  return n;
+}
+
+// ---- the dying-ant walk (jaco.engine.walk.jax_walk) ------------------------------------------
+ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Buffer<ffi::U32> words,
+                    ffi::Buffer<ffi::S32> start, ffi::Buffer<ffi::S32> goal, ffi::Buffer<ffi::F32> q0,
+                    ffi::Buffer<ffi::S32> offsets, ffi::ResultBuffer<ffi::S8> moves,
+                    ffi::ResultBuffer<ffi::S32> cells, ffi::ResultBuffer<ffi::S32> n_steps,
+                    ffi::ResultBuffer<ffi::S32> n_diagonal, ffi::ResultBuffer<ffi::PRED> arrived,
+                    ffi::ResultBuffer<ffi::PRED> visited, int64_t steplimit, bool exploit) {
+  const auto wd = weights.dimensions();
+  const auto md = moves->dimensions();
+  const int64_t N = wd[wd.size() - 2], S = md[md.size() - 2], A = md[md.size() - 1];
+  const int64_t B = leading(wd, 2);
+  const float* W0 = weights.typed_data();
+  const uint32_t* K = words.typed_data();
+  const int32_t *st = start.typed_data(), *gl = goal.typed_data(), *off0 = offsets.typed_data();
+  const float* q = q0.typed_data();
+  int8_t* mv0 = moves->typed_data();
+  int32_t* cl0 = cells->typed_data();
+  int32_t *ns0 = n_steps->typed_data(), *nd0 = n_diagonal->typed_data();
+  bool *arr0 = arrived->typed_data(), *vis0 = visited->typed_data();
+
+  for_each_colony(pool, B, [=]() {
+    return [=, tabu = std::vector<uint32_t>(N, 0), tag = uint32_t(0)](int64_t b) mutable {
+      const int32_t last = int32_t(N - 1);
+      const float* W = W0 + b * N * 8;
+      const int32_t* off = off0 + b * 8;
+      int8_t* mv = mv0 + b * S * A;
+      int32_t* cl = cl0 + b * S * A;
+      bool* vis = vis0 + b * N;
+      std::memset(mv, -1, S * A);
+      std::memset(cl, -1, S * A * sizeof(int32_t));
+      std::memset(vis, 0, N);
+      vis[st[b]] = true;
+      for (int64_t a = 0; a < A; ++a) {
+        if (++tag == 0) {  // stamps wrapped around: clear them
+          std::fill(tabu.begin(), tabu.end(), 0u);
+          tag = 1;
+        }
+        AntRng rng{K[2 * b], K[2 * b + 1], uint32_t(a)};
+        int32_t cur = st[b], steps = 0, diagonal = 0;
+        tabu[cur] = tag;
+        for (int64_t t = 0; t < steplimit && cur != gl[b]; ++t) {
+          const float* row = W + int64_t(cur) * 8;
+          float w[8];
+          for (int k = 0; k < 8; ++k) {  // a forbidden move has weight 0: any cell will do for its tabu look-up
+            const int32_t next = std::min(std::max(cur + off[k], 0), last);
+            w[k] = tabu[next] == tag ? 0.0f : row[k];
+          }
+          // A dead end (no weight left: the ant dies). Weights are 0 or at least 1e-30, so the sum
+          // is positive exactly when one is.
+          if (!(w[0] + w[1] + w[2] + w[3] + w[4] + w[5] + w[6] + w[7] > 0.0f)) break;
+          const int k = choose(w, rng.at(uint32_t(t)), q[b], exploit);
+          cur += off[k];
+          mv[t * A + a] = int8_t(k);
+          cl[t * A + a] = cur;
+          tabu[cur] = tag;
+          vis[cur] = true;
+          steps += 1;
+          diagonal += k >= 4;
+        }
+        ns0[b * A + a] = steps;
+        nd0[b * A + a] = diagonal;
+        arr0[b * A + a] = cur == gl[b];
+      }
+    };
+  });
+  return ffi::Error::Success();
+}
+
+// ---- IACA's backtracking walk (jaco.planners.iaca.jax_backtrack_walk) -------------------------------
+constexpr float kSqrt2 = static_cast<float>(1.4142135623730951);  // float32(hypot(1, 1))
+
+inline float int_power(float x, int32_t k) {
+  float out = 1.0f, base = x;
+  for (int bit = 0; bit < 16; ++bit) {
+    if ((k >> bit) & 1) out = out * base;
+    base = base * base;
+  }
+  return out;
+}
+
+ffi::Error BacktrackImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> tau_in, ffi::Buffer<ffi::F32> rows,
+                         ffi::Buffer<ffi::U32> words, ffi::Buffer<ffi::S32> start, ffi::Buffer<ffi::S32> goal,
+                         ffi::Buffer<ffi::F32> scalars, ffi::Buffer<ffi::S32> offsets, ffi::Buffer<ffi::S32> tables,
+                         ffi::ResultBuffer<ffi::F32> tau_out, ffi::ResultBuffer<ffi::S32> stack_out,
+                         ffi::ResultBuffer<ffi::S32> sp_out, ffi::ResultBuffer<ffi::PRED> arrived_out,
+                         ffi::ResultBuffer<ffi::S32> actions_out, ffi::ResultBuffer<ffi::PRED> visited_out,
+                         ffi::ResultBuffer<ffi::PRED> infeasible_out, int64_t steplimit, bool exploit) {
+  const auto rd = rows.dimensions();
+  const auto sd = stack_out->dimensions();
+  const int64_t N = rd[rd.size() - 2], A = sd[sd.size() - 2], D = sd[sd.size() - 1];
+  const int64_t B = leading(rd, 2);
+  const int64_t n_tables = tables.dimensions()[tables.dimensions().size() - 1];
+  const float *T0 = tau_in.typed_data(), *R0 = rows.typed_data(), *P0 = scalars.typed_data();
+  const uint32_t* K = words.typed_data();
+  const int32_t *st = start.typed_data(), *gl = goal.typed_data(), *off0 = offsets.typed_data();
+  const int32_t* tab0 = tables.typed_data();
+  float* tau0 = tau_out->typed_data();
+  int32_t *stk0 = stack_out->typed_data(), *sp0 = sp_out->typed_data(), *act0 = actions_out->typed_data();
+  bool *arr0 = arrived_out->typed_data(), *vis0 = visited_out->typed_data(), *bad0 = infeasible_out->typed_data();
+
+  for_each_colony(pool, B, [=]() {
+    struct Scratch {
+      std::vector<uint8_t> tabu;           // (A, N): cells each ant entered
+      std::vector<int32_t> cur, entered;   // entered: (A, D) cells in the order entered, start first
+      std::vector<int32_t> n_entered, n1, n2, touched, mark;
+      std::vector<uint8_t> running, good;
+      std::vector<AntRng> rng;
+    };
+    return [=, s = std::make_shared<Scratch>()](int64_t b) {
+      const float* R = R0 + b * N * 8;
+      const float* P = P0 + b * 7;
+      const float q0 = P[0], alpha = P[1], beta = P[2], lo = P[3], hi = P[4], rho = P[5], q = P[6];
+      const int32_t* off = off0 + b * 8;
+      const int32_t* tab = tab0 + b * n_tables;
+      const int32_t start_b = st[b], goal_b = gl[b];
+      float* tau = tau0 + b * N;
+      int32_t* stack = stk0 + b * A * D;
+      int32_t* sp = sp0 + b * A;
+      int32_t* actions = act0 + b * A;
+      bool* arrived = arr0 + b * A;
+      bool* vis = vis0 + b * N;
+      bool* bad = bad0 + b * N;
+      std::memcpy(tau, T0 + b * N, N * sizeof(float));
+      s->tabu.assign(A * N, 0);
+      s->cur.assign(A, start_b);
+      s->entered.assign(A * D, 0);
+      s->n_entered.assign(A, 1);
+      s->n1.assign(N, 0);
+      s->n2.assign(N, 0);
+      s->running.assign(A, start_b != goal_b);
+      s->rng.clear();
+      for (int64_t a = 0; a < A; ++a) {
+        s->rng.push_back(AntRng{K[2 * b], K[2 * b + 1], uint32_t(a)});
+        s->tabu[a * N + start_b] = 1;
+        s->entered[a * D] = start_b;
+        stack[a * D] = start_b;
+        sp[a] = 0;
+        actions[a] = 0;
+      }
+      const float keep = 1.0f - rho;
+      const float amount[2] = {q / 1.0f, q / kSqrt2};
+      for (int64_t t = 0; t < steplimit; ++t) {
+        bool any_running = false;
+        s->touched.clear();
+        for (int64_t a = 0; a < A; ++a) {
+          if (!s->running[a]) continue;
+          any_running = true;
+          uint8_t* tabu = s->tabu.data() + a * N;
+          const int32_t c = s->cur[a];
+          const float* r = R + int64_t(c) * 8;
+          bool allowed[8];
+          int n_allowed = 0;
+          float rr[8], total = 0.0f;
+          for (int k = 0; k < 8; ++k) {
+            allowed[k] = r[k] > 0.0f && !tabu[c + off[k]];
+            n_allowed += allowed[k];
+            rr[k] = allowed[k] ? r[k] : 0.0f;
+          }
+          if (n_allowed == 0) {
+            if (sp[a] > 0) {  // step back along the path; the dead end stays tabu
+              s->cur[a] = stack[a * D + sp[a] - 1];
+              sp[a] -= 1;
+              actions[a] += 1;
+            } else {
+              s->running[a] = 0;  // back at the start with nothing left: dead
+            }
+            continue;
+          }
+          total = rr[0];
+          for (int k = 1; k < 8; ++k) total = total + rr[k];
+          float w[8];
+          for (int k = 0; k < 8; ++k) {
+            if (!allowed[k]) {
+              w[k] = 0.0f;
+              continue;
+            }
+            float eta = n_allowed == 1 ? 1.0f : 1.0f - rr[k] / std::max(total, 1e-12f);
+            eta = std::max(eta, 1e-6f);
+            float v = table_power(tau[c + off[k]], alpha, tab) * table_power(eta, beta, tab);
+            if (std::isnan(v)) v = 1e-30f;
+            w[k] = std::min(std::max(v, 1e-30f), 1e30f);
+          }
+          const int k = choose(w, s->rng[a].at(uint32_t(t)), q0, exploit);
+          const int32_t next = c + off[k];
+          s->cur[a] = next;
+          sp[a] += 1;
+          stack[a * D + sp[a]] = next;
+          tabu[next] = 1;
+          s->entered[a * D + s->n_entered[a]++] = next;
+          actions[a] += 1;
+          if (s->n1[next] + s->n2[next] == 0) s->touched.push_back(next);
+          (k < 4 ? s->n1 : s->n2)[next] += 1;
+          s->running[a] = next != goal_b;
+        }
+        if (!any_running) break;
+        for (int32_t cell : s->touched) {  // eqs. 4-2..4-4 (jaco.planners.iaca.local_update)
+          const int32_t n1 = s->n1[cell], n2 = s->n2[cell], k = n1 + n2;
+          const float deposit = float(n1) * amount[0] + float(n2) * amount[1];
+          const float decay = int_power(keep, k);
+          const float mean_decay = rho > 1e-6f ? (1.0f - decay) / std::max(float(k) * rho, 1e-12f) : 1.0f;
+          const float v = decay * tau[cell] + deposit * mean_decay;
+          tau[cell] = std::min(std::max(v, lo), hi);
+          s->n1[cell] = s->n2[cell] = 0;
+        }
+      }
+      // Final paths, visited cells and the cells of eq. (4-6) (jaco.planners.iaca.infeasible_cells).
+      std::memset(vis, 0, N);
+      std::memset(bad, 0, N);
+      s->good.assign(N, 0);
+      s->mark.assign(N, -1);
+      for (int64_t a = 0; a < A; ++a) {
+        arrived[a] = s->cur[a] == goal_b;
+        for (int64_t i = sp[a] + 1; i < D; ++i) stack[a * D + i] = -1;
+        for (int64_t i = 0; i <= sp[a]; ++i) {
+          s->mark[stack[a * D + i]] = int32_t(a);
+          if (arrived[a]) s->good[stack[a * D + i]] = 1;
+        }
+        for (int64_t i = 0; i < s->n_entered[a]; ++i) {
+          const int32_t cell = s->entered[a * D + i];
+          vis[cell] = true;
+          if (!arrived[a] || s->mark[cell] != a) bad[cell] = true;
+        }
+      }
+      for (int64_t i = 0; i < N; ++i) bad[i] = bad[i] && !s->good[i];
+    };
+  });
+  return ffi::Error::Success();
+}
+
+// ---- pheromone deposits (jaco.engine.pheromone.deposit) ------------------------------------
+// tau[targets[r, c]] += amounts[(r * C + c) % K] in row-major order, a target in [-M, 0) counting
+// from the end and one outside [-M, M) dropped: jax's .at[].add(mode="drop"), XLA's scatter-add,
+// which adds in the same order. The columns are walks: every column's targets in range come
+// first, so a column is left once it has a target out of range (its later ones all are).
+ffi::Error DepositImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> tau, ffi::Buffer<ffi::S32> targets,
+                       ffi::Buffer<ffi::F32> amounts, ffi::ResultBuffer<ffi::F32> out) {
+  const auto td = tau.dimensions(), gd = targets.dimensions();
+  const int64_t M = td[td.size() - 1], B = leading(td, 1);
+  const int64_t R = gd[gd.size() - 2], C = gd[gd.size() - 1];
+  const int64_t K = B ? int64_t(amounts.element_count()) / B : 0;
+  const float* T0 = tau.typed_data();
+  const int32_t* G0 = targets.typed_data();
+  const float* A0 = amounts.typed_data();
+  float* D0 = out->typed_data();
+  for_each_colony(pool, B, [=]() {
+    return [=, live = std::vector<int32_t>(C)](int64_t b) mutable {
+      const float* src = T0 + b * M;
+      float* dst = D0 + b * M;
+      if (dst != src) std::memcpy(dst, src, M * sizeof(float));
+      const int32_t* tg = G0 + b * R * C;
+      const float* am = A0 + b * K;
+      int64_t n_live = C;
+      for (int64_t c = 0; c < C; ++c) live[c] = int32_t(c);
+      for (int64_t r = 0; r < R && n_live; ++r) {
+        int64_t kept = 0;
+        for (int64_t i = 0; i < n_live; ++i) {
+          const int64_t c = live[i], idx = r * C + c;
+          const int64_t e = tg[idx] < 0 ? int64_t(tg[idx]) + M : int64_t(tg[idx]);
+          if (e < 0 || e >= M) continue;  // the column's walk has ended
+          dst[e] = dst[e] + am[K == 1 ? 0 : (K == C ? c : idx)];
+          live[kept++] = int32_t(c);
+        }
+        n_live = kept;
+      }
+    };
+  });
+  return ffi::Error::Success();
+}
+
+// ---- test entry points: the uniforms and the powers on their own ---------------------------
+ffi::Error UniformsImpl(ffi::Buffer<ffi::U32> words, ffi::Buffer<ffi::U32> ants, ffi::Buffer<ffi::U32> steps,
+                        ffi::ResultBuffer<ffi::F32> out) {
+  const uint32_t* k = words.typed_data();
+  for (int64_t i = 0; i < int64_t(ants.element_count()); ++i) {
+    AntRng rng{k[0], k[1], ants.typed_data()[i]};
+    out->typed_data()[i] = rng.at(steps.typed_data()[i]);
+  }
+  return ffi::Error::Success();
+}
+
+ffi::Error PowerImpl(ffi::Buffer<ffi::F32> x, ffi::Buffer<ffi::F32> a, ffi::Buffer<ffi::S32> tables,
+                     ffi::ResultBuffer<ffi::F32> out) {
+  for (int64_t i = 0; i < int64_t(x.element_count()); ++i)
+    out->typed_data()[i] = table_power(x.typed_data()[i], a.typed_data()[i], tables.typed_data());
+  return ffi::Error::Success();
+}
+
+}  // namespace
+
+XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoWalk, WalkImpl,
+                              ffi::Ffi::Bind()
+                                  .Ctx<ffi::ThreadPool>()
+                                  .Arg<ffi::Buffer<ffi::F32>>()   // weights (..., N, 8)
+                                  .Arg<ffi::Buffer<ffi::U32>>()   // key words (..., 2)
+                                  .Arg<ffi::Buffer<ffi::S32>>()   // start (...)
+                                  .Arg<ffi::Buffer<ffi::S32>>()   // goal (...)
+                                  .Arg<ffi::Buffer<ffi::F32>>()   // q0 (...)
+                                  .Arg<ffi::Buffer<ffi::S32>>()   // move offsets (..., 8)
+                                  .Ret<ffi::Buffer<ffi::S8>>()    // moves (..., S, A)
+                                  .Ret<ffi::Buffer<ffi::S32>>()   // cells (..., S, A)
+                                  .Ret<ffi::Buffer<ffi::S32>>()   // steps (..., A)
+                                  .Ret<ffi::Buffer<ffi::S32>>()   // diagonal steps (..., A)
+                                  .Ret<ffi::Buffer<ffi::PRED>>()  // arrived (..., A)
+                                  .Ret<ffi::Buffer<ffi::PRED>>()  // visited (..., N)
+                                  .Attr<int64_t>("steplimit")
+                                  .Attr<bool>("exploit"));
+
+XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoBacktrack, BacktrackImpl,
+                              ffi::Ffi::Bind()
+                                  .Ctx<ffi::ThreadPool>()
+                                  .Arg<ffi::Buffer<ffi::F32>>()   // tau (..., N)
+                                  .Arg<ffi::Buffer<ffi::F32>>()   // detour rows (..., N, 8)
+                                  .Arg<ffi::Buffer<ffi::U32>>()   // key words (..., 2)
+                                  .Arg<ffi::Buffer<ffi::S32>>()   // start (...)
+                                  .Arg<ffi::Buffer<ffi::S32>>()   // goal (...)
+                                  .Arg<ffi::Buffer<ffi::F32>>()   // q0, alpha, beta, lo, hi, rho_local, q (..., 7)
+                                  .Arg<ffi::Buffer<ffi::S32>>()   // move offsets (..., 8)
+                                  .Arg<ffi::Buffer<ffi::S32>>()   // power tables (..., 2·1025)
+                                  .Ret<ffi::Buffer<ffi::F32>>()   // tau (..., N)
+                                  .Ret<ffi::Buffer<ffi::S32>>()   // stack (..., A, D)
+                                  .Ret<ffi::Buffer<ffi::S32>>()   // sp (..., A)
+                                  .Ret<ffi::Buffer<ffi::PRED>>()  // arrived (..., A)
+                                  .Ret<ffi::Buffer<ffi::S32>>()   // actions (..., A)
+                                  .Ret<ffi::Buffer<ffi::PRED>>()  // visited (..., N)
+                                  .Ret<ffi::Buffer<ffi::PRED>>()  // infeasible (..., N)
+                                  .Attr<int64_t>("steplimit")
+                                  .Attr<bool>("exploit"));
+
+XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoDeposit, DepositImpl,
+                              ffi::Ffi::Bind()
+                                  .Ctx<ffi::ThreadPool>()
+                                  .Arg<ffi::Buffer<ffi::F32>>()   // tau (..., M)
+                                  .Arg<ffi::Buffer<ffi::S32>>()   // targets (..., R, C)
+                                  .Arg<ffi::Buffer<ffi::F32>>()   // amounts (..., K): K = 1, C or R·C
+                                  .Ret<ffi::Buffer<ffi::F32>>()); // tau (..., M), aliasing the input
+
+XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoUniforms, UniformsImpl,
+                              ffi::Ffi::Bind()
+                                  .Arg<ffi::Buffer<ffi::U32>>()
+                                  .Arg<ffi::Buffer<ffi::U32>>()
+                                  .Arg<ffi::Buffer<ffi::U32>>()
+                                  .Ret<ffi::Buffer<ffi::F32>>());
+
+XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoPower, PowerImpl,
+                              ffi::Ffi::Bind()
+                                  .Arg<ffi::Buffer<ffi::F32>>()
+                                  .Arg<ffi::Buffer<ffi::F32>>()
+                                  .Arg<ffi::Buffer<ffi::S32>>()
+                                  .Ret<ffi::Buffer<ffi::F32>>());

@@ -1,0 +1,317 @@
+"""The native walks (C++ through jax.ffi) take the JAX walks' moves bit for bit.
+
+Random maps, shapes down to 1x1, start on the goal, unreachable goals, step limit 1, both
+transition rules, the backtracking walk with its local update; every registered planner through
+solve, sweep and waypoints; the uniforms and the table powers on a million inputs each; and the
+choice of walk (option, environment variable, fallback when the kernel is missing).
+"""
+
+import functools
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import HealthCheck, example, given, settings
+from hypothesis import strategies as st
+
+import jaco
+from jaco.engine import bitexact, native
+from jaco.engine.walk import jax_walk, key_words, step_uniforms
+from jaco.moves import MOVES, neighbour_table
+from jaco.planners.iaca import detour, jax_backtrack_walk
+
+ROOT = Path(__file__).resolve().parents[1]
+
+pytestmark = pytest.mark.skipif(not native.available(), reason="the native walk was not built")
+
+
+@pytest.fixture
+def walk_choice():
+    """Restore the walk choice after a test that changes it."""
+    yield native.set_walk
+    native.set_walk(None)
+
+
+def test_kernel_uniforms_equal_the_jax_uniforms_on_a_million_counters():
+    rng = np.random.default_rng(1)
+    n = 1_000_000
+    words = rng.integers(0, 2**32, 2, dtype=np.uint32)
+    ants = rng.integers(0, 2**32, n, dtype=np.uint32)
+    steps = rng.integers(0, 2**32, n, dtype=np.uint32)
+    np.testing.assert_array_equal(
+        np.asarray(native.uniforms(words, ants, steps)), np.asarray(jax.jit(step_uniforms)(jnp.asarray(words), ants, steps))
+    )
+
+
+def test_table_powers_agree_with_the_kernel_and_with_float64_pow():
+    rng = np.random.default_rng(2)
+    x = np.exp(rng.uniform(-70, 70, 1_000_000)).astype(np.float32)
+    a = rng.uniform(0, 20, 1_000_000).astype(np.float32)
+    got = np.asarray(jax.jit(bitexact.power)(x, a))
+    np.testing.assert_array_equal(np.asarray(native.power(x, a)), got)
+    exact = np.exp(a.astype(np.float64) * np.log(x.astype(np.float64)))
+    normal = (exact > 1e-37) & (exact < 1e37)
+    assert np.max(np.abs(got[normal] / exact[normal] - 1)) < 1e-5
+    assert (got[exact < 1e-39] == 0).all() and np.isinf(got[exact > 4e38]).all()
+    special = np.asarray(bitexact.power(jnp.array([0.0, -1.0, 2.0, 1.0, 3.0]), jnp.array([2.0, 2.0, 1.0, 7.0, 0.0])))
+    assert special.tolist() == [0.0, 0.0, 2.0, 1.0, 1.0]
+
+
+# -- random walks on random maps ----------------------------------------------------------------
+# Maps of up to 9x9 are drawn inside a fixed 9x9 frame (cells outside the map are obstacles), so
+# that the compiled walks are reused across examples; maps of the true shapes 1x1, 1x2 and 2x1
+# are explicit examples.
+FRAME = 9
+
+
+@st.composite
+def walk_cases(draw):
+    return dict(h=draw(st.integers(1, FRAME)), w=draw(st.integers(1, FRAME)), shape=(FRAME, FRAME),
+                density=draw(st.sampled_from([0.0, 0.2, 0.4])), seed=draw(st.integers(0, 2**31 - 1)),
+                n_ants=draw(st.sampled_from([1, 4])), steplimit=draw(st.sampled_from([1, 3, 40])),
+                exploit=draw(st.booleans()), connectivity=draw(st.sampled_from([4, 8])))
+
+
+def _arrays(case, colonies=3):
+    """Weights, key words, starts, goals, q0 and offsets of ``colonies`` random colonies on one
+    random map: starts and goals anywhere free (possibly equal, possibly disconnected)."""
+    rng = np.random.default_rng(case["seed"])
+    H, W = case["shape"]
+    free = np.zeros((H, W), bool)
+    free[: case["h"], : case["w"]] = rng.random((case["h"], case["w"])) >= case["density"]
+    free.flat[rng.integers(H * W) if free.sum() == 0 else np.flatnonzero(free)[0]] = True
+    nbr, _ = neighbour_table(free, case["connectivity"])
+    cells = np.flatnonzero(free)
+    weights = np.exp(rng.normal(0, 4, (colonies,) + nbr.shape)).clip(1e-30, 1e30)
+    weights = np.where(nbr[None] >= 0, weights, 0).astype(np.float32)
+    return (
+        jnp.asarray(weights),
+        jnp.asarray(rng.integers(0, 2**32, (colonies, 2), dtype=np.uint32)),
+        jnp.asarray(rng.choice(cells, colonies).astype(np.int32)),
+        jnp.asarray(rng.choice(cells, colonies).astype(np.int32)),
+        jnp.asarray(rng.uniform(0, 1, colonies).astype(np.float32)),
+        jnp.asarray(np.broadcast_to(MOVES[:, 0] * W + MOVES[:, 1], (colonies, 8)).astype(np.int32)),
+    )
+
+
+@functools.lru_cache(maxsize=None)
+def _dying(kind, n_ants, steplimit, exploit):
+    fn = jax_walk if kind == "jax" else native.walk
+    return jax.jit(jax.vmap(functools.partial(fn, n_ants=n_ants, steplimit=steplimit, exploit=exploit)))
+
+
+@functools.lru_cache(maxsize=None)
+def _backtracking(kind, n_ants, steplimit, exploit):
+    fn = jax_backtrack_walk if kind == "jax" else native.backtrack_walk
+    return jax.jit(jax.vmap(functools.partial(fn, n_ants=n_ants, steplimit=steplimit, exploit=exploit)))
+
+
+def _same(a, b):
+    for x, y in zip(a, b, strict=True):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+
+
+_EDGES = [dict(h=1, w=1, shape=(1, 1), density=0.0, seed=0, n_ants=4, steplimit=3, exploit=False, connectivity=8),
+          dict(h=1, w=2, shape=(1, 2), density=0.0, seed=5, n_ants=4, steplimit=1, exploit=True, connectivity=8),
+          dict(h=2, w=1, shape=(2, 1), density=0.0, seed=7, n_ants=1, steplimit=40, exploit=False, connectivity=4)]
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(walk_cases())
+@example(_EDGES[0])
+@example(_EDGES[1])
+@example(_EDGES[2])
+def test_native_dying_walk_takes_the_jax_walks_moves(case):
+    args = _arrays(case)
+    key = (case["n_ants"], case["steplimit"], case["exploit"])
+    _same(_dying("jax", *key)(*args), _dying("native", *key)(*args))
+
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(walk_cases(), st.sampled_from([(1.0, 8.0, 0.1, 0.1), (2.5, 3.0, 0.4, 1.0), (0.0, 0.0, 0.0, 0.5)]))
+@example(_EDGES[0], (1.0, 8.0, 0.1, 0.1))
+@example(_EDGES[1], (2.5, 3.0, 0.4, 1.0))
+def test_native_backtracking_walk_takes_the_jax_walks_moves_and_pheromone(case, exponents):
+    """IACA's walk: powers of the pheromone that changes while the ants walk (local update),
+    backtracking, the infeasible cells; exponents and rates include 0."""
+    weights, words, start, goal, q0, offsets = _arrays(case)
+    rng = np.random.default_rng(case["seed"] + 1)
+    n = weights.shape[1]
+    xy = np.stack(np.divmod(np.arange(n), case["shape"][1]), axis=1).astype(np.float32)
+    goal_xy = xy[np.asarray(goal)]
+    to_goal = np.sqrt(((xy[None, :, None, :] + MOVES[None, None] - goal_xy[:, None, None, :]) ** 2).sum(-1))
+    rows = jnp.asarray(np.where(np.asarray(weights) > 0, np.hypot(*MOVES.T)[None, None] + to_goal, 0).astype(np.float32))
+    tau = jnp.asarray(rng.uniform(0.01, 20.0, (3, n)).astype(np.float32))
+    alpha, beta, rho_local, q = exponents
+    scalars = jnp.asarray(np.array([[q0i, alpha, beta, 0.01, 20.0, rho_local, q] for q0i in np.asarray(q0)], np.float32))
+    args = (tau, rows, words, start, goal, scalars, offsets)
+    key = (case["n_ants"], case["steplimit"], case["exploit"])
+    _same(_backtracking("jax", *key)(*args), _backtracking("native", *key)(*args))
+
+
+def test_detour_rows_of_a_problem_are_what_the_walk_test_builds():
+    """The backtracking test builds detour rows by hand; they are jaco.planners.iaca.detour's."""
+    grid = jaco.maps.random_map(7, 0.2, seed=3)
+    p = jaco.make_problem(grid, (0, 0), (6, 6))
+    xy = np.asarray(p.xy)
+    to_goal = np.sqrt(((xy[:, None, :] + MOVES[None] - xy[p.goal]) ** 2).sum(-1))
+    expected = np.where(np.asarray(p.nbr) >= 0, np.hypot(*MOVES.T)[None] + to_goal, 0)
+    np.testing.assert_allclose(np.asarray(detour(jax.tree.map(jnp.asarray, p))), expected, rtol=1e-6)
+
+
+# -- every planner, both walks ------------------------------------------------------------------
+GRID = jaco.maps.random_map(14, 0.15, seed=2)
+
+
+def _runs(variant):
+    start, goal = (0, 0), (13, 13)
+    kw = dict(n_ants=12, n_iters=8)
+    solved = jaco.solve(GRID, start, goal, variant, seed=3, **kw)
+    table = jaco.sweep(GRID, start, goal, variant, params={"rho": [0.1, 0.3]}, seeds=2, **kw)
+    trip = jaco.solve(GRID, start, goal, variant, seed=4, waypoints=[(6, 8)], **kw)
+    return solved, table, trip
+
+
+# One planner of each kind of walk in the normal run (dying ants, the q0 rule, two colonies,
+# backtracking ants); every planner with the slow checks (.ci/run).
+_QUICK = {"as", "acs", "daca", "iaca"}
+
+
+@pytest.mark.parametrize(
+    "variant", [v if v in _QUICK else pytest.param(v, marks=pytest.mark.slow) for v in sorted(jaco.VARIANTS)]
+)
+def test_every_planner_gives_the_same_runs_with_both_walks(variant, walk_choice):
+    walk_choice("native")
+    native_runs = _runs(variant)
+    walk_choice("jax")
+    jax_runs = _runs(variant)
+    for a, b in ((native_runs[0], jax_runs[0]), (native_runs[2], jax_runs[2])):
+        np.testing.assert_array_equal(a.path, b.path)
+        assert a.length == b.length and a.cost == b.cost and a.coverage == b.coverage
+        for k in a.history:
+            np.testing.assert_array_equal(a.history[k], b.history[k])
+    pd.testing.assert_frame_equal(native_runs[1], jax_runs[1], check_exact=True)
+    assert native_runs[0].success and native_runs[1].success.any() and native_runs[2].success
+
+
+def test_sharded_sweep_with_the_jax_walk_equals_the_native_walk(tmp_path, walk_choice):
+    """Two XLA devices, the configuration axis sharded, the JAX walk (a subprocess), against the
+    native walk on one device here."""
+    grid = jaco.maps.named("random-20-30")
+    args = dict(params={"beta": [2.0, 4.0, 6.0], "rho": [0.1, 0.3]}, seeds=2, n_ants=10, n_iters=6)
+    walk_choice("native")
+    here = jaco.sweep(grid, grid.meta["start"], grid.meta["goal"], "mmas", **args)
+    out = tmp_path / "table.pkl"
+    code = (
+        "import sys, jaco, pandas as pd; g = jaco.maps.named('random-20-30'); "
+        f"t = jaco.sweep(g, g.meta['start'], g.meta['goal'], 'mmas', devices=2, **{args!r}); "
+        "assert t.attrs['sweep']['devices'] == 2 and jaco.engine.native.active_walk() == 'jax'; "
+        f"t.to_pickle({str(out)!r})"
+    )
+    env = dict(os.environ, JAX_PLATFORMS="cpu", JACO_WALK="jax", XLA_FLAGS="--xla_force_host_platform_device_count=2")
+    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    pd.testing.assert_frame_equal(pd.read_pickle(out), here, check_exact=True)
+
+
+# -- choosing the walk --------------------------------------------------------------------------
+def test_the_option_and_the_environment_choose_the_walk(walk_choice, monkeypatch):
+    assert native.active_walk() == "native"  # built: auto takes it
+    walk_choice("jax")
+    assert native.active_walk() == "jax"
+    walk_choice(None)
+    monkeypatch.setenv("JACO_WALK", "jax")
+    assert native.active_walk() == "jax"
+    monkeypatch.setenv("JACO_WALK", "fast")
+    with pytest.raises(jaco.JacoError, match="JACO_WALK.*auto, native, jax"):
+        native.active_walk()
+    with pytest.raises(jaco.JacoError, match="auto, native, jax"):
+        walk_choice("C++")
+
+
+def test_repeated_calls_with_either_walk_compile_once(walk_choice):
+    grid = jaco.maps.named("demo")
+    args = (grid, grid.meta["start"], grid.meta["goal"], "as")
+    for choice in ("jax", "native"):
+        walk_choice(choice)
+        jaco.solve(*args, n_ants=7, n_iters=3)
+        traced = jaco.engine.run.TRACES["as"]
+        jaco.solve(*args, n_ants=7, n_iters=3, seed=5)
+        assert jaco.engine.run.TRACES["as"] == traced
+
+
+def test_without_the_kernel_jaco_walks_in_jax_and_says_so(monkeypatch, walk_choice, capsys):
+    """Forced fallback: the library is missing (as after an install without a C++ compiler)."""
+    monkeypatch.setattr(native, "_state", {"lib": None, "why": "the native walk was not built at install time"})
+    assert not native.available() and native.active_walk() == "jax"
+    with pytest.raises(jaco.JacoError, match="not built"):
+        walk_choice("native")
+    grid = jaco.maps.named("demo")
+    r = jaco.solve(grid, grid.meta["start"], grid.meta["goal"], "acs", n_ants=8, n_iters=4)
+    assert r.success
+    assert jaco.cli.main(["info"]) == 0
+    out = capsys.readouterr().out
+    assert "walk: jax" in out and "not built at install time" in out
+
+
+def test_info_names_versions_devices_and_the_active_walk(capsys):
+    assert jaco.cli.main(["info"]) == 0
+    out = capsys.readouterr().out
+    assert f"jaco {jaco.__version__}" in out and f"jax {jax.__version__}" in out
+    assert "walk: native" in out and "devices: " in out
+
+
+@pytest.mark.slow
+def test_without_a_compiler_the_package_builds_and_walks_in_jax(tmp_path):
+    """``pip wheel`` with a C++ compiler that always fails: the build succeeds without the
+    kernel, and the package from that wheel plans with the JAX walk and says so in ``jaco info``."""
+    import zipfile
+
+    env = dict(os.environ, CC="/bin/false", CXX="/bin/false")
+    proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(ROOT)],
+                          env=env, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    (wheel,) = tmp_path.glob("jaco-*.whl")
+    with zipfile.ZipFile(wheel) as z:
+        assert not [n for n in z.namelist() if n.endswith(".so")]
+        z.extractall(tmp_path / "site")
+    code = (
+        "import jaco, jaco.cli; assert not jaco.engine.native.available(); g = jaco.maps.named('demo'); "
+        "r = jaco.solve(g, g.meta['start'], g.meta['goal'], 'iaca', n_ants=8, n_iters=3); assert r.success; "
+        "jaco.cli.main(['info'])"
+    )
+    run = subprocess.run([sys.executable, "-c", code], env=dict(os.environ, PYTHONPATH=str(tmp_path / "site")),
+                         cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert "walk: jax (the native walk was not built at install time" in run.stdout
+
+
+@pytest.mark.slow
+def test_every_planner_sharded_with_the_jax_walk_equals_the_native_walk(tmp_path):
+    """Every registered planner: a sweep sharded over two devices with the JAX walk equals the
+    one-device sweep with the native walk, row for row (one subprocess with two XLA devices)."""
+    code = (
+        "import sys, jaco, pandas as pd\n"
+        "g = jaco.maps.random_map(14, 0.15, seed=2)\n"
+        "bad = []\n"
+        "for v in sorted(jaco.VARIANTS):\n"
+        "    tables = []\n"
+        "    for walk, devices in (('native', 1), ('jax', 2)):\n"
+        "        jaco.set_walk(walk)\n"
+        "        tables.append(jaco.sweep(g, (0, 0), (13, 13), v, params={'rho': [0.1, 0.3]}, seeds=2,\n"
+        "                                 n_ants=10, n_iters=6, devices=devices))\n"
+        "    assert tables[1].attrs['sweep']['devices'] == 2\n"
+        "    if not tables[0].equals(tables[1]) or not tables[0].success.any():\n"
+        "        bad.append(v)\n"
+        "print('differ:', bad)\n"
+        "sys.exit(1 if bad else 0)\n"
+    )
+    env = dict(os.environ, JAX_PLATFORMS="cpu", XLA_FLAGS="--xla_force_host_platform_device_count=2")
+    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=1200)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
