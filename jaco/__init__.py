@@ -34,6 +34,7 @@ _LAZY = {
     "summarize": "research.sweeps",
     "plan_sweep": "research.sweeps",
     "VARIANTS": "planners.registry",
+    "compose": "planners.compose",
     "Variant": "engine.variant",
     "load_run": "research.records",
     # which ant walk compiled programs use: the native kernel or the JAX walk

@@ -246,13 +246,15 @@ def test_best_half_fitness_weighted_deposit_by_hand():
     assert not np.asarray(apf_guided.deposit_best_half().update(trail, none, None, jaco.Params()).tau).any()
 
 
-def test_log_weights_give_the_probabilities_of_eq6_without_underflow():
-    p = jaco.Params(alpha=2.0, beta=6.0)
+def test_weights_give_the_probabilities_of_eq6_without_underflow():
+    from jaco.engine.colony import _TINY, scaled
+
     valid = jnp.array([[True, True, True, False, False, False, False, False]])
     eta = jnp.array([[0.1, 0.05, 0.2, 0, 0, 0, 0, 0]])
     for scale in (1.0, 1e-30, 1e-60):  # 1e-60 is 0 in float32: τ floored at the smallest normal
         tau = jnp.array([[0.5, 1.0, 0.25, 1, 1, 1, 1, 1]]) * scale
-        w = np.asarray(apf_guided.log_weights(tau, eta, valid, p))[0]
+        log_w = 2.0 * jnp.log(jnp.maximum(tau, _TINY)) + 6.0 * jnp.log(jnp.maximum(eta, _TINY))  # α = 2, β = 6
+        w = np.asarray(scaled(log_w, valid))[0]
         assert (w[3:] == 0).all() and np.isfinite(w).all()
         t = np.array([0.5, 1.0, 0.25]) if scale > 1e-38 else np.ones(3)  # the scale cancels
         raw = t**2 * np.array([0.1, 0.05, 0.2]) ** 6

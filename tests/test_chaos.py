@@ -67,18 +67,22 @@ def test_selection_is_the_product_and_enters_the_weights_with_gamma(problem):
     assert sel[at(0, 0), 1] == pytest.approx(3 / 7 * (1 - t1 / (t1 + t2)), abs=1e-6)
 
     v = chaos.CHAOS_ACO
+    classic = v._replace(factor=jaco.VARIANTS["as"].factor)  # the same weights without the shares
     trail = ph.Trail(jnp.full(8 * problem.n_cells, 0.5, jnp.float32), 0.0, jnp.inf)
+    valid = np.asarray(problem.nbr) >= 0
     for gamma in (0.0, 1.0, 2.5):
         params = v.default_params().replace(gamma=gamma)
-        w = np.asarray(chaos.chaos_weights(v, trail, problem, params, 0, 10))
-        base = np.asarray(move_weights(v, trail, problem, params, 0, 10))
-        valid = np.asarray(problem.nbr) >= 0
-        want = np.where(valid, np.clip(base * sel**gamma, 1e-30, None), 0.0)
+        w = np.asarray(move_weights(v, trail, problem, params, 0, 10), np.float64)
+        base = np.asarray(move_weights(classic, trail, problem, params, 0, 10), np.float64)
+        want = np.where(valid, base * sel**gamma, 0.0)
+        rows = valid.any(axis=1)
+        want[rows] /= want[rows].max(axis=1, keepdims=True)  # each cell's weights scaled to a top of 1
+        want = np.where(valid, np.maximum(want, 1e-30), 0.0)
         np.testing.assert_allclose(w, want, rtol=1e-5)
         assert (w[valid] > 0).all()  # a zero share never kills the only way on
     # At (0,0) with α = β = 0 the roulette odds are the selection function's own.
     params = v.default_params().replace(alpha=0.0, beta=0.0, gamma=1.0)
-    w = np.asarray(chaos.chaos_weights(v, trail, problem, params, 0, 10))[at(0, 0)]
+    w = np.asarray(move_weights(v, trail, problem, params, 0, 10))[at(0, 0)]
     assert w[1] / w[2] == pytest.approx((1 - t1 / (t1 + t2)) / (1 - t2 / (t1 + t2)), rel=1e-5)
 
 

@@ -11,6 +11,7 @@ import pytest
 
 import jaco
 from jaco.engine import cost as costs
+from jaco.engine.colony import move_weights
 from jaco.engine.heuristics import inverse_goal_distance
 from jaco.engine.params import Params
 from jaco.engine.pheromone import Trail, Walks
@@ -90,7 +91,7 @@ def test_obstacle_exclusion_by_hand():
     assert xi(1.5, (5, 5), (6, 6)) == 1.0  # ... but never the goal (d_b = 1 there)
 
 
-def test_guided_weights_are_eq3_scaled_per_cell():
+def test_weights_are_eq3_scaled_per_cell():
     grid = jaco.Grid.from_rows([".....", ".....", "..#..", ".....", "....."])
     prob = to_device(make_problem(grid, (0, 0), (4, 4)))
     v = jaco.VARIANTS["iaaco"]
@@ -98,7 +99,7 @@ def test_guided_weights_are_eq3_scaled_per_cell():
     n = grid.n_cells
     tau = jnp.asarray(np.random.default_rng(0).uniform(0.01, 3.0, 8 * n), jnp.float32)
     trail = Trail(tau, jnp.float32(0.01), jnp.float32(jnp.inf))
-    w = np.asarray(iaaco.guided_weights(v, trail, prob, p, jnp.int32(0), 10, iaaco.mu_robust), np.float64)
+    w = np.asarray(move_weights(v, trail, prob, p, jnp.int32(0), 10), np.float64)
     eta = np.asarray(iaaco.iaaco_heuristic(prob, p, jnp.int32(0), 10), np.float64)
     mu = np.asarray(iaaco.mu_robust(prob, p), np.float64)
     xi = np.asarray(iaaco.obstacle_exclusion(prob, p), np.float64)
@@ -109,7 +110,7 @@ def test_guided_weights_are_eq3_scaled_per_cell():
     want = full[rows] / full[rows].max(axis=1, keepdims=True)
     assert np.allclose(w[rows], want, rtol=1e-4) and (w[~valid] == 0).all()
     # ε (late: e^(−2·12) on η^β) changes no weight: it cancels in every row.
-    late = np.asarray(iaaco.guided_weights(v, trail, prob, p, jnp.int32(9), 10, iaaco.mu_robust))
+    late = np.asarray(move_weights(v, trail, prob, p, jnp.int32(9), 10))
     assert np.allclose(late, w, rtol=1e-4)
 
 

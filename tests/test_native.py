@@ -107,9 +107,9 @@ def _dying(kind, n_ants, steplimit, exploit):
 
 
 @functools.lru_cache(maxsize=None)
-def _backtracking(kind, n_ants, steplimit, exploit):
+def _backtracking(kind, n_ants, steplimit, exploit, table):
     fn = jax_backtrack_walk if kind == "jax" else native.backtrack_walk
-    return jax.jit(jax.vmap(functools.partial(fn, n_ants=n_ants, steplimit=steplimit, exploit=exploit)))
+    return jax.jit(jax.vmap(functools.partial(fn, n_ants=n_ants, steplimit=steplimit, exploit=exploit, table=table)))
 
 
 def _same(a, b):
@@ -134,12 +134,14 @@ def test_native_dying_walk_takes_the_jax_walks_moves(case):
 
 
 @settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(walk_cases(), st.sampled_from([(1.0, 8.0, 0.1, 0.1), (2.5, 3.0, 0.4, 1.0), (0.0, 0.0, 0.0, 0.5)]))
-@example(_EDGES[0], (1.0, 8.0, 0.1, 0.1))
-@example(_EDGES[1], (2.5, 3.0, 0.4, 1.0))
-def test_native_backtracking_walk_takes_the_jax_walks_moves_and_pheromone(case, exponents):
+@given(walk_cases(), st.sampled_from([(1.0, 8.0, 0.1, 0.1), (2.5, 3.0, 0.4, 1.0), (0.0, 0.0, 0.0, 0.5)]),
+       st.booleans())
+@example(_EDGES[0], (1.0, 8.0, 0.1, 0.1), False)
+@example(_EDGES[1], (2.5, 3.0, 0.4, 1.0), True)
+def test_native_backtracking_walk_takes_the_jax_walks_moves_and_pheromone(case, exponents, table):
     """IACA's walk: powers of the pheromone that changes while the ants walk (local update),
-    backtracking, the infeasible cells; exponents and rates include 0."""
+    backtracking, the infeasible cells; η of eq. (4-5) per step, or a fixed factor table of
+    another heuristic (``table``); exponents and rates include 0."""
     weights, words, start, goal, q0, offsets = _arrays(case)
     rng = np.random.default_rng(case["seed"] + 1)
     n = weights.shape[1]
@@ -150,8 +152,9 @@ def test_native_backtracking_walk_takes_the_jax_walks_moves_and_pheromone(case, 
     tau = jnp.asarray(rng.uniform(0.01, 20.0, (3, n)).astype(np.float32))
     alpha, beta, rho_local, q = exponents
     scalars = jnp.asarray(np.array([[q0i, alpha, beta, 0.01, 20.0, rho_local, q] for q0i in np.asarray(q0)], np.float32))
-    args = (tau, rows, words, start, goal, scalars, offsets)
-    key = (case["n_ants"], case["steplimit"], case["exploit"])
+    factors = jnp.asarray(np.where(np.asarray(weights) > 0, rng.uniform(1e-6, 1.0, weights.shape), 0).astype(np.float32))
+    args = (tau, rows, factors, words, start, goal, scalars, offsets)
+    key = (case["n_ants"], case["steplimit"], case["exploit"], table)
     _same(_backtracking("jax", *key)(*args), _backtracking("native", *key)(*args))
 
 

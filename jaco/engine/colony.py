@@ -38,23 +38,43 @@ class Colony(NamedTuple):
 _TINY = float(jnp.finfo(jnp.float32).tiny)
 
 
-def move_weights(variant, trail, problem, params, t, n_iters):
-    """W = τ^α η^β per move (N, 8), exactly 0 where the map forbids the move and in
-    [1e-30, 1e30] elsewhere, so the roulette never divides by zero or overflows.
-
-    Computed as exp(α·log τ + β·log η): XLA:CPU's ``pow`` costs eight times as much, and
-    ``log η`` of a heuristic that does not change between iterations is computed once per run
-    (XLA hoists it out of the iteration loop). τ = 0 counts as the smallest normal float."""
-    n = problem.nbr.shape[0]
+def eta_factor(variant, trail, problem, params, t, n_iters):
+    """log(η^β) of every move ``(N, 8)``: the part of a move's weight besides the pheromone, for
+    a variant whose ``heuristic`` is an η table (thesis eq. 2-1). Planners whose weights have
+    more factors (angle guidance, selection shares, potential fields) provide their own."""
     valid = problem.nbr >= 0
+    return params.beta * jnp.log(jnp.where(valid, variant.heuristic(problem, params, t, n_iters), 1.0))
+
+
+def scaled(log_w, valid):
+    """``exp(log_w)`` scaled so that each cell's largest allowed weight is 1: exactly 0 where the
+    map forbids the move, in [1e-30, 1] elsewhere. The roulette and the argmax only compare the
+    weights of one cell, so the scaling changes no choice; it keeps large exponents away from
+    float32's limits (a weight that would underflow, or a factor of 0, becomes 1e-30: taken only
+    when nothing else is allowed)."""
+    log_w = jnp.where(valid, jnp.nan_to_num(log_w, nan=-jnp.inf), -jnp.inf)
+    top = jnp.max(log_w, axis=1, keepdims=True)
+    top = jnp.where(jnp.isfinite(top), top, 0.0)  # rows with no allowed move, or only zero factors
+    return jnp.where(valid, jnp.clip(jnp.exp(log_w - top), 1e-30, 1.0), 0.0)
+
+
+def move_tau(variant, trail, problem):
+    """The pheromone of every move ``(N, 8)``: τ_ij, or τ_j of the cell it enters."""
     if variant.pheromone_on == "cells":
-        tau = trail.tau[jnp.where(valid, problem.nbr, 0)]
-    else:
-        tau = trail.tau.reshape(n, 8)
-    log_eta = jnp.log(jnp.where(valid, variant.heuristic(problem, params, t, n_iters), 1.0))
-    w = jnp.exp(params.alpha * jnp.log(jnp.maximum(tau, _TINY)) + params.beta * log_eta)
-    w = jnp.clip(jnp.nan_to_num(w, nan=1e-30, posinf=1e30), 1e-30, 1e30)
-    return jnp.where(valid, w, 0.0)
+        return trail.tau[jnp.where(problem.nbr >= 0, problem.nbr, 0)]
+    return trail.tau.reshape(problem.nbr.shape)
+
+
+def move_weights(variant, trail, problem, params, t, n_iters):
+    """The roulette weights ``(N, 8)``: τ^α times the variant's factor (``variant.factor``, by
+    default η^β), :func:`scaled` per cell.
+
+    Computed in log space, α·log τ + log factor: XLA:CPU's ``pow`` costs eight times as much, and
+    a factor that does not change between iterations is computed once per run (XLA hoists it
+    out of the iteration loop). τ = 0 counts as the smallest normal float."""
+    tau = move_tau(variant, trail, problem)
+    log_w = params.alpha * jnp.log(jnp.maximum(tau, _TINY)) + variant.factor(variant, trail, problem, params, t, n_iters)
+    return scaled(log_w, problem.nbr >= 0)
 
 
 def step_targets(pheromone_on: str, cells, moves, start, n_cells: int):

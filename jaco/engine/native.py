@@ -95,7 +95,9 @@ def walk(weights, words, start, goal, q0, offsets, *, n_ants: int, steplimit: in
     return call(weights, words, start, goal, q0, offsets, steplimit=np.int64(steplimit), exploit=bool(exploit))
 
 
-def backtrack_walk(tau, rows, words, start, goal, scalars, offsets, *, n_ants: int, steplimit: int, exploit: bool):
+def backtrack_walk(
+    tau, rows, factors, words, start, goal, scalars, offsets, *, n_ants: int, steplimit: int, exploit: bool, table: bool
+):
     """The kernel's backtracking walk; same arguments and results as
     :func:`jaco.planners.iaca.jax_backtrack_walk`."""
     from .bitexact import TABLES
@@ -112,8 +114,8 @@ def backtrack_walk(tau, rows, words, start, goal, scalars, offsets, *, n_ants: i
         jax.ShapeDtypeStruct((n,), jnp.bool_),
     )
     call = jax.ffi.ffi_call("jaco_backtrack", out, vmap_method="broadcast_all")
-    return call(tau, rows, words, start, goal, scalars, offsets, jnp.asarray(TABLES),
-                steplimit=np.int64(steplimit), exploit=bool(exploit))
+    return call(tau, rows, factors, words, start, goal, scalars, offsets, jnp.asarray(TABLES),
+                steplimit=np.int64(steplimit), exploit=bool(exploit), table=bool(table))
 
 
 def deposit(tau, targets, amounts):

@@ -129,7 +129,7 @@ def init_mmas() -> Rule:
 
     def init(trail, problem, params):
         hi = params.q / (params.rho * jnp.maximum(octile(problem), 1.0))
-        return Trail(jnp.full_like(trail.tau, hi), hi * 0.0, hi)
+        return trail._replace(tau=jnp.full_like(trail.tau, hi), lo=hi * 0.0, hi=hi)
 
     return Rule(init, _keep_update)
 
@@ -246,7 +246,7 @@ def mmas_bounds() -> Rule:
         avg = jnp.maximum(degree / 2.0, 1.5)
         root = jnp.power(params.p_best, 1.0 / n)
         lo = jnp.minimum(hi * (1.0 - root) / ((avg - 1.0) * root), hi)
-        return Trail(trail.tau, jnp.where(found, lo, trail.lo), hi)
+        return trail._replace(lo=jnp.where(found, lo, trail.lo), hi=hi)
 
     return Rule(_keep_init, update)
 

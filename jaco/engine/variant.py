@@ -10,7 +10,7 @@ from typing import Callable, Mapping, NamedTuple
 
 from . import heuristics
 from . import pheromone as ph
-from .colony import single_colony
+from .colony import eta_factor, single_colony
 from .cost import path_length
 from .params import Params, param_names
 
@@ -25,8 +25,9 @@ class Variant(NamedTuple):
     the dataclass defaults; ``pheromone_on`` is ``"moves"`` (τ_ij) or ``"cells"`` (τ_j);
     ``transition`` is ``"roulette"`` or ``"pseudo-random"`` (q0 rule, eq. 2-14);
     ``schedule(params, t, n_iters)`` gives the parameters of iteration t (branch-free);
-    ``construct`` builds an iteration's candidate paths (:mod:`jaco.engine.colony`: one colony of ants
-    that die at dead ends by default)."""
+    ``factor(variant, trail, problem, params, t, n_iters)`` is the log of a move's weight besides
+    τ^α (by default β·log η of ``heuristic``); ``construct`` builds an iteration's candidate paths
+    (:mod:`jaco.engine.colony`: one colony of ants that die at dead ends by default)."""
 
     name: str
     source: str
@@ -40,6 +41,7 @@ class Variant(NamedTuple):
     schedule: Callable = constant
     cost: Callable = path_length
     construct: Callable = single_colony
+    factor: Callable = eta_factor
 
     def default_params(self) -> Params:
         return Params(**dict(self.defaults))

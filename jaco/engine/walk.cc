@@ -258,18 +258,18 @@ inline float int_power(float x, int32_t k) {
 }
 
 ffi::Error BacktrackImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> tau_in, ffi::Buffer<ffi::F32> rows,
-                         ffi::Buffer<ffi::U32> words, ffi::Buffer<ffi::S32> start, ffi::Buffer<ffi::S32> goal,
+                         ffi::Buffer<ffi::F32> factors, ffi::Buffer<ffi::U32> words, ffi::Buffer<ffi::S32> start, ffi::Buffer<ffi::S32> goal,
                          ffi::Buffer<ffi::F32> scalars, ffi::Buffer<ffi::S32> offsets, ffi::Buffer<ffi::S32> tables,
                          ffi::ResultBuffer<ffi::F32> tau_out, ffi::ResultBuffer<ffi::S32> stack_out,
                          ffi::ResultBuffer<ffi::S32> sp_out, ffi::ResultBuffer<ffi::PRED> arrived_out,
                          ffi::ResultBuffer<ffi::S32> actions_out, ffi::ResultBuffer<ffi::PRED> visited_out,
-                         ffi::ResultBuffer<ffi::PRED> infeasible_out, int64_t steplimit, bool exploit) {
+                         ffi::ResultBuffer<ffi::PRED> infeasible_out, int64_t steplimit, bool exploit, bool table) {
   const auto rd = rows.dimensions();
   const auto sd = stack_out->dimensions();
   const int64_t N = rd[rd.size() - 2], A = sd[sd.size() - 2], D = sd[sd.size() - 1];
   const int64_t B = leading(rd, 2);
   const int64_t n_tables = tables.dimensions()[tables.dimensions().size() - 1];
-  const float *T0 = tau_in.typed_data(), *R0 = rows.typed_data(), *P0 = scalars.typed_data();
+  const float *T0 = tau_in.typed_data(), *R0 = rows.typed_data(), *F0 = factors.typed_data(), *P0 = scalars.typed_data();
   const uint32_t* K = words.typed_data();
   const int32_t *st = start.typed_data(), *gl = goal.typed_data(), *off0 = offsets.typed_data();
   const int32_t* tab0 = tables.typed_data();
@@ -287,6 +287,7 @@ ffi::Error BacktrackImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> tau_in, ffi
     };
     return [=, s = std::make_shared<Scratch>()](int64_t b) {
       const float* R = R0 + b * N * 8;
+      const float* F = F0 + b * N * 8;
       const float* P = P0 + b * 7;
       const float q0 = P[0], alpha = P[1], beta = P[2], lo = P[3], hi = P[4], rho = P[5], q = P[6];
       const int32_t* off = off0 + b * 8;
@@ -353,9 +354,14 @@ ffi::Error BacktrackImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> tau_in, ffi
               w[k] = 0.0f;
               continue;
             }
-            float eta = n_allowed == 1 ? 1.0f : 1.0f - rr[k] / std::max(total, 1e-12f);
-            eta = std::max(eta, 1e-6f);
-            float v = table_power(tau[c + off[k]], alpha, tab) * table_power(eta, beta, tab);
+            float v;
+            if (table) {  // another planner's factor, fixed for the iteration
+              v = table_power(tau[c + off[k]], alpha, tab) * F[int64_t(c) * 8 + k];
+            } else {  // eq. 4-5 over the ant's allowed moves
+              float eta = n_allowed == 1 ? 1.0f : 1.0f - rr[k] / std::max(total, 1e-12f);
+              eta = std::max(eta, 1e-6f);
+              v = table_power(tau[c + off[k]], alpha, tab) * table_power(eta, beta, tab);
+            }
             if (std::isnan(v)) v = 1e-30f;
             w[k] = std::min(std::max(v, 1e-30f), 1e30f);
           }
@@ -489,6 +495,7 @@ XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoBacktrack, BacktrackImpl,
                                   .Ctx<ffi::ThreadPool>()
                                   .Arg<ffi::Buffer<ffi::F32>>()   // tau (..., N)
                                   .Arg<ffi::Buffer<ffi::F32>>()   // detour rows (..., N, 8)
+                                  .Arg<ffi::Buffer<ffi::F32>>()   // weight factors (..., N, 8), with table
                                   .Arg<ffi::Buffer<ffi::U32>>()   // key words (..., 2)
                                   .Arg<ffi::Buffer<ffi::S32>>()   // start (...)
                                   .Arg<ffi::Buffer<ffi::S32>>()   // goal (...)
@@ -503,7 +510,8 @@ XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoBacktrack, BacktrackImpl,
                                   .Ret<ffi::Buffer<ffi::PRED>>()  // visited (..., N)
                                   .Ret<ffi::Buffer<ffi::PRED>>()  // infeasible (..., N)
                                   .Attr<int64_t>("steplimit")
-                                  .Attr<bool>("exploit"));
+                                  .Attr<bool>("exploit")
+                                  .Attr<bool>("table"));
 
 XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoDeposit, DepositImpl,
                               ffi::Ffi::Bind()

@@ -38,7 +38,6 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..engine import pheromone as ph
-from ..engine.colony import walk_colony
 from ..engine.variant import make_variant
 from ..potential import D0, K_REP, apf_distance, classic_distance
 
@@ -46,9 +45,9 @@ __all__ = [
     "apf_eta",
     "APFTrail",
     "apf_init",
+    "apf_table",
     "deposit_best_half",
-    "log_weights",
-    "apf_colony",
+    "apf_factor",
     "APF_ACO",
     "PF_ACO",
     "PAPER_PARAMS",
@@ -67,7 +66,7 @@ def apf_eta(problem, r, t, n_iters) -> jax.Array:
 def _heuristic(table):
     def heuristic(problem, params, t, n_iters):
         """Eq. (10) with the table computed on the spot (for tools that want one (N, 8) table;
-        the variants' construct step reads the table computed once per run instead)."""
+        the variants' weights read the table computed once per run instead)."""
         return apf_eta(problem, table(problem, params), t, n_iters)
 
     return heuristic
@@ -83,14 +82,19 @@ class APFTrail(NamedTuple):
     r: jax.Array
 
 
-def apf_init(table) -> ph.Rule:
-    """τ = τ0 everywhere and ``r = table(problem, params)`` (once per run, inside the run)."""
+def apf_table(table) -> ph.Rule:
+    """Carry ``r = table(problem, params)`` in the trail (an :class:`APFTrail`), computed once per
+    run inside the run; the pheromone itself is left to the other pieces."""
 
     def init(trail, problem, params):
-        tau = jnp.full_like(trail.tau, params.tau0)
-        return APFTrail(tau, trail.lo, trail.hi, table(problem, params).astype(jnp.float32))
+        return APFTrail(trail.tau, trail.lo, trail.hi, table(problem, params).astype(jnp.float32))
 
     return ph.Rule(init, ph._keep_update)
+
+
+def apf_init(table) -> ph.Rule:
+    """τ = τ0 everywhere and ``r = table(problem, params)`` (once per run, inside the run)."""
+    return ph.chain(apf_table(table), ph.init_constant())
 
 
 def deposit_best_half() -> ph.Rule:
@@ -111,27 +115,15 @@ def deposit_best_half() -> ph.Rule:
     return ph.Rule(ph._keep_init, update)
 
 
-_TINY = float(np.finfo(np.float32).tiny)
-
-
-def log_weights(tau, eta, valid, params):
-    """``τ^α η^β`` per move, scaled per cell by its largest allowed value (log space, no
-    underflow); exactly 0 where ``valid`` is False, in [1e-30, 1] elsewhere."""
-    lw = params.alpha * jnp.log(jnp.maximum(tau, _TINY)) + params.beta * jnp.log(jnp.maximum(eta, _TINY))
-    lw = jnp.where(valid, lw, -jnp.inf)
-    top = jnp.max(lw, axis=1, keepdims=True)
-    top = jnp.where(jnp.isfinite(top), top, 0.0)
-    return jnp.where(valid, jnp.clip(jnp.exp(lw - top), 1e-30, 1.0), 0.0)
-
-
-def apf_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
-    """One APF-ACO iteration: the random-proportional rule (6) with η of eq. (10) from the table
-    the rule's init stored in the trail (``trail.r``); dead ants fail (cost inf)."""
-    n = problem.nbr.shape[0]
-    valid = problem.nbr >= 0
+def apf_factor(variant, trail, problem, params, t, n_iters) -> jax.Array:
+    """The factor of rule (6) besides τ^α, in log space: ``β·log η`` ``(N, 8)`` with η of eq. (10)
+    from the table the rule's init stored in the trail (``trail.r``, computed once per run). The
+    engine scales each cell's weights to a top of 1, so large β cannot underflow."""
     eta = apf_eta(problem, trail.r, t, n_iters)
-    weights = log_weights(trail.tau.reshape(n, 8), eta, valid, params)
-    return trail, walk_colony(variant, problem, weights, params, key, n_ants=n_ants, steplimit=steplimit)
+    return params.beta * jnp.log(jnp.maximum(eta, _TINY))
+
+
+_TINY = float(np.finfo(np.float32).tiny)
 
 
 _APF_BASE = ("alpha", "beta", "rho", "q", "tau0")
@@ -157,7 +149,7 @@ APF_ACO = make_variant(
     _APF_DEFAULTS,
     ph.chain(apf_init(apf_distance), ph.evaporate(), deposit_best_half()),
     heuristic=_heuristic(apf_distance),
-    construct=apf_colony,
+    factor=apf_factor,
 )
 
 PF_ACO = make_variant(
@@ -171,5 +163,5 @@ PF_ACO = make_variant(
     dict(_APF_DEFAULTS, k_rep=K_REP, d0=D0),
     ph.chain(apf_init(classic_distance), ph.evaporate(), deposit_best_half()),
     heuristic=_heuristic(classic_distance),
-    construct=apf_colony,
+    factor=apf_factor,
 )

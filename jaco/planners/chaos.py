@@ -15,7 +15,7 @@ docs/variants.md ("Chaos ACO") give the interpretation built here.
 - **Selection function** (§8.3) :func:`selection`: P_free·P_θ; the transition (11) is
   p ∝ τ^α η^β (P_free·P_θ)^γ. Both shares depend only on the map and the goal, so the factor
   (P_free·P_θ)^γ is folded into the ``(N, 8)`` weight table once per iteration
-  (:func:`chaos_colony`), never per ant step.
+  (:func:`selection_factor`, the variant's ``factor``), never per ant step.
 - **Chaos update** (§8.4) :func:`chaos_perturb` then :func:`deposit_at_or_below_mean`: the paths
   above the iteration's mean length get their pheromone re-drawn by i_c steps of the Logistic
   map h ← μh(1−h) (:func:`logistic`), then τ ← (1−ρ)τ + Σ Q/L_k over the paths at or below the
@@ -31,7 +31,7 @@ import jax
 import jax.numpy as jnp
 
 from ..engine import pheromone as ph
-from ..engine.colony import move_weights, walk_colony
+from ..engine.colony import eta_factor
 from ..engine.variant import make_variant
 from ..moves import MOVES
 
@@ -95,24 +95,19 @@ def selection(problem) -> jax.Array:
     return free_share(problem) * angle_share(problem)
 
 
-def chaos_weights(variant, trail, problem, params, t, n_iters) -> jax.Array:
-    """The iteration's weight table ``(N, 8)``: τ^α η^β (P_free·P_θ)^γ (eq. 11) on allowed moves,
-    floored at 1e-30 there, exactly 0 on forbidden ones."""
-    valid = problem.nbr >= 0
-    w = move_weights(variant, trail, problem, params, t, n_iters) * jnp.power(selection(problem), params.gamma)
-    return jnp.where(valid, jnp.clip(w, 1e-30, 1e30), 0.0)
+def selection_factor(variant, trail, problem, params, t, n_iters) -> jax.Array:
+    """The factor of transition rule (11) besides τ^α, in log space: ``β·log η + γ·log(P_free·P_θ)``
+    ``(N, 8)``.
 
-
-def chaos_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
-    """One colony start → goal with p ∝ τ^α η^β (P_free·P_θ)^γ (transition rule (11)).
-
-    The same as :func:`jaco.engine.colony.single_colony` except that the weight table is multiplied by
-    the selection factor. It is done here and not through ``heuristic`` (η' = η·sel^(γ/β)) so
-    that γ still acts at β = 0. A zero share (P_θ = 0 for the widest-angle move of a cell with
-    few moves) is floored at 1e-30, like every allowed weight, so an ant whose only non-tabu move
-    it is still takes it instead of dying."""
-    weights = chaos_weights(variant, trail, problem, params, t, n_iters)
-    return trail, walk_colony(variant, problem, weights, params, key, n_ants=n_ants, steplimit=steplimit)
+    The selection shares go into the weights here, not into ``heuristic`` (η' = η·sel^(γ/β)), so
+    that γ still acts at β = 0. A zero share (P_θ = 0 for the widest-angle move of a cell with few
+    moves) gives −inf, i.e. the engine's floor of 1e-30 (relative to the cell's best move): an ant
+    whose only non-tabu move it is still takes it instead of dying."""
+    sel = selection(problem)
+    shares = jnp.where(  # γ·log sel, with 0^γ = 0 for γ > 0 and 1 for γ = 0
+        sel > 0, params.gamma * jnp.log(jnp.where(sel > 0, sel, 1.0)), jnp.where(params.gamma > 0, -jnp.inf, 0.0)
+    )
+    return eta_factor(variant, trail, problem, params, t, n_iters) + shares
 
 
 # -- Logistic-chaos pheromone update (§8.4) ---------------------------------------------------
@@ -207,7 +202,7 @@ CHAOS_ACO = make_variant(
     ("alpha", "beta", "rho", "q", "tau0", "gamma", "chaos_iters", "chaos_mu"),
     dict(alpha=1.0, beta=8.0, rho=0.3, q=1.0, tau0=0.1, gamma=4.0, chaos_iters=10.0, chaos_mu=4.0),
     ph.chain(ph.init_constant(), chaos_perturb(), ph.evaporate(), deposit_at_or_below_mean()),
-    construct=chaos_colony,
+    factor=selection_factor,
 )
 
 __all__ = [
@@ -215,13 +210,12 @@ __all__ = [
     "above_mean",
     "angle_share",
     "at_or_below_mean_cycle",
-    "chaos_colony",
     "chaos_perturb",
-    "chaos_weights",
     "deposit_at_or_below_mean",
     "free_share",
     "logistic",
     "ordered_sum",
     "move_angles",
     "selection",
+    "selection_factor",
 ]

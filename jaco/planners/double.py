@@ -251,7 +251,7 @@ def init_max() -> ph.Rule:
 
     def init(trail, problem, params):
         hi = jnp.asarray(params.tau_max, jnp.float32)
-        return ph.Trail(jnp.full_like(trail.tau, hi), jnp.asarray(params.tau_min, jnp.float32), hi)
+        return trail._replace(tau=jnp.full_like(trail.tau, hi), lo=jnp.asarray(params.tau_min, jnp.float32), hi=hi)
 
     return ph.Rule(init, lambda trail, walks, problem, params: trail)
 

@@ -7,7 +7,7 @@ the adaptive pseudo-random rule (6, 7), the best/worst pheromone update (8, 9), 
 evaporation rate (10) and the multi-objective cost J = kL·L + kS·S + kE·E.
 
 The per-move factors μ^λ (4) and ξ (5) depend only on the map and the parameters, so they are
-folded into the ``(N, 8)`` move-weight table once per iteration (:func:`guided_weights`, in log
+folded into the ``(N, 8)`` move-weight table once per iteration (:func:`guided_factor`, in log
 space, each cell's row scaled to a largest weight of 1); an ant step still gathers one row.
 The multi-objective cost (:func:`jaco.engine.cost.multi_objective`) is a ``Variant.cost`` that
 any variant can use: ``jaco.planners.registry.with_cost("acs", "multi")`` (cached, so repeated calls return
@@ -17,7 +17,7 @@ Interpretations (ALGORITHMS.md §6; also in ``docs/variants.md``, section IAACO)
 
 * **ε (2) cancels.** ε multiplies every η of an iteration alike, so in the normalised rule (3)
   and in the argmax of (6) it cancels: it is computed as printed but changes no choice (the
-  per-row scaling of :func:`guided_weights` removes it up to rounding, so it cannot push weights
+  per-row scaling of the engine's weights removes it up to rounding, so it cannot push weights
   into float32's limits either).
 * **μ (4)** as printed, ``|y_j − y_G| / d_jG`` (y = row), vanishes on the goal's row; the robust
   form ``cos∠(j→G, S→G)`` is the default. Both are floored at ``mu_min`` (a weight of 0 would
@@ -42,7 +42,6 @@ import jax
 import jax.numpy as jnp
 
 from ..engine import pheromone as ph
-from ..engine.colony import walk_colony
 from ..engine.cost import COST_PARAMS, multi_objective
 from ..engine.heuristics import goal_distance
 from ..engine.variant import make_variant
@@ -54,8 +53,7 @@ __all__ = [
     "mu_printed",
     "mu_robust",
     "obstacle_exclusion",
-    "guided_weights",
-    "guided_colony",
+    "guided_factor",
     "q0_schedule",
     "adaptive_rho",
     "init_floor",
@@ -123,46 +121,24 @@ def obstacle_exclusion(problem, params):
     return jnp.where(j == problem.goal, 1.0, xi)
 
 
-def guided_weights(variant, trail, problem, params, t, n_iters, mu):
-    """Move weights ``(N, 8)`` of eq. (3), τ^α η^β μ^λ ξ, computed in log space and scaled so
-    that each cell's largest weight is 1.
+def guided_factor(mu):
+    """The factor of eq. (3) besides τ^α, in log space: ``β·log η + λ·log μ + log ξ`` ``(N, 8)``
+    (−inf where ξ = 0), with ``mu`` one of :func:`mu_robust`, :func:`mu_printed` (a static
+    choice). The engine's :func:`jaco.engine.colony.move_weights` adds α·log τ and scales each
+    cell's weights so that the largest is 1: large β, ε^β (down to e^(−2β)) and far-from-goal
+    η^β stay away from float32's limits, and a move with ξ = 0 weighs 1e-30 (taken only when
+    nothing else is allowed)."""
 
-    A cell's weights only ever compete with each other (roulette and argmax of eq. 6 are both
-    invariant to a factor per row), so the scaling changes no choice; it keeps large β, ε^β
-    (down to e^(−2β)) and far-from-goal η^β away from float32's limits, where the engine's
-    clip to [1e-30, 1e30] would flatten them. Moves the map forbids weigh exactly 0; allowed
-    moves at least 1e-30 (ξ = 0 gives exactly that: taken only when nothing else is allowed).
-    """
-    valid = problem.nbr >= 0
-    if variant.pheromone_on == "cells":
-        tau = trail.tau[jnp.where(valid, problem.nbr, 0)]
-    else:
-        tau = trail.tau.reshape(problem.nbr.shape)
-    eta = variant.heuristic(problem, params, t, n_iters)
-    xi = obstacle_exclusion(problem, params)
-    log_w = (
-        params.alpha * jnp.log(jnp.maximum(tau, 1e-30))  # τmin may be 0
-        + params.beta * jnp.log(eta)
-        + params.lam * jnp.log(mu(problem, params))
-        + jnp.where(xi > 0, jnp.log(jnp.where(xi > 0, xi, 1.0)), -jnp.inf)
-    )  # Eq. (3)
-    log_w = jnp.where(valid, log_w, -jnp.inf)
-    top = jnp.max(log_w, axis=1, keepdims=True)
-    top = jnp.where(jnp.isfinite(top), top, 0.0)  # rows with no allowed move (or only ξ = 0)
-    w = jnp.clip(jnp.exp(log_w - top), 1e-30, 1.0)
-    return jnp.where(valid, w, 0.0)
+    def factor(variant, trail, problem, params, t, n_iters):
+        eta = variant.heuristic(problem, params, t, n_iters)
+        xi = obstacle_exclusion(problem, params)
+        return (
+            params.beta * jnp.log(eta)
+            + params.lam * jnp.log(mu(problem, params))
+            + jnp.where(xi > 0, jnp.log(jnp.where(xi > 0, xi, 1.0)), -jnp.inf)
+        )  # Eq. (3) without τ^α
 
-
-def guided_colony(mu):
-    """A construct step: :func:`jaco.engine.colony.single_colony` with the weights of
-    :func:`guided_weights` (eq. 3, once per iteration), ``mu`` one of :func:`mu_robust`,
-    :func:`mu_printed` (a static choice)."""
-
-    def construct(variant, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
-        w = guided_weights(variant, trail, problem, params, t, n_iters, mu)
-        return trail, walk_colony(variant, problem, w, params, key, n_ants=n_ants, steplimit=steplimit)
-
-    return construct
+    return factor
 
 
 # -- adaptive pseudo-random rule (6, 7) ------------------------------------------------------
@@ -186,7 +162,7 @@ def init_floor() -> ph.Rule:
     def init(trail, problem, params):
         lo = jnp.float32(params.tau_min)
         tau = jnp.full_like(trail.tau, jnp.maximum(params.tau0, params.tau_min))
-        return ph.Trail(tau, lo, jnp.float32(jnp.inf))
+        return trail._replace(tau=tau, lo=lo, hi=jnp.float32(jnp.inf))
 
     return ph.Rule(init, ph._keep_update)
 
@@ -243,11 +219,11 @@ IAACO = make_variant(
     transition="pseudo-random",
     schedule=q0_schedule,
     cost=multi_objective,
-    construct=guided_colony(mu_robust),
+    factor=guided_factor(mu_robust),
 )
 
 IAACO_PRINTED = IAACO._replace(
     name="iaaco-printed",
     doc=_DOC + " Angle guidance as printed in eq. 4: μ = max(μ_min, |y_j − y_G|/d_jG), y the row.",
-    construct=guided_colony(mu_printed),
+    factor=guided_factor(mu_printed),
 )

@@ -61,7 +61,7 @@ import numpy as np
 from ..engine import native
 from ..engine import pheromone as ph
 from ..engine.bitexact import power, rounded
-from ..engine.colony import Colony, step_targets
+from ..engine.colony import Colony, scaled, step_targets
 from ..engine.heuristics import goal_distance
 from ..engine.variant import make_variant
 from ..engine.walk import CHUNK, Tours, choose, key_words, step_uniforms
@@ -115,7 +115,7 @@ def iaca_init() -> ph.Rule:
     def init(trail, problem, params):
         lo, hi = jnp.float32(params.tau_min), jnp.float32(params.tau_max)
         tau = jnp.clip(params.k_init * goal_closeness(problem), lo, hi).astype(trail.tau.dtype)
-        return ph.Trail(tau, lo, hi)
+        return trail._replace(tau=tau, lo=lo, hi=hi)
 
     return ph.Rule(init, ph._keep_update)
 
@@ -188,15 +188,22 @@ class Backtracked(NamedTuple):
     infeasible: jax.Array
 
 
-def backtrack_walk(problem, trail, params, key, *, n_ants: int, steplimit: int, exploit: bool = True) -> Backtracked:
+def backtrack_walk(
+    problem, trail, params, key, *, n_ants: int, steplimit: int, exploit: bool = True, factors=None
+) -> Backtracked:
     """Walk ``n_ants`` backtracking ants (thesis 4.3) with the local update (4-2..4-4), in JAX or,
-    on CPU when it is active, in the native kernel (:mod:`jaco.engine.native`): the same results bit for bit."""
+    on CPU when it is active, in the native kernel (:mod:`jaco.engine.native`): the same results
+    bit for bit. A move weighs τ_j^α times η_B^β of eq. (4-5), recomputed at every step over the
+    ant's allowed moves; or, with ``factors (N, 8)``, times that fixed factor (another planner's
+    heuristic, once per iteration)."""
     words = key_words(key)
     rows = detour(problem)
+    table = factors is not None
+    factors = jnp.zeros(rows.shape, jnp.float32) if factors is None else jnp.asarray(factors, jnp.float32)
     scalars = jnp.stack([jnp.asarray(v, jnp.float32) for v in (
         params.q0, params.alpha, params.beta, trail.lo, trail.hi, params.rho_local, params.q)])
-    args = (trail.tau, rows, words, problem.start, problem.goal, scalars, problem.offsets)
-    kw = dict(n_ants=n_ants, steplimit=steplimit, exploit=bool(exploit))
+    args = (trail.tau, rows, factors, words, problem.start, problem.goal, scalars, problem.offsets)
+    kw = dict(n_ants=n_ants, steplimit=steplimit, exploit=bool(exploit), table=table)
     if native.active_walk() == "native":
         return Backtracked(*jax.lax.platform_dependent(
             *args, cpu=lambda *a: native.backtrack_walk(*a, **kw), default=lambda *a: jax_backtrack_walk(*a, **kw)
@@ -204,8 +211,12 @@ def backtrack_walk(problem, trail, params, key, *, n_ants: int, steplimit: int, 
     return Backtracked(*jax_backtrack_walk(*args, **kw))
 
 
-def jax_backtrack_walk(tau, rows, words, start, goal, scalars, offsets, *, n_ants: int, steplimit: int, exploit: bool):
-    """The backtracking walk in JAX, all ants in lock-step (the definition; :class:`Backtracked`)."""
+def jax_backtrack_walk(
+    tau, rows, factors, words, start, goal, scalars, offsets, *, n_ants: int, steplimit: int, exploit: bool, table: bool
+):
+    """The backtracking walk in JAX, all ants in lock-step (the definition; :class:`Backtracked`).
+    ``rows``: the detour table of eq. (4-5) (> 0 exactly on the moves the map allows); with
+    ``table``, the weights use ``factors (N, 8)`` instead of η^β of eq. (4-5)."""
     q0, alpha, beta, lo, hi, rho_local, q = (scalars[i] for i in range(7))
     params = _Scalars(alpha, beta, rho_local, q)
     n_cells = tau.shape[0]
@@ -219,7 +230,11 @@ def jax_backtrack_walk(tau, rows, words, start, goal, scalars, offsets, *, n_ant
         allowed = valid_rows[cur] & ~tabu[lanes[:, None], nb]
         live = running & (t < steplimit)
         has = jnp.any(allowed, axis=-1)
-        w = step_weights(tau[nb], rows[cur], allowed, params)
+        if table:
+            w = power(tau[nb], params.alpha) * factors[cur]
+            w = jnp.where(allowed, jnp.clip(jnp.where(jnp.isnan(w), 1e-30, w), 1e-30, 1e30), 0.0)
+        else:
+            w = step_weights(tau[nb], rows[cur], allowed, params)
         k = choose(w, step_uniforms(words, lanes, t), q0, exploit)
         fwd = live & has
         back = live & ~has & (sp > 0)  # 4.3: the dead-end cell stays tabu; return one cell
@@ -309,8 +324,23 @@ def iaca_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: int
     """One IACA iteration (thesis 4.4, Steps 2–5): backtracking walks with the local update, then
     the infeasible-path update (4-6). Returns the updated trail and the final stacks as a
     :class:`~jaco.engine.colony.Colony`; the variant's ``rule.update`` (global update) follows."""
+    return _backtrack(variant, problem, trail, params, key, None, n_ants=n_ants, steplimit=steplimit)
+
+
+def backtrack_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
+    """:func:`iaca_colony` with another planner's heuristic: IACA's backtracking ants, local update
+    and infeasible-path update, a move weighing τ_j^α times the variant's ``factor`` (once per
+    iteration, each cell's factors scaled to a top of 1) instead of η^β of eq. (4-5). Pheromone
+    on cells."""
+    factors = scaled(variant.factor(variant, trail, problem, params, t, n_iters), problem.nbr >= 0)
+    return _backtrack(variant, problem, trail, params, key, factors, n_ants=n_ants, steplimit=steplimit)
+
+
+def _backtrack(variant, problem, trail, params, key, factors, *, n_ants: int, steplimit: int):
     exploit = variant.transition == "pseudo-random"
-    walks = backtrack_walk(problem, trail, params, key, n_ants=n_ants, steplimit=steplimit, exploit=exploit)
+    walks = backtrack_walk(
+        problem, trail, params, key, n_ants=n_ants, steplimit=steplimit, exploit=exploit, factors=factors
+    )
     tau = jnp.where(walks.infeasible, jnp.clip(infeasible_update(walks.tau, params), trail.lo, trail.hi), walks.tau)  # Eq. (4-6)
     tours = stack_tours(problem, walks)
     cost = jnp.where(walks.arrived, variant.cost(tours, problem, params), jnp.inf)

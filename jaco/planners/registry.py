@@ -17,6 +17,7 @@ from .classic import ACS, AS, AS_DENSITY, AS_QUANTITY, EAS, MMAS, RAS  # the cla
 from .double import DACA, IDACA  # thesis chapter 3
 from .iaaco import IAACO, IAACO_PRINTED  # IAACO (seed 002)
 from .iaca import IACA  # thesis chapter 4
+from .compose import parse
 from .pg import PG_ACO  # policy-gradient ACO (ALGORITHMS.md §9)
 
 __all__ = ["VARIANTS", "get_variant", "register", "with_cost"]
@@ -33,12 +34,24 @@ VARIANTS: dict[str, Variant] = {
 
 
 def get_variant(variant) -> Variant:
-    """A registered variant by name, or a :class:`Variant` as it is."""
+    """A :class:`Variant` as it is, or one by name: a registered planner, a composition's name
+    (``compose(construct=..., ...)``, :func:`jaco.planners.compose.compose`), or a registered
+    planner with another cost (``"acs+multi"``, :func:`with_cost`)."""
     if isinstance(variant, Variant):
         return variant
-    if variant not in VARIANTS:
-        raise JacoError(f"unknown variant {variant!r}; registered: {', '.join(sorted(VARIANTS))}")
-    return VARIANTS[variant]
+    if isinstance(variant, str):
+        if variant in VARIANTS:
+            return VARIANTS[variant]
+        composed = parse(variant)
+        if composed is not None:
+            return composed
+        base, _, cost = variant.rpartition("+")
+        if base in VARIANTS and cost in COSTS:
+            return with_cost(base, cost)
+    raise JacoError(
+        f"unknown variant {variant!r}; registered: {', '.join(sorted(VARIANTS))} "
+        "(or a composition: compose(construct=..., heuristic=..., rule=...))"
+    )
 
 
 def register(variant: Variant) -> Variant:

@@ -34,15 +34,16 @@ __all__ = [
     "EMBED_ROWS_MAX",
     "FORMAT",
     "FORMAT_VERSION",
+    "grid_from_entry",
+    "map_entry",
+    "map_hash",
+    "recordable_name",
     "RecordError",
     "RecordWarning",
-    "map_entry",
-    "grid_from_entry",
-    "map_hash",
     "save_path",
     "save_run",
-    "versions",
     "version_warnings",
+    "versions",
 ]
 
 FORMAT = "jaco-record"
@@ -290,17 +291,30 @@ def _uncells(x):
 _HISTORY_DTYPE = np.float32
 
 
+def recordable_name(variant) -> str:
+    """The name a record stores for ``variant`` (a name or a Variant): one the registry resolves
+    to that same planner — a registered planner, a composition of :func:`jaco.compose`, or a
+    registered planner with another cost (``"acs+multi"``). Anything else cannot be rerun."""
+    from ..planners.registry import get_variant
+
+    name = variant if isinstance(variant, str) else variant.name
+    try:
+        same = get_variant(name) is variant or isinstance(variant, str)
+    except JacoError:
+        same = False
+    if not same:
+        raise RecordError(
+            f"variant {name!r} is neither registered nor a composition (jaco.compose): a record can "
+            "only be rerun with a planner the registry finds by name"
+        )
+    return name
+
+
 def save_run(result, path) -> Path:
     """Write ``result`` (a :class:`jaco.Result` from :func:`jaco.solve`) as a JSON record."""
-    from ..planners.registry import VARIANTS
-
     if result.grid is None:
         raise RecordError("this Result has no grid (it was not made by jaco.solve): cannot record its map")
-    if result.variant not in VARIANTS:
-        raise RecordError(
-            f"variant {result.variant!r} is not registered: a record can only be rerun with a "
-            "variant in jaco.VARIANTS"
-        )
+    recordable_name(result.variant)
     waypoints = getattr(result, "waypoints", None)
     pher = result.pheromone
     doc = _header("run")

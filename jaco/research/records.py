@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ..engine.result import Result, gap
+from ..engine.variant import Variant
 from ..grid import Grid
 from .record_format import (
     CHECKED_VERSIONS,
@@ -54,6 +55,7 @@ from .record_format import (
     grid_from_entry,
     map_entry,
     map_hash,
+    recordable_name,
     save_path,
     save_run,
     version_warnings,
@@ -254,7 +256,7 @@ def save_sweep(table, path, *args, **kwargs) -> Path:
     arguments give, so a wrong argument is caught here; the rest is checked by a rerun.
     """
     from . import sweeps
-    from ..planners.registry import VARIANTS, get_variant
+    from ..planners.registry import get_variant
 
     path = Path(path)
     if path.suffix.lower() != ".csv":
@@ -266,9 +268,8 @@ def save_sweep(table, path, *args, **kwargs) -> Path:
     bound.apply_defaults()
     given = dict(bound.arguments)
     given.pop("progress", None)
-    v = get_variant(given["variant"])
-    if VARIANTS.get(v.name) is not v:
-        raise RecordError(f"variant {v.name!r} is not the registered one: a record can only rerun registered variants")
+    several = isinstance(given["variant"], (list, tuple)) and not isinstance(given["variant"], Variant)
+    variant_names = [recordable_name(get_variant(v)) for v in (given["variant"] if several else [given["variant"]])]
     from .designs import as_design
 
     design = as_design(given["params"])  # a dict of axes is a full grid; a Design or DataFrame as given
@@ -285,11 +286,11 @@ def save_sweep(table, path, *args, **kwargs) -> Path:
     grids = [given["grid"]] if isinstance(given["grid"], Grid) else list(given["grid"])
     pair = lambda x: np.ndim(x) == 1 and len(x) == 2  # noqa: E731
     n_q = max(len(grids), 1 if pair(given["start"]) else len(given["start"]), 1 if pair(given["goal"]) else len(given["goal"]))
-    expected = n_q * n_configs * len(seed_list)
+    expected = len(variant_names) * n_q * n_configs * len(seed_list)
     if len(table) != expected:
         raise RecordError(
             f"the table has {len(table)} rows but these arguments give {expected} "
-            f"({n_q} queries x {n_configs} configurations x {len(seed_list)} seeds): "
+            f"({len(variant_names)} planners x {n_q} queries x {n_configs} configurations x {len(seed_list)} seeds): "
             "pass the arguments the sweep was called with"
         )
     if "seed" in table and set(int(s) for s in table["seed"]) != set(seed_list):
@@ -302,7 +303,7 @@ def save_sweep(table, path, *args, **kwargs) -> Path:
         elif name in ("start", "goal"):
             call[name] = _cells(value)
         elif name == "variant":
-            call[name] = v.name
+            call[name] = variant_names if several else variant_names[0]
         elif name == "params":
             call[name] = recorded_params
         elif name == "seeds":

@@ -36,6 +36,7 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from ..engine import native
 from ..engine.params import ORDERED, check_values
 from ..engine.problem import make_problem, stack
+from ..engine.variant import Variant
 from ..engine.run import cached, check_sizes, default_steplimit, is_cached, make_run, params_from, resolve_params
 from ..errors import JacoError, ParamError
 from ..grid import Grid
@@ -387,7 +388,17 @@ def sweep(
     (the configuration's row in the design), the variant's parameters, ``seed`` and the results
     ``success, length, cost, best_iteration, optimal, gap, coverage``. ``table.attrs["sweep"]``
     holds the plan (:func:`plan_sweep`).
+
+    ``variant`` may also be a list of planners (names, compositions of :func:`jaco.compose`,
+    :class:`~jaco.engine.variant.Variant`\ s): a categorical axis. Each planner runs the same
+    configurations × seeds × queries as its own compiled batch (a planner's structure is part of
+    the program), every ``params`` axis must be a parameter of every planner, and the tables are
+    stacked with a first column ``variant``; ``attrs["sweep"]`` maps each planner to its plan.
     """
+    if isinstance(variant, (list, tuple)) and not isinstance(variant, Variant):  # a Variant is a tuple too
+        kwargs = dict(n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, connectivity=connectivity,
+                      memory_budget=memory_budget, progress=progress, devices=devices)
+        return _over_variants(variant, lambda v: sweep(grid, start, goal, v, params, seeds, **kwargs), params)
     st = _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices)
     n_rows, n_q = len(st.config), len(st.problems)
     width = st.chunk * st.mesh.size
@@ -413,6 +424,24 @@ def sweep(
 
     table = _tidy(st.variant, st.queries, st.problems, st.values, st.config, st.seeds, cost, length, best_iter, covered)
     table.attrs["sweep"] = st.info
+    return table
+
+
+def _over_variants(variants, run, params) -> pd.DataFrame:
+    """One sweep per planner, stacked with a ``variant`` column; every planner and its parameter
+    axes are checked before anything compiles."""
+    variants = [get_variant(v) for v in variants]
+    if not variants:
+        raise JacoError("variant: an empty list of planners")
+    names = [v.name for v in variants]
+    if len(set(names)) != len(names):
+        raise JacoError(f"variant: a planner is listed twice in {names}")
+    for v in variants:
+        _config_table(v, params)
+    tables = [run(v) for v in variants]
+    table = pd.concat([t.assign(variant=v.name) for v, t in zip(variants, tables)], ignore_index=True)
+    table = table[["variant"] + [c for c in table.columns if c != "variant"]]
+    table.attrs["sweep"] = {v.name: t.attrs["sweep"] for v, t in zip(variants, tables)}
     return table
 
 
@@ -457,7 +486,9 @@ def summarize(table: pd.DataFrame, by=None) -> pd.DataFrame:
     if missing:
         raise JacoError(f"summarize: no column {missing[0]!r} in the table")
     finite = table.assign(length=table["length"].where(table["success"].astype(bool) & np.isfinite(table["length"])))
-    out = finite.groupby(by, sort=False).agg(
+    # dropna=False: in a sweep over several planners, a planner's row has no value (NaN) for the
+    # parameters only the others have
+    out = finite.groupby(by, sort=False, dropna=False).agg(
         length_mean=("length", "mean"),
         length_std=("length", "std"),
         length_min=("length", "min"),
