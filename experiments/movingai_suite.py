@@ -1,0 +1,268 @@
+#!/usr/bin/env python
+"""Every planner on every bundled MovingAI map against the scenarios' exact optima.
+
+    python experiments/movingai_suite.py                    # the full suite, updates docs/results.md
+    python experiments/movingai_suite.py --smoke --out DIR  # tiny sizes, into DIR
+
+For each bundled MovingAI map (``jaco.maps.BUNDLED``: the MovingAI grid and MAPF benchmarks, 16×16
+to 512×512) the suite takes ``--scenarios`` scenarios spread over the scenario file's range of
+optimal lengths (from a short one to the longest, i.e. over its buckets) and runs every planner —
+the registered ones and a set of compositions of their components (``jaco.compose``) — on all of
+them with ``--seeds`` seeds, at the fixed budget (50 ants × 100 iterations) and, for the planners
+named by ``--larger-planners``, at a larger one. Each (map, planner, budget) is one batched
+``jaco.sweep`` over the queries × seeds. It records per run: success, length, the gap to the
+scenario's optimum; per batch: the time per query.
+
+Outputs (into ``--out``, default ``docs/``): ``results.md``'s ``movingai_suite`` section (success
+rate and gap median/quartiles per map and planner, by length bucket, time per query, the best
+planner per map), ``figures/movingai_suite_gap.png`` (median gap against optimal length, one line
+per planner) and ``movingai_suite.csv`` (every run). Nothing here asserts a time or a gap.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+sys.path.insert(0, str(HERE))
+from report import table, write_section  # noqa: E402 (the experiments' shared helpers)
+
+SECTION = "movingai_suite"
+
+#: Compositions across the sources (beyond the registered planners' own): every construct with
+#: another source's heuristic and rule. The suite's findings (docs/results.md) say which help.
+COMPOSITIONS = (
+    dict(construct="backtrack", heuristic="iaaco", rule="iaca"),
+    dict(construct="backtrack", heuristic="distance", rule="iaca"),
+    dict(construct="backtrack", heuristic="chaos", rule="iaca"),
+    dict(construct="backtrack", heuristic="iaca", rule="mmas"),
+    dict(construct="backtrack", heuristic="iaca", rule="acs"),
+    dict(construct="double", heuristic="iaaco", rule="acs"),
+    dict(construct="dying", heuristic="iaaco", rule="mmas"),
+)
+
+#: The maps on which the "selected" planner is chosen (a sweep over the compositions and their β, γ);
+#: it is then reported on every map, and counts as tuned only on these.
+SELECT_MAPS = ("arena.map", "den312d.map", "room-32-32-4.map", "maze-32-32-2.map")
+SELECT_AXES = {"beta": [4.0, 8.0, 16.0], "gamma": [4.0, 16.0]}
+
+FULL = dict(scenarios=5, seeds=3, budget=(50, 100), larger=(100, 300), maps=None, select=SELECT_MAPS,
+            select_scenarios=3, select_seeds=2)
+SMOKE = dict(scenarios=2, seeds=1, budget=(6, 4), larger=(8, 6), maps=["empty-16-16.map", "room-32-32-4.map"],
+             select=("empty-16-16.map",), select_scenarios=1, select_seeds=1)
+
+
+def parse_args(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--smoke", action="store_true", help="tiny sizes: two small maps, two planners, to check that it runs")
+    ap.add_argument("--out", type=Path, default=None, help="folder for results.md, figures/ and the CSV (default docs/)")
+    ap.add_argument("--maps", nargs="*", default=None, help="bundled map files (default: every MovingAI map)")
+    ap.add_argument("--planners", nargs="*", default=None,
+                    help="planners: registered names and composition names (default: all registered + the compositions)")
+    ap.add_argument("--larger-planners", nargs="*", default=None,
+                    help="planners also run at the larger budget (default: the best three at the fixed budget)")
+    ap.add_argument("--scenarios", type=int, default=None, help="scenarios per map")
+    ap.add_argument("--seeds", type=int, default=None, help="seeds per scenario")
+    args = ap.parse_args(argv)
+    if args.smoke and args.out is None:
+        ap.error("--smoke writes nothing into docs/: give --out DIR")
+    return args
+
+
+def scenarios(jaco, map_name: str, k: int):
+    """``k`` scenarios of the map's own scenario file, spread over its optimal lengths: the
+    shortest non-trivial, then evenly spaced ranks up to the longest."""
+    scen_name = next(n for n in jaco.maps.BUNDLED if n.endswith(".scen") and
+                     (n == map_name + ".scen" or n.startswith(map_name.removesuffix(".map") + "-even")))
+    rows = sorted((s for s in jaco.maps.load_scenarios(jaco.maps.bundled(scen_name)) if s.optimal > 0),
+                  key=lambda s: (s.optimal, s.bucket))
+    picks = sorted({round(i) for i in np.linspace(0, len(rows) - 1, k)})
+    return [rows[i] for i in picks]
+
+
+def planners(jaco, names):
+    """``(label, variant, fixed parameters)`` of every planner to run."""
+    vs = ([jaco.planners.registry.get_variant(n) for n in names] if names
+          else list(jaco.VARIANTS.values()) + [jaco.compose(**kw) for kw in COMPOSITIONS])
+    return [(short(v.name), v, {}) for v in vs]
+
+
+def select(jaco, cfg, args):
+    """The composition and β, γ (the latter where it has one) with the lowest median gap over
+    the selection maps (``SELECT_MAPS``; failures count as infinite), as ``(label, variant,
+    params)``: one sweep per composition and map over ``SELECT_AXES``."""
+    candidates = [jaco.compose(**kw) for kw in COMPOSITIONS] if not args.smoke else [jaco.compose(construct="backtrack", rule="iaca")]
+    gaps: dict = {}
+    for m in cfg["select"]:
+        grid = jaco.maps.load(jaco.maps.bundled(m))
+        scen = scenarios(jaco, m, cfg["select_scenarios"])
+        n_ants, n_iters = cfg["budget"]
+        for v in candidates:
+            axes = {k: vals for k, vals in SELECT_AXES.items() if k in v.params}
+            tab = jaco.sweep(grid, [s.start for s in scen], [s.goal for s in scen], v, params=axes,
+                             seeds=cfg["select_seeds"], n_ants=n_ants, n_iters=n_iters)
+            for key, g in tab.groupby(list(axes)):
+                key = key if isinstance(key, tuple) else (key,)
+                gaps.setdefault((v.name, tuple(zip(axes, key))), []).extend(g.gap.tolist())
+    (name, fixed), gap = min(gaps.items(), key=lambda kv: (float(np.median(kv[1])), -np.isfinite(kv[1]).mean()))
+    v = jaco.planners.registry.get_variant(name)
+    label = "selected: " + short(name) + " (" + ", ".join(f"{k}={x:g}" for k, x in fixed) + ")"
+    print(f"selected on {', '.join(cfg['select'])}: {label}, median gap {100 * float(np.median(gap)):.1f} %", flush=True)
+    return label, v, dict(fixed)
+
+
+def short(name: str) -> str:
+    """A composition's name without the components left at their defaults (for tables)."""
+    if not name.startswith("compose("):
+        return name
+    parts = [p.strip() for p in name[len("compose("):-1].split(",")]
+    keep = [p.split("=")[1] for p in parts if p not in ("transition=roulette", "schedule=constant", "cost=length")]
+    return "+".join(keep)
+
+
+def run_suite(cfg, args):
+    import jaco
+
+    map_names = args.maps or cfg["maps"] or sorted(n for n in jaco.maps.BUNDLED if n.endswith(".map"))
+    plist = planners(jaco, args.planners or (["mmas", "iaca"] if args.smoke else None)) + [select(jaco, cfg, args)]
+    k, n_seeds = args.scenarios or cfg["scenarios"], args.seeds or cfg["seeds"]
+    rows = []
+    for m in map_names:
+        grid = jaco.maps.load(jaco.maps.bundled(m))
+        scen = scenarios(jaco, m, k)
+        starts, goals = [s.start for s in scen], [s.goal for s in scen]
+        for budget, (ants, iters) in (("fixed", cfg["budget"]), ("larger", cfg["larger"])):
+            for label, v, fixed in plist:
+                if budget == "larger" and label not in larger_set(args, rows, m, cfg):
+                    continue
+                t0 = time.perf_counter()
+                tab = jaco.sweep(grid, starts, goals, v, params={k: [x] for k, x in fixed.items()}, seeds=n_seeds,
+                                 n_ants=ants, n_iters=iters)
+                seconds = time.perf_counter() - t0
+                per_query = seconds / (len(scen) * n_seeds)
+                for (_, r) in tab.iterrows():
+                    q = next(i for i, s in enumerate(scen) if tuple(s.start) == tuple(r["start"]) and tuple(s.goal) == tuple(r["goal"]))
+                    rows.append(dict(map=m.removesuffix(".map"), size=f"{grid.height}x{grid.width}", planner=label,
+                                     budget=budget, ants=ants, iters=iters, query=q, bucket=scen[q].bucket,
+                                     optimal=scen[q].optimal, seed=int(r["seed"]), success=bool(r["success"]),
+                                     length=float(r["length"]), gap=float(r["gap"]), seconds_per_query=per_query))
+                ok = np.mean([x["success"] for x in rows[-len(tab):]])
+                print(f"{m:28s} {budget:6s} {label:40s} success {ok:4.0%}  {per_query:6.2f} s/query", flush=True)
+    return rows
+
+
+def larger_set(args, rows, map_name, cfg) -> set:
+    """Planners that also run at the larger budget on this map: ``--larger-planners``, or the three
+    with the best median gap at the fixed budget on this map (failures counting as infinite)."""
+    if args.larger_planners:
+        return set(args.larger_planners)
+    mine = [r for r in rows if r["map"] == map_name.removesuffix(".map") and r["budget"] == "fixed"]
+    by = {}
+    for r in mine:
+        by.setdefault(r["planner"], []).append(r["gap"])
+    ranked = sorted(by, key=lambda p: (np.median(by[p]), -np.mean(np.isfinite(by[p]))))
+    return set(ranked[:3])
+
+
+def quartiles(g):
+    g = np.asarray(g, float)
+    if not np.isfinite(g).any():
+        return "failed"
+    # An infinite gap (a failed run) sorts last; a quartile that falls next to one is ∞.
+    top = g[np.isfinite(g)].max()
+    q1, q2, q3 = (np.inf if x > top else x for x in np.percentile(np.minimum(g, 2 * top + 1), [25, 50, 75]))
+    f = lambda x: "∞" if not math.isfinite(x) else f"{100 * x:.1f}"  # noqa: E731
+    return f"{f(q2)} [{f(q1)}, {f(q3)}]"
+
+
+def report(df, command: str, fig_rel: str) -> str:
+    lines = [
+        "## Every planner on the MovingAI maps (`experiments/movingai_suite.py`)",
+        "",
+        f"Command: `{command}`. Gap = (length − optimum)/optimum against the scenario file's optimum "
+        "(jaco.exact reproduces every one); a failed run (no ant reached the goal) counts as an infinite gap. "
+        "Cells: median gap in % [quartiles]; success = share of runs (scenarios × seeds) that found a path.",
+        "",
+    ]
+    for budget in ("fixed", "larger"):
+        part = df[df.budget == budget]
+        if part.empty:
+            continue
+        ants, iters = int(part.ants.iloc[0]), int(part.iters.iloc[0])
+        lines += [f"### {budget.capitalize()} budget: {ants} ants × {iters} iterations", ""]
+        maps = list(dict.fromkeys(part["map"]))
+        plist = list(dict.fromkeys(part.planner))
+        head = ["planner"] + [f"{m} ({part[part['map'] == m]['size'].iloc[0]})" for m in maps]
+        body = []
+        for p in plist:
+            row = [p]
+            for m in maps:
+                g = part[(part.planner == p) & (part["map"] == m)]
+                row.append("–" if g.empty else f"{quartiles(g.gap)}; {100 * g.success.mean():.0f}%")
+            body.append(row)
+        lines += [table(head, body), ""]
+        tq = part.groupby(["map", "planner"]).seconds_per_query.first().groupby("map").max()
+        lines += ["Slowest planner's time per query (s, batched): " + ", ".join(f"{m} {tq[m]:.1f}" for m in maps), ""]
+    lines += [f"![median gap against optimal length]({fig_rel})", ""]
+    return "\n".join(lines)
+
+
+def figure(df, path: Path):
+    import matplotlib
+
+    matplotlib.use("Agg")  # a script, not a notebook
+    import matplotlib.pyplot as plt
+
+    part = df[df.budget == "fixed"]
+    fig, ax = plt.subplots(figsize=(9, 5.5))
+    for p, g in part.groupby("planner", sort=False):
+        pts = g.groupby("optimal").gap.median().sort_index()
+        y = np.where(np.isfinite(pts.values), 100 * pts.values, np.nan)
+        ax.plot(pts.index, y, marker="o", ms=3, lw=1, label=p)
+    ax.set_xscale("log")
+    ax.set_yscale("symlog", linthresh=1)
+    ax.set_xlabel("optimal length of the scenario (cells)")
+    ax.set_ylabel("median gap over seeds (%); gaps of failed runs left out")
+    ax.set_title("Gap to the optimum on the MovingAI maps, 50 ants × 100 iterations")
+    ax.legend(fontsize=6, ncol=2)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp.png")
+    fig.savefig(tmp, dpi=110)
+    tmp.replace(path)
+    plt.close(fig)
+
+
+def main(argv=None):
+    import pandas as pd
+
+    args = parse_args(argv)
+    cfg = SMOKE if args.smoke else FULL
+    out = args.out or ROOT / "docs"
+    t0 = time.perf_counter()
+    rows = run_suite(cfg, args)
+    df = pd.DataFrame(rows)
+    out.mkdir(parents=True, exist_ok=True)
+    csv = out / "movingai_suite.csv"
+    df.to_csv(csv.with_suffix(".tmp"), index=False)
+    csv.with_suffix(".tmp").replace(csv)
+    fig = out / "figures" / "movingai_suite_gap.png"
+    figure(df, fig)
+    shown = sys.argv[1:] if argv is None else list(argv)
+    command = " ".join(["python experiments/movingai_suite.py", *shown])
+    text = report(df, command, "figures/movingai_suite_gap.png")
+    write_section(out / "results.md", SECTION, text + f"\nSuite time: {time.perf_counter() - t0:.0f} s.\n", intro="# Results\n")
+    print(text)
+    print(f"wrote {out / 'results.md'}, {fig}, {csv}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
