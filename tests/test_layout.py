@@ -14,7 +14,9 @@ import pytest
 
 import jaco
 
-ROOT = Path(jaco.__file__).parent
+# The checkout's source tree, not the installed copy: CI installs jaco into site-packages, where
+# neither the README nor (for a wheel) the same file list is found.
+ROOT = Path(__file__).resolve().parents[1] / "jaco"
 README = ROOT.parent / "README.md"
 
 
