@@ -70,6 +70,10 @@ def parse_args(argv=None):
                     help="planners also run at the larger budget (default: the best three at the fixed budget)")
     ap.add_argument("--scenarios", type=int, default=None, help="scenarios per map")
     ap.add_argument("--seeds", type=int, default=None, help="seeds per scenario")
+    ap.add_argument("--update", action="store_true",
+                    help="keep the rows of the planners not run now from the existing CSV in --out (run the suite in parts)")
+    ap.add_argument("--skip", nargs="*", default=(), help="registered planners to leave out")
+    ap.add_argument("--no-select", action="store_true", help="leave out the planner selected on other maps")
     args = ap.parse_args(argv)
     if args.smoke and args.out is None:
         ap.error("--smoke writes nothing into docs/: give --out DIR")
@@ -131,7 +135,9 @@ def run_suite(cfg, args):
     import jaco
 
     map_names = args.maps or cfg["maps"] or sorted(n for n in jaco.maps.BUNDLED if n.endswith(".map"))
-    plist = planners(jaco, args.planners or (["mmas", "iaca"] if args.smoke else None)) + [select(jaco, cfg, args)]
+    plist = [p for p in planners(jaco, args.planners or (["mmas", "iaca"] if args.smoke else None)) if p[0] not in args.skip]
+    if not args.no_select:
+        plist.append(select(jaco, cfg, args))
     k, n_seeds = args.scenarios or cfg["scenarios"], args.seeds or cfg["seeds"]
     rows = []
     for m in map_names:
@@ -186,7 +192,7 @@ def report(df, command: str, fig_rel: str) -> str:
     lines = [
         "## Every planner on the MovingAI maps (`experiments/movingai_suite.py`)",
         "",
-        f"Command: `{command}`. Gap = (length − optimum)/optimum against the scenario file's optimum "
+        f"Command(s): `{command}`. Gap = (length − optimum)/optimum against the scenario file's optimum "
         "(jaco.exact reproduces every one); a failed run (no ant reached the goal) counts as an infinite gap. "
         "Cells: median gap in % [quartiles]; success = share of runs (scenarios × seeds) that found a path.",
         "",
@@ -247,18 +253,22 @@ def main(argv=None):
     cfg = SMOKE if args.smoke else FULL
     out = args.out or ROOT / "docs"
     t0 = time.perf_counter()
+    shown = sys.argv[1:] if argv is None else list(argv)
+    command = " ".join(["python experiments/movingai_suite.py", *shown])
     rows = run_suite(cfg, args)
-    df = pd.DataFrame(rows)
+    df = pd.DataFrame(rows).assign(command=command)
     out.mkdir(parents=True, exist_ok=True)
     csv = out / "movingai_suite.csv"
+    if args.update and csv.exists():
+        kept = pd.read_csv(csv)
+        kept = kept[~kept.planner.isin(set(df.planner)) & kept["map"].isin(set(df["map"]))]
+        df = pd.concat([kept, df], ignore_index=True)
     df.to_csv(csv.with_suffix(".tmp"), index=False)
     csv.with_suffix(".tmp").replace(csv)
     fig = out / "figures" / "movingai_suite_gap.png"
     figure(df, fig)
-    shown = sys.argv[1:] if argv is None else list(argv)
-    command = " ".join(["python experiments/movingai_suite.py", *shown])
-    text = report(df, command, "figures/movingai_suite_gap.png")
-    write_section(out / "results.md", SECTION, text + f"\nSuite time: {time.perf_counter() - t0:.0f} s.\n", intro="# Results\n")
+    text = report(df, "`; `".join(dict.fromkeys(df.command)), "figures/movingai_suite_gap.png")
+    write_section(out / "results.md", SECTION, text + f"\nTime of the last run: {time.perf_counter() - t0:.0f} s.\n", intro="# Results\n")
     print(text)
     print(f"wrote {out / 'results.md'}, {fig}, {csv}")
     return 0

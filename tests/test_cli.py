@@ -196,6 +196,26 @@ def test_sweep_writes_tidy_csv_and_prints_best(tmp_path, capsys):
     assert "top 2 of 2 configurations" in out
 
 
+def test_sweep_over_several_planners_and_a_composition(tmp_path, capsys):
+    """Repeated --variant: the planners are a categorical column; beta applies to each, the rows
+    of each planner equal a sweep of that planner alone."""
+    comp = "compose(construct=backtrack, rule=iaca)"
+    out_csv = tmp_path / "sweep.csv"
+    code, out, err = run(capsys, "sweep", "demo", "--variant", "acs", "--variant", comp, "--param", "beta=2,6",
+                         "--seeds", "2", *SMALL, "--csv", str(out_csv))
+    assert code == 0, err
+    with out_csv.open() as f:
+        rows = list(csv.DictReader(f))
+    full = jaco.planners.registry.get_variant(comp).name
+    assert sorted({r["variant"] for r in rows}) == sorted(["acs", full]) and len(rows) == 8
+    demo = jaco.maps.named("demo")
+    alone = jaco.sweep(demo, demo.meta["start"], demo.meta["goal"], "acs", {"beta": [2.0, 6.0]}, 2,
+                       n_ants=10, n_iters=10)
+    acs = sorted(float(r["length"]) for r in rows if r["variant"] == "acs")
+    assert acs == pytest.approx(sorted(alone["length"]), rel=1e-6)
+    assert "top 4 of 4 configurations" in out and "best: " in out
+
+
 def test_sweep_value_syntax_errors(capsys):
     for value, needle in [("alpha=1:2", "START:STOP:COUNT"), ("alpha=1:2:0", "COUNT"),
                           ("alpha=0:30:3", "out of range"), ("zeta=1,2", "zeta")]:

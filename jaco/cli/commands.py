@@ -173,10 +173,12 @@ def cmd_sweep(args) -> int:
     from ..planners.registry import get_variant
     from ..research.sweeps import summarize, sweep
 
-    variant = get_variant(args.variant)
-    n_configs = math.prod(len(v) for v in axes.values()) if axes else 1
+    names = args.variant or [args.default_variant]
+    variants = [get_variant(v) for v in names]
+    variant = variants[0] if len(variants) == 1 else variants
+    n_configs = len(variants) * (math.prod(len(v) for v in axes.values()) if axes else 1)
     print(
-        f"sweep {variant.name} on {grid.name} ({grid.height}x{grid.width}), start {tuple(start)} -> "
+        f"sweep {', '.join(v.name for v in variants)} on {grid.name} ({grid.height}x{grid.width}), start {tuple(start)} -> "
         f"goal {tuple(goal)}: {n_configs} configurations x {args.seeds} seeds, "
         f"{args.ants} ants x {args.iters} iterations",
         flush=True,
@@ -204,7 +206,7 @@ def cmd_sweep(args) -> int:
         )
         print(f"wrote {args.record} and {sidecar} (rerun them with 'jaco rerun {sidecar}')")
     summary = summarize(table).sort_values(["gap_mean", "length_mean"], kind="stable").reset_index(drop=True)
-    swept = [k for k in axes] or list(variant.params)
+    swept = ["variant", *axes] if len(variants) > 1 else [k for k in axes] or list(variant.params)
     cols = swept + ["length_mean", "length_std", "length_min", "success_rate", "gap_mean", "runs"]
     shown = summary[cols].head(10).rename(columns={"gap_mean": "gap_mean_%"})
     shown["gap_mean_%"] = 100 * shown["gap_mean_%"]
@@ -212,10 +214,11 @@ def cmd_sweep(args) -> int:
         print(f"\ntop {len(shown)} of {len(summary)} configurations (by mean gap, then mean length):")
         print(shown.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
     best = summary.iloc[0]
-    conf = ", ".join(f"{k}={best[k]:g}" for k in variant.params)
+    winner = get_variant(best["variant"]) if len(variants) > 1 else variants[0]
+    conf = ", ".join(f"{k}={best[k]:g}" for k in winner.params)
     gap = f"{100 * best['gap_mean']:.2f}%" if math.isfinite(best["gap_mean"]) else "inf (some runs failed)"
     print(
-        f"\nbest: {variant.name} {conf}\n      mean length {best['length_mean']:.4f} "
+        f"\nbest: {winner.name} {conf}\n      mean length {best['length_mean']:.4f} "
         f"(optimum {table['optimal'].iloc[0]:.4f}), mean gap {gap}, "
         f"success {100 * best['success_rate']:.0f}% over {int(best['runs'])} seeds"
     )

@@ -19,9 +19,15 @@ def _variant_names() -> str:
     return ", ".join(VARIANTS)
 
 
-def _add_run_options(p, *, default_variant: str, steplimit: bool = True) -> None:
-    p.add_argument("--variant", default=default_variant, metavar="V",
-                   help=f"ACO variant (default {default_variant}; one of: {_variant_names()})")
+def _add_run_options(p, *, default_variant: str, steplimit: bool = True, several: bool = False) -> None:
+    if several:  # a sweep may run several planners, a categorical axis of the table
+        p.add_argument("--variant", action="append", metavar="V",
+                       help=f"ACO variant, repeatable to sweep over planners (default {default_variant}; "
+                       f"one of: {_variant_names()}, or a composition 'compose(construct=..., rule=...)')")
+        p.set_defaults(default_variant=default_variant)
+    else:
+        p.add_argument("--variant", default=default_variant, metavar="V",
+                       help=f"ACO variant (default {default_variant}; one of: {_variant_names()})")
     p.add_argument("--ants", type=_pos_int, default=DEFAULT_ANTS, metavar="N",
                    help=f"ants per iteration (default {DEFAULT_ANTS})")
     p.add_argument("--iters", type=_pos_int, default=DEFAULT_ITERS, metavar="N",
@@ -96,11 +102,12 @@ def build_parser() -> argparse.ArgumentParser:
         "and print the best configurations.",
         epilog="Values: a:b:n is n values from a to b inclusive (linspace), a,b,c a list, "
         "a single number a fixed value. Example: jaco sweep demo --param alpha=0.5:3:6 "
-        "--param rho=0.1,0.3 --seeds 8 --csv sweep.csv",
+        "--param rho=0.1,0.3 --seeds 8 --csv sweep.csv; several planners: --variant mmas --variant acs "
+        "(every --param must belong to every planner).",
     )
     p.add_argument("map", metavar="MAP", help="map file, named map or bundled file; see 'jaco maps'")
     _add_query_options(p)
-    _add_run_options(p, default_variant="mmas")
+    _add_run_options(p, default_variant="mmas", several=True)
     p.add_argument("--param", action="append", metavar="NAME=VALUES",
                    help="a sweep axis (repeatable): NAME=a:b:n, NAME=a,b,c or NAME=x")
     p.add_argument("--seeds", type=_pos_int, default=4, metavar="N",
