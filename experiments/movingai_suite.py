@@ -131,10 +131,13 @@ def short(name: str) -> str:
     return "+".join(keep)
 
 
-def run_suite(cfg, args):
+def run_suite(cfg, args, checkpoint=lambda rows: None):
+    """The suite's rows; ``checkpoint(rows)`` after each map, so a long run keeps what it finished."""
     import jaco
 
-    map_names = args.maps or cfg["maps"] or sorted(n for n in jaco.maps.BUNDLED if n.endswith(".map"))
+    # smallest map first: a long run that is cut short still reports every smaller map
+    map_names = args.maps or cfg["maps"] or sorted((n for n in jaco.maps.BUNDLED if n.endswith(".map")),
+                                                   key=lambda n: jaco.maps.load(jaco.maps.bundled(n)).n_cells)
     plist = [p for p in planners(jaco, args.planners or (["mmas", "iaca"] if args.smoke else None)) if p[0] not in args.skip]
     if not args.no_select:
         plist.append(select(jaco, cfg, args))
@@ -161,6 +164,7 @@ def run_suite(cfg, args):
                                      length=float(r["length"]), gap=float(r["gap"]), seconds_per_query=per_query))
                 ok = np.mean([x["success"] for x in rows[-len(tab):]])
                 print(f"{m:28s} {budget:6s} {label:40s} success {ok:4.0%}  {per_query:6.2f} s/query", flush=True)
+        checkpoint(rows)
     return rows
 
 
@@ -255,22 +259,24 @@ def main(argv=None):
     t0 = time.perf_counter()
     shown = sys.argv[1:] if argv is None else list(argv)
     command = " ".join(["python experiments/movingai_suite.py", *shown])
-    rows = run_suite(cfg, args)
-    df = pd.DataFrame(rows).assign(command=command)
-    out.mkdir(parents=True, exist_ok=True)
     csv = out / "movingai_suite.csv"
-    if args.update and csv.exists():
-        kept = pd.read_csv(csv)
-        kept = kept[~kept.planner.isin(set(df.planner)) & kept["map"].isin(set(df["map"]))]
-        df = pd.concat([kept, df], ignore_index=True)
-    df.to_csv(csv.with_suffix(".tmp"), index=False)
-    csv.with_suffix(".tmp").replace(csv)
-    fig = out / "figures" / "movingai_suite_gap.png"
-    figure(df, fig)
-    text = report(df, "`; `".join(dict.fromkeys(df.command)), "figures/movingai_suite_gap.png")
-    write_section(out / "results.md", SECTION, text + f"\nTime of the last run: {time.perf_counter() - t0:.0f} s.\n", intro="# Results\n")
-    print(text)
-    print(f"wrote {out / 'results.md'}, {fig}, {csv}")
+    kept = pd.read_csv(csv) if args.update and csv.exists() else None
+
+    def write(rows):
+        df = pd.DataFrame(rows).assign(command=command)
+        if kept is not None:  # the other planners' rows of an earlier run
+            df = pd.concat([kept[~kept.planner.isin(set(df.planner))], df], ignore_index=True)
+        out.mkdir(parents=True, exist_ok=True)
+        df.to_csv(csv.with_suffix(".tmp"), index=False)
+        csv.with_suffix(".tmp").replace(csv)
+        figure(df, out / "figures" / "movingai_suite_gap.png")
+        text = report(df, "`; `".join(dict.fromkeys(df.command)), "figures/movingai_suite_gap.png")
+        write_section(out / "results.md", SECTION, text + f"\nTime of the last run: {time.perf_counter() - t0:.0f} s.\n",
+                      intro="# Results\n")
+        return text
+
+    print(write(run_suite(cfg, args, checkpoint=write)))
+    print(f"wrote {out / 'results.md'}, {out / 'figures' / 'movingai_suite_gap.png'}, {csv}")
     return 0
 
 

@@ -50,6 +50,7 @@ def smoke(tmp_path_factory):
     return proc.stdout, md.read_text(), json.loads(js.read_text())
 
 
+@pytest.mark.slow  # the benchmark at --smoke size still takes ~15 s
 def test_smoke_writes_the_throughput_table(smoke):
     stdout, md, _ = smoke
     assert "<!-- bench_throughput:start -->" in md and "<!-- bench_throughput:end -->" in md
@@ -72,6 +73,7 @@ def test_smoke_writes_the_throughput_table(smoke):
     assert "native, 2 devices: yes; jax, 2 devices: yes; native walk, JAX walk: yes" in md
 
 
+@pytest.mark.slow  # the benchmark at --smoke size still takes ~15 s
 def test_smoke_reports_solve_scaling_and_targets(smoke):
     _, md, _ = smoke
     for label in ("first `solve` call", "compile time", "`solve` latency after compile", "compiled run alone"):
@@ -84,6 +86,7 @@ def test_smoke_reports_solve_scaling_and_targets(smoke):
     assert md.count("**met**") + md.count("**not met**") == 4  # ratio, stretch, latency, compile
 
 
+@pytest.mark.slow  # the benchmark at --smoke size still takes ~15 s
 def test_smoke_json_figures(smoke):
     _, _, R = smoke
     for k, fig in R["throughput"].items():

@@ -258,7 +258,7 @@ def _env(**extra):
     return env
 
 
-@pytest.mark.parametrize("count", [2, 4])
+@pytest.mark.parametrize("count", [2, pytest.param(4, marks=pytest.mark.slow)])
 def test_sharded_over_devices_equals_one_device(reference, tmp_path, count):
     out = tmp_path / "tables.pkl"
     env = _env(XLA_FLAGS=f"--xla_force_host_platform_device_count={count}")
@@ -306,6 +306,7 @@ def test_two_processes_with_jax_distributed_equal_one_process(reference, tmp_pat
 
 
 # -- 10,000 configurations under a budget (the benchmark script at --smoke size) ---------------
+@pytest.mark.slow
 def test_ten_thousand_configurations_stay_within_the_budget(tmp_path):
     out = tmp_path / "bench.json"
     r = subprocess.run([sys.executable, str(ROOT / "experiments" / "bench_sweep.py"), "--smoke", "--json", str(out)],

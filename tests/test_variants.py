@@ -37,7 +37,14 @@ COMPOSITIONS = [
 ]
 
 
-@pytest.fixture(params=sorted(jaco.VARIANTS) + COMPOSITIONS[:2] + [pytest.param(c, marks=pytest.mark.slow) for c in COMPOSITIONS[2:]])
+#: One planner per distinct piece of code (walk, colony structure, pheromone rule family,
+#: heuristic) in the normal run; every other registered planner and composition with the slow checks
+#: (``pytest -m slow``, run by CI), so that the default suite stays a few minutes on two cores.
+QUICK = ["as", "acs", "mmas", "idaca", "iaca", "iaaco", "apf-aco", "chaos-aco", "pg-aco", COMPOSITIONS[0]]
+EVERY = sorted(jaco.VARIANTS) + COMPOSITIONS
+
+
+@pytest.fixture(params=[n if n in QUICK else pytest.param(n, marks=pytest.mark.slow) for n in EVERY])
 def name(request):
     return request.param
 
@@ -93,13 +100,13 @@ def test_sweep_rows_equal_solve(name, maps_):
 
 
 def test_compiles_once_for_repeated_calls_of_one_shape(name):
-    a = jaco.maps.random_map(10, 0.2, seed=1)
-    b = jaco.maps.random_map(10, 0.1, seed=2)
-    jaco.solve(a, (0, 0), (9, 9), name, seed=0, n_ants=8, n_iters=3)
+    a = jaco.maps.random_map(12, 0.2, seed=1)
+    b = jaco.maps.random_map(12, 0.1, seed=2)
+    jaco.solve(a, (0, 0), (11, 11), name, seed=0, **SMALL)
     before = TRACES[name]
-    jaco.solve(a, (0, 0), (9, 9), name, seed=1, n_ants=8, n_iters=3, q=2.0)
-    jaco.solve(b, (0, 0), (9, 9), name, seed=2, n_ants=8, n_iters=3)  # other map, same shape
-    jaco.solve(b, (9, 9), (0, 0), name, seed=3, n_ants=8, n_iters=3)  # other query
+    jaco.solve(a, (0, 0), (11, 11), name, seed=1, q=2.0, **SMALL)
+    jaco.solve(b, (0, 0), (11, 11), name, seed=2, **SMALL)  # other map, same shape
+    jaco.solve(b, (11, 11), (0, 0), name, seed=3, **SMALL)  # other query
     assert TRACES[name] == before
 
 
@@ -121,12 +128,14 @@ def test_failed_runs_inside_a_batch_are_inf_never_nan(name):
     assert (table.best_iteration == -1).all()
 
 
-def test_trivial_query_start_equals_goal(name):
-    grid = jaco.Grid.from_rows(["...", "..."])
-    r = jaco.solve(grid, (1, 1), (1, 1), name, n_ants=4, n_iters=2)
-    assert r.success and r.length == 0 and r.path.tolist() == [[1, 1]]
+def test_trivial_query_start_equals_goal(name, maps_):
+    grid = maps_[0]  # the shape of the other tests' runs: no compile of its own
+    start = _ends(grid)[0]
+    r = jaco.solve(grid, start, start, name, **SMALL)
+    assert r.success and r.length == 0 and r.path.tolist() == [list(start)]
 
 
+@pytest.mark.parametrize("name", EVERY)
 def test_every_variant_is_documented(name):
     v = jaco.planners.registry.get_variant(name)
     assert v.source and v.doc and set(v.defaults) <= set(v.params)
