@@ -65,7 +65,8 @@ def parse_args(argv=None):
     ap.add_argument("--out", type=Path, default=None, help="folder for results.md, figures/ and the CSV (default docs/)")
     ap.add_argument("--maps", nargs="*", default=None, help="bundled map files (default: every MovingAI map)")
     ap.add_argument("--planners", nargs="*", default=None,
-                    help="planners: registered names and composition names (default: all registered + the compositions)")
+                    help="planners: registered names and composition names (default: all registered + the compositions; "
+                    "none after the flag: only the selected one)")
     ap.add_argument("--larger-planners", nargs="*", default=None,
                     help="planners also run at the larger budget (default: the best three at the fixed budget)")
     ap.add_argument("--scenarios", type=int, default=None, help="scenarios per map")
@@ -93,14 +94,15 @@ def scenarios(jaco, map_name: str, k: int):
 
 def planners(jaco, names):
     """``(label, variant, fixed parameters)`` of every planner to run."""
-    vs = ([jaco.planners.registry.get_variant(n) for n in names] if names
+    vs = ([jaco.planners.registry.get_variant(n) for n in names] if names is not None
           else list(jaco.VARIANTS.values()) + [jaco.compose(**kw) for kw in COMPOSITIONS])
     return [(short(v.name), v, {}) for v in vs]
 
 
 def select(jaco, cfg, args):
     """The composition and β, γ (the latter where it has one) with the lowest median gap over
-    the selection maps (``SELECT_MAPS``; failures count as infinite), as ``(label, variant,
+    the selection maps (``SELECT_MAPS``; failures count as infinite; ties broken by success, then
+    mean gap), as ``(label, variant,
     params)``: one sweep per composition and map over ``SELECT_AXES``."""
     candidates = [jaco.compose(**kw) for kw in COMPOSITIONS] if not args.smoke else [jaco.compose(construct="backtrack", rule="iaca")]
     gaps: dict = {}
@@ -115,7 +117,10 @@ def select(jaco, cfg, args):
             for key, g in tab.groupby(list(axes)):
                 key = key if isinstance(key, tuple) else (key,)
                 gaps.setdefault((v.name, tuple(zip(axes, key))), []).extend(g.gap.tolist())
-    (name, fixed), gap = min(gaps.items(), key=lambda kv: (float(np.median(kv[1])), -np.isfinite(kv[1]).mean()))
+    # lowest median gap; ties (small maps are often solved optimally in most runs) go to the higher
+    # success rate, then the lower mean gap of the successful runs
+    (name, fixed), gap = min(gaps.items(), key=lambda kv: (float(np.median(kv[1])), -np.isfinite(kv[1]).mean(),
+                                                          float(np.mean(np.asarray(kv[1])[np.isfinite(kv[1])] if np.isfinite(kv[1]).any() else np.inf))))
     v = jaco.planners.registry.get_variant(name)
     label = "selected: " + short(name) + " (" + ", ".join(f"{k}={x:g}" for k, x in fixed) + ")"
     print(f"selected on {', '.join(cfg['select'])}: {label}, median gap {100 * float(np.median(gap)):.1f} %", flush=True)
@@ -138,7 +143,8 @@ def run_suite(cfg, args, checkpoint=lambda rows: None):
     # smallest map first: a long run that is cut short still reports every smaller map
     map_names = args.maps or cfg["maps"] or sorted((n for n in jaco.maps.BUNDLED if n.endswith(".map")),
                                                    key=lambda n: jaco.maps.load(jaco.maps.bundled(n)).n_cells)
-    plist = [p for p in planners(jaco, args.planners or (["mmas", "iaca"] if args.smoke else None)) if p[0] not in args.skip]
+    names = args.planners if args.planners is not None else (["mmas", "iaca"] if args.smoke else None)
+    plist = [p for p in planners(jaco, names) if p[0] not in args.skip]
     if not args.no_select:
         plist.append(select(jaco, cfg, args))
     k, n_seeds = args.scenarios or cfg["scenarios"], args.seeds or cfg["seeds"]
@@ -265,7 +271,9 @@ def main(argv=None):
     def write(rows):
         df = pd.DataFrame(rows).assign(command=command)
         if kept is not None:  # the other planners' rows of an earlier run
-            df = pd.concat([kept[~kept.planner.isin(set(df.planner))], df], ignore_index=True)
+            again = set(df.planner) | ({p for p in kept.planner if p.startswith("selected")}
+                                       if df.planner.str.startswith("selected").any() else set())
+            df = pd.concat([kept[~kept.planner.isin(again)], df], ignore_index=True)
         out.mkdir(parents=True, exist_ok=True)
         df.to_csv(csv.with_suffix(".tmp"), index=False)
         csv.with_suffix(".tmp").replace(csv)
