@@ -1,4 +1,5 @@
-"""APF-ACO: ant colony optimisation guided by an improved artificial potential field (Dong & Zhao 2021).
+"""APF-ACO: ant colony optimisation guided by an improved artificial potential field
+(Dong & Zhao 2021).
 
 Dong Xuanliang, Zhao Guiqing, *Robot navigation path planning based on ant colony algorithm guided
 by artificial potential field*, Machinery Design & Manufacture 2021(6):169–173: the heuristic

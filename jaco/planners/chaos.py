@@ -2,10 +2,10 @@
 
 Xi'an Technological University, School of Electronic Information Engineering: ant colony path
 planning with a probability-selection function (free-cell share and angle to the goal) and a
-Logistic-chaos perturbation of the pheromone, ported to ROS (the copy we worked from names neither
-title nor authors). Its equation numbers as the text cites them: transition rule (11), chaos perturbation
-(14), global update (15); the formulas themselves are lost in that copy, so docs/algorithms.md §7 and
-docs/variants.md ("Chaos ACO") give the interpretation built here.
+Logistic-chaos perturbation of the pheromone, ported to ROS (the copy we worked from names
+neither title nor authors). Its equation numbers as the text cites them: transition rule (11),
+chaos perturbation (14), global update (15); the formulas themselves are lost in that copy, so
+docs/algorithms.md §7 and docs/variants.md ("Chaos ACO") give the interpretation built here.
 
 - **Free-cell share** :func:`free_share`: P_free(j) = (free cells among j's 8 neighbours,
   the current cell excluded) / 7.
@@ -16,8 +16,8 @@ docs/variants.md ("Chaos ACO") give the interpretation built here.
   p ∝ τ^α η^β (P_free·P_θ)^γ. Both shares depend only on the map and the goal, so the factor
   (P_free·P_θ)^γ is folded into the ``(N, 8)`` weight table once per iteration
   (:func:`selection_factor`, the variant's ``factor``), never per ant step.
-- **Chaos update** (eqs. 14, 15) :func:`chaos_perturb` then :func:`deposit_at_or_below_mean`: the paths
-  above the iteration's mean length get their pheromone re-drawn by i_c steps of the Logistic
+- **Chaos update** (eqs. 14, 15) :func:`chaos_perturb` then :func:`deposit_at_or_below_mean`:
+  the paths above the iteration's mean length get their pheromone re-drawn by i_c steps of the Logistic
   map h ← μh(1−h) (:func:`logistic`), then τ ← (1−ρ)τ + Σ Q/L_k over the paths at or below the
   mean (15).
 
@@ -110,7 +110,7 @@ def selection_factor(variant, trail, problem, params, t, n_iters) -> jax.Array:
     return eta_factor(variant, trail, problem, params, t, n_iters) + shares
 
 
-# -- Logistic-chaos pheromone update (eqs. 14, 15) ---------------------------------------------------
+# -- Logistic-chaos pheromone update (eqs. 14, 15) ------------------------------------------
 def logistic(h0, mu, n):
     """``n`` steps of the Logistic map h ← μh(1−h) from ``h0`` (the paper's chaos iteration; fully
     chaotic at μ = 4 with h0 ∈ [0, 1]). ``n`` may be traced: the loop is a ``while_loop`` with a
