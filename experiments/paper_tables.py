@@ -1,15 +1,17 @@
 #!/usr/bin/env python
-"""Rebuild seed 003's table 1 (ACO, PF-ACO, APF-ACO: best length, mean iterations, mean time and
-coverage over 100 runs) and compare IAACO (seed 002) and chaos ACO (seed 004) with AS, ACS and MMAS
-on length, turns, heading change, safety and time.
+"""Rebuild Dong & Zhao 2021's table 1 (ACO, PF-ACO, APF-ACO: best length, mean iterations, mean
+time and coverage over 100 runs) and compare IAACO (Miao et al. 2021) and chaos ACO (the chaos-ACO
+paper from Xi'an Technological University) with AS, ACS and MMAS on length, turns, heading change,
+safety and time. References and equations: docs/algorithms.md.
 
     python experiments/paper_tables.py                      # full run -> docs/results.md (its section) + figures
     python experiments/paper_tables.py --smoke --out DIR    # tiny sizes, for the tests
 
-Maps: the look-alikes ``jaco.maps.named("simple-20")`` and ``named("complex-30")`` of seed 003's
-figures 4 and 6 (the sources print no map; start and goal in ``grid.meta``). Seeds 002 and 004 do
-not describe their maps either (002 is a summary of the paper; 004's figures and table 1 are not in
-the text), so their comparison runs on the same two maps.
+Maps: the look-alikes ``jaco.maps.named("simple-20")`` and ``named("complex-30")`` of Dong & Zhao
+2021's figures 4 and 6 (the sources print no map; start and goal in ``grid.meta``). Miao et al. 2021
+and the chaos-ACO paper do not describe their maps either (our copy of Miao et al. 2021 is a summary;
+the chaos-ACO paper's figures and table 1 are not in its text), so their comparison runs on the same
+two maps.
 
 For every map and planner, the R independent runs (seeds 0..R-1) are ONE compiled batch: the
 program ``jaco.sweep`` is built on (``jaco.engine.run.compiled_run(batched=True)``: runs vmapped, each run
@@ -18,8 +20,8 @@ the sweep's table has no paths or histories, and turns, heading change and safet
 path: going through both would compile every planner twice. The batch is compiled ahead of time
 (``lower().compile()``), so the time per run (batch seconds / R) excludes compilation.
 
-"ACO" of seed 003 is its section 4.1: the random-proportional rule (6) with η = 1/(distance of the
-candidate to the goal) (the paper speaks of the heuristic's "greedy pull toward the goal") and the
+"ACO" of Dong & Zhao 2021 is its section 4.1: the random-proportional rule (6) with η =
+1/(distance of the candidate to the goal) (the paper speaks of the heuristic's "greedy pull toward the goal") and the
 global update (7, 8) on the iteration-best path, with the paper's tuned α = 2, β = 6, ρ = 0.7,
 Q = 1. The APF rows are ``jaco.apf.plan`` alone (deterministic: one run). Lengths in cell units.
 """
@@ -48,18 +50,18 @@ from thesis_tables import fmt  # noqa: E402
 MAPS = ["simple-20", "complex-30"]
 SQRT2 = math.sqrt(2.0)
 
-#: Seed 003's "basic ACO" (its 4.1, eqs. 6–8) with the paper's tuned parameters (its 5).
+#: Dong & Zhao 2021's "basic ACO" (its 4.1, eqs. 6–8) with the paper's tuned parameters (its 5).
 ACO_003 = make_variant(
     "aco-003",
-    "Dong & Zhao 2021 (seed 003), 4.1, eqs. 6, 7, 8",
-    "The basic ACO of seed 003: random-proportional rule (6), η = 1/(distance of the candidate to "
+    "Dong & Zhao 2021, 4.1, eqs. 6, 7, 8; docs/algorithms.md §6",
+    "The basic ACO of Dong & Zhao 2021: random-proportional rule (6), η = 1/(distance of the candidate to "
     "the goal), global update (7, 8) on the iteration-best path only, τ ← (1−ρ)τ + Q/L_ib.",
     BASE,
     dict(alpha=2.0, beta=6.0, rho=0.7, q=1.0, tau0=0.1),
     ph.chain(ph.init_constant(), ph.evaporate(), ph.deposit_iteration_best()),
 )
 
-#: Seed 003, table 1 (30×30 complex map, 100 runs each; MATLAB R2014a on an i5-5200U) and the text of
+#: Dong & Zhao 2021, table 1 (30×30 complex map, 100 runs each; MATLAB R2014a on an i5-5200U) and the text of
 #: its 5.1 (20×20 simple map: best lengths; iterations = those of the best run to reach its optimum,
 #: read from fig. 5). Lengths in metres with cell side Ra = 1, i.e. cell units.
 PUBLISHED_003 = {
@@ -81,7 +83,7 @@ PAPER_SG = {"simple-20": 20 * SQRT2, "complex-30": 30 * SQRT2}
 
 
 def table1_planners() -> dict:
-    """Seed 003's table 1 rows: label -> (Variant, parameter values). PF-ACO and APF-ACO run with
+    """Dong & Zhao 2021's table 1 rows: label -> (Variant, parameter values). PF-ACO and APF-ACO run with
     the paper's printed α = 2, β = 6, ρ = 0.7, Q = 1 (``jaco.planners.apf_guided.PAPER_PARAMS``), not jaco's
     defaults (β = 20, ρ = 0.3, chosen for dense maps: docs/variants.md)."""
     from jaco.planners.apf_guided import PAPER_PARAMS
@@ -97,8 +99,8 @@ COMPARE = (("AS", "as"), ("ACS", "acs"), ("MMAS", "mmas"), ("IAACO", "iaaco"), (
 
 
 def compare_planners(labels=None) -> dict:
-    """Seeds 002/004's comparison: the classic baselines and the two papers' planners
-    (``labels``: a subset of :data:`COMPARE`'s labels; default all)."""
+    """The comparison of Miao et al. 2021 and the chaos-ACO paper: the classic baselines and the
+    two papers' planners (``labels``: a subset of :data:`COMPARE`'s labels; default all)."""
     out = {}
     for label, name in COMPARE:
         if (labels is None or label in labels) and name in jaco.VARIANTS:
@@ -216,7 +218,7 @@ def apf_cell(grid, kind="improved", rs=SAFETY_RADIUS):
 
 
 def multi_cost(c, weights) -> float:
-    """Seed 002's J = kL·L + kS·S + kE·E of the best path (same S and E for every planner)."""
+    """Miao et al. 2021's J = kL·L + kS·S + kE·E of the best path (same S and E for every planner)."""
     m = c["best_metrics"]
     if not m:
         return math.inf
@@ -289,7 +291,7 @@ def straight(grid) -> float:
 
 
 def claims_003(rows: dict) -> list:
-    """Seed 003's claims, checked on our runs."""
+    """Dong & Zhao 2021's claims, checked on our runs."""
     out = []
     for name, cells in rows.items():
         if not {"ACO", "PF-ACO", "APF-ACO"} <= set(cells):
@@ -327,8 +329,8 @@ def apf_lines(rows: dict) -> list:
 
 
 def claims_compare(rows: dict) -> list:
-    """Seed 004: shorter paths, fewer turns, less search time than the traditional ACO (AS);
-    seed 002: IAACO's paths shorter and safer than those of the classic planners."""
+    """The chaos-ACO paper: shorter paths, fewer turns, less search time than the traditional ACO (AS);
+    Miao et al. 2021: IAACO's paths shorter and safer than those of the classic planners."""
     out = []
     for name, cells in rows.items():
         if "AS" in cells and "chaos ACO" in cells:
@@ -339,7 +341,7 @@ def claims_compare(rows: dict) -> list:
                 ("less time per run", c["time"] < a["time"], f"{fmt(c['time'], 3)} vs {fmt(a['time'], 3)} s"),
             ]
             out.append(
-                f"- {name}, chaos ACO against AS (seed 004's claims): "
+                f"- {name}, chaos ACO against AS (the chaos-ACO paper's claims): "
                 + "; ".join(f"{what} **{'holds' if ok else 'does not hold'}** ({nums})" for what, ok, nums in checks) + "."
             )
         if "IAACO" in cells:
@@ -351,7 +353,7 @@ def claims_compare(rows: dict) -> list:
                 smoother = [k for k, v in others.items() if i["heading"] < v["heading"]]
                 faster = [k for k, v in others.items() if i["time"] < v["time"]]
                 out.append(
-                    f"- {name}, IAACO (seed 002) against {', '.join(others)}: shorter mean length than "
+                    f"- {name}, IAACO (Miao et al. 2021) against {', '.join(others)}: shorter mean length than "
                     f"{', '.join(shorter) or 'none'}; lower mean safety cost S than {', '.join(safer) or 'none'}; "
                     f"less mean heading change than {', '.join(smoother) or 'none'}; faster than {', '.join(faster) or 'none'}."
                 )
@@ -373,7 +375,7 @@ def figures(name, grid, cells, figdir: Path, prefix: str) -> None:
 
 
 def run_table1(maps, runs, n_ants, n_iters, steplimit, with_apf=True, verbose=True) -> dict:
-    """Seed 003's table 1 on ``maps``: label -> figures, per map."""
+    """Dong & Zhao 2021's table 1 on ``maps``: label -> figures, per map."""
     rows = {}
     for name in maps:
         grid = jaco.maps.named(name)
@@ -390,7 +392,7 @@ def run_table1(maps, runs, n_ants, n_iters, steplimit, with_apf=True, verbose=Tr
 
 
 def run_compare(maps, runs, n_ants, n_iters, steplimit, labels=None, verbose=True) -> dict:
-    """Seeds 002/004's comparison on ``maps``: label -> figures, per map."""
+    """The comparison of Miao et al. 2021 and the chaos-ACO paper on ``maps``: label -> figures, per map."""
     rows = {}
     for name in maps:
         grid = jaco.maps.named(name)
@@ -403,7 +405,7 @@ def run_compare(maps, runs, n_ants, n_iters, steplimit, labels=None, verbose=Tru
 
 NOTES = """How to read the comparison honestly:
 
-- **Maps are look-alikes.** Seed 003 prints no map, only figures; `simple-20` and `complex-30` are
+- **Maps are look-alikes.** Dong & Zhao 2021 print no map, only figures; `simple-20` and `complex-30` are
   rebuilt with fixed seeds (`jaco.maps.named`: scattered rectangles, connected by construction). The
   same name is a different map, so lengths cannot match cell for cell; the exact optimum of *our* map
   is given beside every length.
@@ -426,11 +428,11 @@ NOTES = """How to read the comparison honestly:
   cells, mean over the runs — but it grows with the budget of ants × iterations, which the paper does
   not print. Ours, {cov_lo:.0f}–{cov_hi:.0f} % for the three colonies, cannot be set beside the paper's
   57–76 % as a like-for-like figure. The APF rows' coverage is the share of cells on their one path.
-- **Seeds 002 and 004 print no numbers we can compare with**: seed 002 is a summary of Miao et al.
-  2021 with its parameters only, and seed 004's table 1 ("simulation data") lost its numbers in the
-  text. Their comparison is therefore ours alone, on the same two maps, with each planner's registered
+- **Miao et al. 2021 and the chaos-ACO paper print no numbers we can compare with**: the copy of
+  Miao et al. 2021 we worked from is a summary with its parameters only, and the chaos-ACO paper's
+  table 1 ("simulation data") lost its numbers in the text. Their comparison is therefore ours alone, on the same two maps, with each planner's registered
   defaults (IAACO: m = 50, Nmax = 100 of the paper) and the same S (`jaco.metrics.safety_cost`, radius
-  {rs:g}), E (total heading change) and J = {kl:g}·L + {ks:g}·S + {ke:g}·E (seed 002's weights) for
+  {rs:g}), E (total heading change) and J = {kl:g}·L + {ks:g}·S + {ke:g}·E (Miao et al. 2021's weights) for
   every planner. "turns", "heading change", "safety S", "mean clearance" (cells from the nearest
   obstacle centre, the map's edge counting as obstacle) are means over the successful runs' paths;
   "J of best" is J of the shortest run's path. IAACO minimises J, not the length: its convergence
@@ -441,8 +443,8 @@ NOTES = """How to read the comparison honestly:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--smoke", action="store_true", help="tiny sizes, for the tests")
-    ap.add_argument("--runs", type=int, default=100, help="independent runs R per map and planner (seed 003: 100)")
-    ap.add_argument("--compare-runs", type=int, default=100, help="runs per map and planner of the seed 002/004 comparison")
+    ap.add_argument("--runs", type=int, default=100, help="independent runs R per map and planner (Dong & Zhao 2021: 100)")
+    ap.add_argument("--compare-runs", type=int, default=100, help="runs per map and planner of the comparison of Miao et al. 2021 and the chaos-ACO paper")
     ap.add_argument("--ants", type=int, default=50)
     ap.add_argument("--iters", type=int, default=100)
     ap.add_argument("--steplimit", type=int, default=None, help="default: 4·(H+W), at most the free cells")
@@ -474,7 +476,7 @@ def main(argv=None):
     cmd = (f"python experiments/paper_tables.py{' --smoke' if args.smoke else ''} --runs {args.runs} --compare-runs {args.compare_runs} "
            f"--ants {args.ants} --iters {args.iters}" + (f" --steplimit {args.steplimit}" if args.steplimit else ""))
     lines = [
-        "## Papers (seeds 002, 003, 004): APF-ACO's table 1, IAACO and chaos ACO",
+        "## Papers (Dong & Zhao 2021, Miao et al. 2021, the chaos-ACO paper): APF-ACO's table 1, IAACO and chaos ACO",
         "",
         f"Command: `{cmd}` ({total:.0f} s in all). Lengths in cell units. Step limit 4·(H+W) unless given. "
         "Figures: `docs/figures/paper003_*` and `docs/figures/paper_compare_*` (best path of each planner; "
@@ -484,17 +486,17 @@ def main(argv=None):
     ]
     if missing:
         lines += [f"Not built when this ran (rows left out): {', '.join(missing)}.", ""]
-    lines += [f"### Seed 003, table 1 layout (R = {args.runs} runs per planner and map)", ""]
+    lines += [f"### Dong & Zhao 2021, table 1 layout (R = {args.runs} runs per planner and map)", ""]
     lines += table1_lines(rows1)
-    lines += ["", "Beside the published numbers (seed 003's table 1 and its 5.1):", ""]
+    lines += ["", "Beside the published numbers (Dong & Zhao 2021's table 1 and its 5.1):", ""]
     lines += published_lines(rows1)
     c1 = claims_003(rows1)
     if c1:
-        lines += ["", "Seed 003's orderings, on our runs:", ""] + c1
+        lines += ["", "Dong & Zhao 2021's orderings, on our runs:", ""] + c1
     c1 = apf_lines(rows1)
     if c1:
         lines += ["", "The potential field alone:", ""] + c1
-    lines += ["", f"### Seeds 002 and 004: IAACO and chaos ACO against AS, ACS, MMAS (R = {args.compare_runs} runs)", ""]
+    lines += ["", f"### Miao et al. 2021 and the chaos-ACO paper: IAACO and chaos ACO against AS, ACS, MMAS (R = {args.compare_runs} runs)", ""]
     lines += compare_lines(rows2, weights)
     c2 = claims_compare(rows2)
     if c2:

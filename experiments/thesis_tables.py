@@ -32,7 +32,7 @@ RANDOM = [f"random-{n}-{p}" for n in (20, 30, 40) for p in ("05", "10", "30", "5
 TRAPS = ["utrap-15", "utrap-20", "utrap-30"]
 SPARSE = ["wall-40", "circle-40", "h-40", "s-40"]
 
-# Thesis table 4-2 (best length ×10 cell units; ACA / IDACA / IACA), ALGORITHMS.md §5.
+# Thesis table 4-2 (best length ×10 cell units; ACA / IDACA / IACA; Hua Lu 2011).
 PUBLISHED = {
     "random-20-05": (402.13, 279.70, 257.98), "random-20-10": (437.98, 277.98, 255.56),
     "random-20-30": (487.28, 338.99, 316.58), "random-20-50": (413.14, 298.64, 277.18),
@@ -125,7 +125,7 @@ def main(argv=None):
             c = cells[k]
             parts += [fmt(c["best"]), fmt(100 * c["E0"], 1), fmt(c["success"], 2), fmt(c["time"], 3)]
         lines.append(f"| {name} | {fmt(opt)} | " + " | ".join(parts) + " |")
-    lines += ["", "Indices of the thesis (§2): E0 (best gap), Et (mean iterations to the best × time per iteration / budget), Er (mean gap).", ""]
+    lines += ["", "Indices of the thesis (its 2.3): E0 (best gap), Et (mean iterations to the best × time per iteration / budget), Er (mean gap).", ""]
     lines.append("| map | " + " | ".join(f"{k} E0 | {k} Et | {k} Er" for k in labels) + " |")
     lines.append("|---|" + "---|" * (3 * len(labels)))
     for name, cells in rows.items():

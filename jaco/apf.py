@@ -1,4 +1,4 @@
-"""The improved artificial potential field as a planner of its own (seed 003).
+"""The improved artificial potential field as a planner of its own (Dong & Zhao 2021).
 
 Dong Xuanliang, Zhao Guiqing, *Robot navigation path planning based on ant colony algorithm guided
 by artificial potential field*, Machinery Design & Manufacture 2021(6):169–173, 3.1 (intermediate
@@ -9,7 +9,8 @@ heuristic of ``apf-aco`` and ``pf-aco``, :mod:`jaco.planners.apf_guided`) are te
 ``kind="classic"`` walks the classic APF (attraction plus repulsion) of the paper's PF-ACO
 baseline instead.
 
-Interpretations (ALGORITHMS.md §7; also in ``docs/variants.md``, section APF-ACO):
+Interpretations (equations in ``docs/algorithms.md`` §6; also in ``docs/variants.md``, section
+APF-ACO):
 
 * **Geometry.** Cell (row, col) is the unit square centred on (row, col). A segment between cell
   centres *crosses* every cell whose closed square it touches (a closed supercover: through a
@@ -45,7 +46,7 @@ Interpretations (ALGORITHMS.md §7; also in ``docs/variants.md``, section APF-AC
 * **Loops.** A revisited cell ends the walk with status "loop"; the plan fails (success False,
   length inf), like an ACO run whose ants never arrive.
 * **APF distance r_jg** = length of the APF path from j to the goal; where that path loops or is
-  stuck, the Euclidean distance from j to the goal (the fallback of ALGORITHMS.md §7.2).
+  stuck, the Euclidean distance from j to the goal (the fallback of ``docs/algorithms.md`` §6).
 * **Classic APF (PF-ACO).** U = ½·k_att·ρ_g² + ½·k_rep·(1/d − 1/d0)² for d ≤ d0 (Khatib's
   quadratic attraction, k_att = 1; ρ_g the Euclidean distance to the goal, d the distance from
   the cell centre to the nearest blocked cell centre, :func:`jaco.potential.obstacle_distance`; the map's
@@ -298,7 +299,7 @@ def intermediate_points(grid, cell, goal, *, connectivity: int = 8) -> list | No
 
 def plan(grid, start, goal, *, max_steps=None, kind: str = "improved", connectivity: int = 8,
          k_rep: float = K_REP, d0: float = D0):
-    """Plan one path with the APF alone (seed 003, 3.1–3.2) and return a :class:`jaco.Result`.
+    """Plan one path with the APF alone (Dong & Zhao 2021, 3.1–3.2) and return a :class:`jaco.Result`.
 
     ``variant`` is ``"apf"`` (improved) or ``"apf-classic"``; a walk that loops, gets stuck or
     runs out of steps fails like an ACO run whose ants never arrive: ``success`` False, length,

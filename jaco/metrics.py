@@ -1,7 +1,7 @@
 """Path checks and quality figures, in plain numpy (no jax): what every planner is judged by.
 
 A path is a ``(K, 2)`` integer array-like of ``(row, col)`` cells, row 0 at the top. The move model
-is the one of ``ALGORITHMS.md`` §1: 8-connected, step cost 1 straight and ``sqrt(2)`` diagonal, and
+is the one of ``docs/algorithms.md`` §1: 8-connected, step cost 1 straight and ``sqrt(2)`` diagonal, and
 **no corner cutting** -- a diagonal move ``(r, c) -> (r+dr, c+dc)`` is allowed only when both
 ``(r+dr, c)`` and ``(r, c+dc)`` are free. ``connectivity=4`` allows straight moves only. Lengths are
 in cell units times ``cell_size`` (the thesis uses 10).
@@ -9,12 +9,13 @@ in cell units times ``cell_size`` (the thesis uses 10).
 Contents:
 
 - single paths: :func:`validate_path`, :func:`path_length`, :func:`turns`, :func:`heading_change`,
-  :func:`clearance_stats`, :func:`safety_cost` (S of §6.6), :func:`line_of_sight`,
-  :func:`shortcut` and :func:`any_angle_length` (§9), :func:`gap`, and :func:`path_metrics`, which
-  gathers them all in a dict;
-- sets of runs: :func:`performance_indices`, the thesis's E0, Et, Er and E (§2).
+  :func:`clearance_stats`, :func:`safety_cost` (S of Miao et al. 2021), :func:`line_of_sight`,
+  :func:`shortcut` and :func:`any_angle_length` (``docs/algorithms.md`` §10), :func:`gap`, and
+  :func:`path_metrics`, which gathers them all in a dict;
+- sets of runs: :func:`performance_indices`, the thesis's E0, Et, Er and E (Hua Lu 2011, 2.3).
 
-The energy cost E of §6.6 is :func:`heading_change` (total absolute heading change in radians).
+The energy cost E of Miao et al. 2021 is :func:`heading_change` (total absolute heading change in
+radians).
 """
 
 from __future__ import annotations
@@ -47,9 +48,9 @@ __all__ = [
 #: values; quality (best and mean gap) counts twice as much as time, and best and mean equally.
 DEFAULT_WEIGHTS = (0.4, 0.2, 0.4)
 
-#: Default radius (cells) of the safety cost S (``ALGORITHMS.md`` §6.6), shared by
-#: :func:`safety_cost`, :func:`path_metrics` and the in-jit multi-objective cost
-#: (``jaco.engine.cost.multi_objective``, ``Params.rs_cost``). Seed 002's Rs = 0.5 would score every free
+#: Default radius (cells) of the safety cost S (Miao et al. 2021; ``docs/algorithms.md`` §5), shared
+#: by :func:`safety_cost`, :func:`path_metrics` and the in-jit multi-objective cost
+#: (``jaco.engine.cost.multi_objective``, ``Params.rs_cost``). The paper's Rs = 0.5 would score every free
 #: cell 0 (a free cell is at least 1 cell from an obstacle centre); with 1 a cell orthogonally next
 #: to an obstacle (or the map's edge) costs 0.5, a diagonal neighbour 1 − √2/2 ≈ 0.29, others 0.
 SAFETY_RADIUS = 1.0
@@ -193,7 +194,7 @@ def turns(path) -> int:
 def heading_change(path) -> float:
     """Total absolute heading change in radians; each turn adds its angle in [0, pi].
 
-    This is the energy cost E of ``ALGORITHMS.md`` §6.6.
+    This is the energy cost E of Miao et al. 2021 (``docs/algorithms.md`` §5).
     """
     return float(np.sum(_turn_angles(path)))
 
@@ -221,12 +222,13 @@ def safety_terms(d_b, rs, xp=np):
 
 
 def safety_cost(grid, path, rs: float = SAFETY_RADIUS) -> float:
-    """Safety cost S = sum over path cells of ``max(0, 2*rs - d_b) / (2*rs)`` (``ALGORITHMS.md`` §6.6).
+    """Safety cost S = sum over path cells of ``max(0, 2*rs - d_b) / (2*rs)`` (Miao et al. 2021;
+    ``docs/algorithms.md`` §5).
 
     ``d_b`` is ``grid.clearance()`` at the cell, the centre-to-centre distance in cells to the
     nearest blocked cell (the map's outside counts as blocked), and ``rs`` the safety radius in
     cells. Each cell adds a value in [0, 1]: 1 on an obstacle, 0 at ``2*rs`` or more from one.
-    Note that free cells have ``d_b >= 1``, so with seed 002's ``rs = 0.5`` a valid path always
+    Note that free cells have ``d_b >= 1``, so with Miao et al. 2021's ``rs = 0.5`` a valid path always
     scores 0; the default is therefore :data:`SAFETY_RADIUS` = 1.
     """
     if not (np.isfinite(rs) and rs > 0):
@@ -380,7 +382,8 @@ def performance_indices(
     max_iters: int,
     weights=DEFAULT_WEIGHTS,
 ) -> dict:
-    """The thesis's performance indices over R independent runs (``ALGORITHMS.md`` §2).
+    """The thesis's performance indices over R independent runs (Hua Lu 2011, 2.3;
+    ``docs/algorithms.md`` §1).
 
     - ``E0 = (c_b - c*) / c*``, ``c_b`` the best of the runs' lengths ``best_lengths``;
     - ``Et = I_a * T0 / I_max``, ``I_a`` the mean of ``iters_to_converge``, ``T0`` the mean of

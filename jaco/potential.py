@@ -1,7 +1,7 @@
 """The artificial potential fields of :mod:`jaco.apf` as per-cell tables, in JAX.
 
 For every cell at once: the next cell of the improved APF (:func:`apf_next`, Dong & Zhao 2021,
-seed 003, 3.1–3.2) and of the classic APF (:func:`classic_next`, attraction plus repulsion), and
+3.1–3.2) and of the classic APF (:func:`classic_next`, attraction plus repulsion), and
 the length r_jg of the walk from each cell to the goal (:func:`chain_lengths`,
 :func:`apf_distance`, :func:`classic_distance`; the Euclidean distance where the walk loops or
 is stuck). The tables are traced from the :class:`~jaco.engine.problem.Problem`'s arrays (no
@@ -270,7 +270,7 @@ def chain_lengths(problem, nxt):
 
 
 def apf_distance(problem, params=None) -> jax.Array:
-    """r_jg (N,) of the improved APF (seed 003, 3.1–3.2), Euclidean where it fails."""
+    """r_jg (N,) of the improved APF (Dong & Zhao 2021, 3.1–3.2), Euclidean where it fails."""
     return chain_lengths(problem, apf_next(problem))[0]
 
 

@@ -1,4 +1,5 @@
-"""Several targets (ALGORITHMS.md §8.5, seed 004): visit waypoints in order, then the goal.
+"""Several targets (the chaos-ACO paper; docs/algorithms.md §7): visit waypoints in order, then
+the goal.
 
 ``jaco.solve(grid, start, goal, variant, waypoints=[(r, c), ...])`` works with every variant.
 The trip start → w₀ → w₁ → … → goal is cut into legs; each leg is an ordinary run of the

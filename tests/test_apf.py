@@ -1,4 +1,4 @@
-"""APF-ACO (seed 003): the improved APF planner, the APF distance table, the heuristic (10), the
+"""APF-ACO (Dong & Zhao 2021): the improved APF planner, the APF distance table, the heuristic (10), the
 best-half update (11, 12) and the variants apf-aco / pf-aco. The contract every variant passes is
 in tests/test_variants.py (``-k apf``)."""
 

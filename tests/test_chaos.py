@@ -1,4 +1,4 @@
-"""Chaos ACO (ALGORITHMS.md §8): selection function and Logistic perturbation against hand values."""
+"""Chaos ACO (docs/algorithms.md §7): selection function and Logistic perturbation against hand values."""
 
 import math
 

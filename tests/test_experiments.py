@@ -40,7 +40,7 @@ def test_paper_tables_smoke(tmp_path):
     rows = {}
     for line in text.splitlines():
         cells = [c.strip() for c in line.split("|")[1:-1]]
-        if len(cells) == 12 and cells[0] == "simple-20" and cells[2].isdigit():  # seed 003's table 1 layout
+        if len(cells) == 12 and cells[0] == "simple-20" and cells[2].isdigit():  # Dong & Zhao 2021's table 1 layout
             rows[cells[1]] = cells
     assert {"ACO", "PF-ACO", "APF-ACO", "APF alone"} <= set(rows)
     import jaco

@@ -1,4 +1,4 @@
-"""IAACO (seed 002, Miao et al. 2021) and the multi-objective cost: what the shared contract
+"""IAACO (Miao et al. 2021) and the multi-objective cost: what the shared contract
 (tests/test_variants.py) does not cover — the equations' values by hand, the in-jit cost against
 the numpy metrics, and quality against the exact optimum."""
 

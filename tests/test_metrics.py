@@ -259,7 +259,7 @@ def test_path_metrics_dict():
     assert m["safety"] == pytest.approx(2.5)  # five cells on the map's edge, 0.5 each (SAFETY_RADIUS = 1)
     m = path_metrics(g, path, optimal=10 * (2 + 2 * SQ2), rs=0.5)
     assert m["gap"] == pytest.approx((3 + SQ2) / (2 + 2 * SQ2) - 1)
-    assert m["safety"] == 0.0  # seed 002's Rs = 0.5 scores every free cell 0
+    assert m["safety"] == 0.0  # Miao et al. 2021's Rs = 0.5 scores every free cell 0
     bad = path_metrics(g, [(0, 0), (2, 2)])
     assert bad["valid"] is False and _has(bad["problems"], "jump")
     assert all(not (isinstance(v, float) and math.isnan(v)) for v in m.values())

@@ -1,4 +1,4 @@
-"""Several targets (ALGORITHMS.md §8.5): ``jaco.solve(..., waypoints=[...])`` for every variant."""
+"""Several targets (docs/algorithms.md §7): ``jaco.solve(..., waypoints=[...])`` for every variant."""
 
 import numpy as np
 import pytest

@@ -129,7 +129,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_rerun)
 
     p = sub.add_parser("variants", help="list the registered ACO variants",
-                       description="One line per variant: name, source, default parameters.")
+                       description="One line per variant: name, source (paper and equation numbers), default "
+                                   "parameters. The equations and full references are in docs/algorithms.md.")
     p.add_argument("-v", "--verbose", action="store_true", help="also print each variant's description")
     p.set_defaults(func=cmd_variants)
 

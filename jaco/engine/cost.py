@@ -1,7 +1,7 @@
 """What a path costs: a ``Variant.cost`` is ``(tours, problem, params) -> cost per ant``.
 
 The default is the path length (thesis eq. 3-2). The multi-objective cost
-J = kL·L + kS·S + kE·E of Miao et al. 2021 (seed 002 §3.4, ALGORITHMS.md §6.6) weighs in the
+J = kL·L + kS·S + kE·E of Miao et al. 2021 (its §3.4; ``docs/algorithms.md`` §5) weighs in the
 safety cost S and the heading change E; IAACO uses it, and any variant can
 (``jaco.planners.registry.with_cost("acs", "multi")``). S and E are computed by the same formulas as
 :func:`jaco.metrics.safety_cost` and :func:`jaco.metrics.heading_change`, so a run's cost and the
@@ -56,8 +56,8 @@ def energy(tours, problem, params):
 
 
 def multi_objective(tours, problem, params):
-    """J = kL·L + kS·S + kE·E (seed 002 §3.4, ALGORITHMS.md §6.6): L the path length (cells),
-    S :func:`safety`, E :func:`energy`; a ``Variant.cost`` for any variant."""
+    """J = kL·L + kS·S + kE·E (Miao et al. 2021, §3.4; ``docs/algorithms.md`` §5): L the path
+    length (cells), S :func:`safety`, E :func:`energy`; a ``Variant.cost`` for any variant."""
     return (
         params.k_len * tours.length
         + params.k_safe * safety(tours, problem, params)

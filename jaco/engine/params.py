@@ -56,11 +56,11 @@ class Params:
     rho1: float = 0.7
     rho2: float = 0.2
     q_step: float = 0.5
-    # Chaos ACO (seed 004, ALGORITHMS.md §8)
+    # Chaos ACO (the Xi'an Technological University paper; docs/algorithms.md §7)
     gamma: float = 4.0
     chaos_iters: float = 10.0
     chaos_mu: float = 4.0
-    # IAACO (seed 002, Miao et al. 2021, ALGORITHMS.md §6) and the multi-objective cost
+    # IAACO (Miao et al. 2021; docs/algorithms.md §5) and the multi-objective cost
     sigma1: float = 0.1
     sigma2: float = 0.9
     lam: float = 1.0
@@ -72,9 +72,9 @@ class Params:
     k_safe: float = 0.1
     k_energy: float = 0.2
     rs_cost: float = 1.0
-    # Policy-gradient ACO (pg-aco, ALGORITHMS.md §9; jaco.planners.pg)
+    # Policy-gradient ACO (pg-aco, Meuleau & Dorigo 2002; docs/algorithms.md §8; jaco.planners.pg)
     penalty: float = 0.3
-    # PF-ACO baseline of APF-ACO (seed 003, ALGORITHMS.md §7.6; jaco.planners.apf_guided): classic APF repulsion
+    # PF-ACO baseline of APF-ACO (Dong & Zhao 2021; docs/algorithms.md §6; jaco.planners.apf_guided): classic APF repulsion
     k_rep: float = 100.0
     d0: float = 3.0
 
@@ -138,11 +138,11 @@ SPECS: dict[str, Spec] = {
     "rho1": Spec(0, 1, "IACA eq. 4-6: factor for Q1 < P ≤ Q2 (ρ1 > ρ2)", lo_open=True),
     "rho2": Spec(0, 1, "IACA eq. 4-6: factor for Q2 < P ≤ Q3", lo_open=True),
     "q_step": Spec(0, INF, "IACA eq. 4-6: increment q for P ≤ Q1, decrement for P > Q3", hi_open=True),
-    # Chaos ACO (seed 004, ALGORITHMS.md §8)
+    # Chaos ACO (the Xi'an Technological University paper; docs/algorithms.md §7)
     "gamma": Spec(0, 20, "chaos ACO eq. 11: exponent γ of the selection function (P_free·P_θ)^γ"),
     "chaos_iters": Spec(0, 1000, "chaos ACO eq. 14: Logistic iterations i_c (rounded to an integer)"),
     "chaos_mu": Spec(0, 4, "chaos ACO: Logistic control parameter μ (4 = fully chaotic; ≤ 4 keeps h in [0, 1])"),
-    # IAACO (seed 002, Miao et al. 2021, ALGORITHMS.md §6) and the multi-objective cost
+    # IAACO (Miao et al. 2021; docs/algorithms.md §5) and the multi-objective cost
     "sigma1": Spec(0, INF, "IAACO eq. 1: weight σ1 of the step length d_ij in η", hi_open=True),
     "sigma2": Spec(0, INF, "IAACO eq. 1: weight σ2 of the goal distance d_jG in η", hi_open=True),
     "lam": Spec(0, 20, "IAACO eq. 3: exponent λ of the angle guidance μ"),
@@ -154,9 +154,9 @@ SPECS: dict[str, Spec] = {
     "k_safe": Spec(0, INF, "multi-objective cost: weight kS of the safety cost S", hi_open=True),
     "k_energy": Spec(0, INF, "multi-objective cost: weight kE of the heading change E (radians)", hi_open=True),
     "rs_cost": Spec(0, INF, "multi-objective cost: radius (cells) of S = Σ max(0, 2r − d_b)/(2r)", lo_open=True, hi_open=True),
-    # Policy-gradient ACO (pg-aco, ALGORITHMS.md §9; jaco.planners.pg)
+    # Policy-gradient ACO (pg-aco, Meuleau & Dorigo 2002; docs/algorithms.md §8; jaco.planners.pg)
     "penalty": Spec(0, INF, "pg-aco: a failed ant costs (1 + penalty)·L̄, L̄ the mean cost of the iteration's successful ants", hi_open=True),
-    # PF-ACO baseline of APF-ACO (seed 003, ALGORITHMS.md §7.6; jaco.planners.apf_guided)
+    # PF-ACO baseline of APF-ACO (Dong & Zhao 2021; docs/algorithms.md §6; jaco.planners.apf_guided)
     "k_rep": Spec(0, INF, "pf-aco: repulsion gain k_rep of the classic APF, U_rep = ½k_rep(1/d − 1/d0)² (attraction ½ρ²)", hi_open=True),
     "d0": Spec(0, INF, "pf-aco: range d0 (cells) of the classic APF's repulsion", lo_open=True, hi_open=True),
 }

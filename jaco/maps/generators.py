@@ -158,7 +158,7 @@ def with_endpoints(free: np.ndarray, name: str, start, goal, **meta) -> Grid:
 
 
 def utrap(size: int = 20) -> Grid:
-    """A square map with a concave U-shaped trap (thesis §5: 15x15, 20x20, 30x30).
+    """A square map with a concave U-shaped trap (the thesis's concave maps: 15x15, 20x20, 30x30).
 
     The U is a one-cell-thick wall: two horizontal arms and a vertical back wall on the right;
     its opening faces left, away from the goal on the right edge. The start is in the middle of
@@ -265,7 +265,7 @@ def _rect_map(h, w, n_rects, sides, seed, start, goal, name) -> Grid:
 
 
 def simple_20() -> Grid:
-    """Look-alike of seed 003's 20x20 "simple" map: a few scattered rectangles (seed 3020).
+    """Look-alike of Dong & Zhao 2021's 20x20 "simple" map: a few scattered rectangles (seed 3020).
 
     The paper gives start (0, 0) and goal (20, 20) as lattice corners with y up, i.e. the
     bottom-left and top-right cells: start ``(19, 0)``, goal ``(0, 19)`` as (row, col).
@@ -274,7 +274,7 @@ def simple_20() -> Grid:
 
 
 def complex_30() -> Grid:
-    """Look-alike of seed 003's 30x30 "complex" map: many rectangles of sides 2..6 (seed 3030).
+    """Look-alike of Dong & Zhao 2021's 30x30 "complex" map: many rectangles of sides 2..6 (seed 3030).
 
     The paper's start (0, 30) and goal (30, 0) are lattice corners with y up, i.e. the top-left and
     bottom-right cells: start ``(0, 0)``, goal ``(29, 29)`` as (row, col).

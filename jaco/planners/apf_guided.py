@@ -1,4 +1,5 @@
-"""APF-ACO: ant colony optimisation guided by an improved artificial potential field (seed 003).
+"""APF-ACO: ant colony optimisation guided by an improved artificial potential field
+(Dong & Zhao 2021).
 
 Dong Xuanliang, Zhao Guiqing, *Robot navigation path planning based on ant colony algorithm guided
 by artificial potential field*, Machinery Design & Manufacture 2021(6):169–173: the heuristic
@@ -11,7 +12,8 @@ by the pheromone rule's init (:func:`apf_init`) and carried in the trail; the im
 (3.1 intermediate points, eqs. 3, 4; 3.2 attraction-only local moves, eq. 5) and its
 interpretations are in :mod:`jaco.apf`.
 
-Interpretations of the ACO part (ALGORITHMS.md §7; also in ``docs/variants.md``, section APF-ACO):
+Interpretations of the ACO part (equations in ``docs/algorithms.md`` §6; also in
+``docs/variants.md``, section APF-ACO):
 
 * **Heuristic (10)** ``η_ij = 1/(d_ij + r_jg) · (Nmax − Nc + 1)/Nmax`` with Nc = t + 1. The time
   factor is common to every move of an iteration, so it cancels in the normalised rule (6):
@@ -136,7 +138,7 @@ _APF_DEFAULTS = dict(alpha=2.0, beta=20.0, rho=0.3, q=1.0, tau0=1.0)
 
 APF_ACO = make_variant(
     "apf-aco",
-    "Dong & Zhao 2021 (seed 003): 3.1, 3.2, eqs. 4, 5, 6, 10, 11, 12",
+    "Dong & Zhao 2021: 3.1, 3.2, eqs. 4, 5, 6, 10, 11, 12",
     "Dong & Zhao 2021, Machinery Design & Manufacture 2021(6):169–173, eqs. 4, 5 (improved APF), "
     "6, 10, 11, 12: ACO guided by the improved artificial potential field. η_ij = 1/(d_ij + r_jg)·"
     "(Nmax − Nc + 1)/Nmax with r_jg the length of the improved APF's path from j to the goal "
@@ -154,7 +156,7 @@ APF_ACO = make_variant(
 
 PF_ACO = make_variant(
     "pf-aco",
-    "Dong & Zhao 2021 (seed 003), baseline of its ref. 10 (Wang, Yang & Zhang 2018)",
+    "Dong & Zhao 2021, baseline of its ref. 10 (Wang, Yang & Zhang 2018)",
     "The PF-ACO baseline of Dong & Zhao 2021 (their ref. 10): APF-ACO with r_jg from the classic "
     "artificial potential field, U = ½ρ_g² + ½k_rep(1/d − 1/d0)² within d0 (descent to the lowest "
     "neighbour; Euclidean where it ends in a local minimum). Everything else as apf-aco "

@@ -1,27 +1,27 @@
-"""Chaos ACO with a probability-selection function (ALGORITHMS.md §8, seed 004).
+"""Chaos ACO with a probability-selection function (docs/algorithms.md §7).
 
 Xi'an Technological University, School of Electronic Information Engineering: ant colony path
 planning with a probability-selection function (free-cell share and angle to the goal) and a
-Logistic-chaos perturbation of the pheromone, ported to ROS (the seed names neither title nor
-authors). Its equation numbers as the text cites them: transition rule (11), chaos perturbation
-(14), global update (15); the formulas themselves are lost in the seed, so ALGORITHMS.md §8 and
-docs/variants.md ("Chaos ACO") give the interpretation built here.
+Logistic-chaos perturbation of the pheromone, ported to ROS (the copy we worked from names
+neither title nor authors). Its equation numbers as the text cites them: transition rule (11),
+chaos perturbation (14), global update (15); the formulas themselves are lost in that copy, so
+docs/algorithms.md §7 and docs/variants.md ("Chaos ACO") give the interpretation built here.
 
-- **Free-cell share** (§8.1) :func:`free_share`: P_free(j) = (free cells among j's 8 neighbours,
+- **Free-cell share** :func:`free_share`: P_free(j) = (free cells among j's 8 neighbours,
   the current cell excluded) / 7.
-- **Angle share** (§8.2) :func:`angle_share`: θ_j is the angle between the move i→j and the
+- **Angle share** :func:`angle_share`: θ_j is the angle between the move i→j and the
   direction i→goal; P_θ(j) = 1 − θ_j / Σ_s θ_s over the moves the map allows from i (1 where
   Σθ = 0: at the goal, or when every allowed move points at it).
-- **Selection function** (§8.3) :func:`selection`: P_free·P_θ; the transition (11) is
+- **Selection function** :func:`selection`: P_free·P_θ; the transition (11) is
   p ∝ τ^α η^β (P_free·P_θ)^γ. Both shares depend only on the map and the goal, so the factor
   (P_free·P_θ)^γ is folded into the ``(N, 8)`` weight table once per iteration
   (:func:`selection_factor`, the variant's ``factor``), never per ant step.
-- **Chaos update** (§8.4) :func:`chaos_perturb` then :func:`deposit_at_or_below_mean`: the paths
-  above the iteration's mean length get their pheromone re-drawn by i_c steps of the Logistic
+- **Chaos update** (eqs. 14, 15) :func:`chaos_perturb` then :func:`deposit_at_or_below_mean`:
+  the paths above the iteration's mean length get their pheromone re-drawn by i_c steps of the Logistic
   map h ← μh(1−h) (:func:`logistic`), then τ ← (1−ρ)τ + Σ Q/L_k over the paths at or below the
   mean (15).
 
-Several targets (§8.5) are not specific to this planner: every variant takes
+Several targets are not specific to this planner: every variant takes
 ``jaco.solve(..., waypoints=[...])`` (:mod:`jaco.waypoints`).
 """
 
@@ -40,7 +40,7 @@ from ..moves import MOVES
 _MEAN_RTOL = 1e-6
 
 
-# -- probability-selection function (§8.1–8.3) -----------------------------------------------
+# -- probability-selection function (docs/algorithms.md §7) -----------------------------------
 def _free_neighbours(problem) -> jax.Array:
     """``(N,)`` number of free in-bounds cells among each cell's 8 neighbours (the outside of
     the map counts as blocked, as in :meth:`jaco.Grid.clearance`)."""
@@ -57,7 +57,7 @@ def _free_neighbours(problem) -> jax.Array:
 
 
 def free_share(problem) -> jax.Array:
-    """P_free ``(N, 8)`` of every move i→j (§8.1): (free neighbours of j other than i) / 7.
+    """P_free ``(N, 8)`` of every move i→j: (free neighbours of j other than i) / 7.
 
     Every free neighbour of j counts, whether or not the move to it would cut a corner (the paper
     counts the free cells around j); 0 where the map forbids the move."""
@@ -77,7 +77,7 @@ def move_angles(problem) -> jax.Array:
 
 
 def angle_share(problem) -> jax.Array:
-    """P_θ ``(N, 8)`` (§8.2): 1 − θ_j / Σ_s θ_s over the moves s the map allows from i;
+    """P_θ ``(N, 8)``: 1 − θ_j / Σ_s θ_s over the moves s the map allows from i;
     1 where Σθ = 0 (guard), 0 where the move is forbidden.
 
     The sum runs over the map's allowed moves, not over the ant's non-tabu ones, so the share is
@@ -90,8 +90,8 @@ def angle_share(problem) -> jax.Array:
 
 
 def selection(problem) -> jax.Array:
-    """The probability-selection function P_free·P_θ ``(N, 8)`` (§8.3; the product is
-    ALGORITHMS.md's interpretation, the seed omits the formula)."""
+    """The probability-selection function P_free·P_θ ``(N, 8)`` (the product is
+    our interpretation: the paper's text omits the formula)."""
     return free_share(problem) * angle_share(problem)
 
 
@@ -110,9 +110,9 @@ def selection_factor(variant, trail, problem, params, t, n_iters) -> jax.Array:
     return eta_factor(variant, trail, problem, params, t, n_iters) + shares
 
 
-# -- Logistic-chaos pheromone update (§8.4) ---------------------------------------------------
+# -- Logistic-chaos pheromone update (eqs. 14, 15) ------------------------------------------
 def logistic(h0, mu, n):
-    """``n`` steps of the Logistic map h ← μh(1−h) from ``h0`` (the seed's chaos iteration; fully
+    """``n`` steps of the Logistic map h ← μh(1−h) from ``h0`` (the paper's chaos iteration; fully
     chaotic at μ = 4 with h0 ∈ [0, 1]). ``n`` may be traced: the loop is a ``while_loop`` with a
     traced trip count, so i_c can be swept like any parameter."""
     n = jnp.asarray(n, jnp.int32)
@@ -137,11 +137,11 @@ def above_mean(cost) -> tuple[jax.Array, jax.Array]:
 
 
 def chaos_perturb() -> ph.Rule:
-    """Logistic-chaos perturbation of the paths above the mean length (§8.4, eq. 14).
+    """Logistic-chaos perturbation of the paths above the mean length (eq. 14).
 
     For each of the N_L successful paths l longer than the mean: τ_l = mean pheromone over the
     elements (moves or cells) it used; h0 = (τ_l − τmin)/(τmax − τmin) with τmin, τmax the
-    smallest and largest pheromone on the elements of the N_L paths (the seed: "the maximum and
+    smallest and largest pheromone on the elements of the N_L paths (the paper: "the maximum and
     minimum of the pheromone distributed on the N_L paths"); h = i_c Logistic steps (μ =
     ``chaos_mu``, i_c = ``round(chaos_iters)``); every element of path l is set to
     τmin + h·(τmax − τmin). An element on several such paths gets the mean of their values;
@@ -178,7 +178,7 @@ def chaos_perturb() -> ph.Rule:
 
 def at_or_below_mean_cycle(walks, params):
     """Δτ^k = Q/L_k on every step of a successful ant whose length is at or below the mean
-    (§8.4: these "update directly"; the longer ones were perturbed instead)."""
+    (eq. 15: these "update directly"; the longer ones were perturbed instead)."""
     _, below = above_mean(walks.cost)
     return jnp.where(below, params.q * ph.inverse(walks.cost), 0.0)  # one amount per ant
 
@@ -191,8 +191,8 @@ def deposit_at_or_below_mean() -> ph.Rule:
 
 CHAOS_ACO = make_variant(
     "chaos-aco",
-    "Xi'an Technological University (seed 004), transition (11), chaos update (14), "
-    "global update (15); ALGORITHMS.md §8",
+    "Xi'an Technological University paper: transition (11), chaos update (14), "
+    "global update (15)",
     "Chaos ACO: transition p ∝ τ^α η^β (P_free·P_θ)^γ with the free-cell share P_free and the angle "
     "share P_θ of each move (a per-move constant folded into the weight table once per iteration); "
     "after each iteration the paths above the mean length get their pheromone re-drawn by i_c steps "

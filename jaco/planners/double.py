@@ -85,7 +85,8 @@ def distance_along(moves):
 
 
 def crossover(cells1, moves1, cells2, moves2, start, goal, n_cells: int) -> Splice:
-    """Complete crossover of two colonies' walks (ref. 58; ALGORITHMS.md §3.5).
+    """Complete crossover of two colonies' walks (Sun et al. 2008, the thesis's ref. 58;
+    docs/algorithms.md §3).
 
     ``cells1, moves1 (S, A1)``: colony 1's walks from ``start`` (entered cells and move indices,
     -1 past the end), ``cells2, moves2 (S, A2)``: colony 2's walks from ``goal``. For every

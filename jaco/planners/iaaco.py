@@ -1,4 +1,4 @@
-"""IAACO: the improved adaptive ant colony algorithm (seed 002, ALGORITHMS.md §6).
+"""IAACO: the improved adaptive ant colony algorithm (Miao et al. 2021).
 
 Miao C., Chen G., Yan C. et al., *Path planning optimization of indoor mobile robot based on
 adaptive ant colony algorithm*, Computers & Industrial Engineering 156 (2021) 107230: the adaptive
@@ -13,7 +13,8 @@ The multi-objective cost (:func:`jaco.engine.cost.multi_objective`) is a ``Varia
 any variant can use: ``jaco.planners.registry.with_cost("acs", "multi")`` (cached, so repeated calls return
 the same object and never recompile).
 
-Interpretations (ALGORITHMS.md §6; also in ``docs/variants.md``, section IAACO):
+Interpretations (equations in ``docs/algorithms.md`` §5; also in ``docs/variants.md``, section
+IAACO):
 
 * **ε (2) cancels.** ε multiplies every η of an iteration alike, so in the normalised rule (3)
   and in the argmax of (6) it cancels: it is computed as printed but changes no choice (the
@@ -101,7 +102,7 @@ def mu_printed(problem, params):
 
 
 def mu_robust(problem, params):
-    """μ = max(μ_min, cos∠(j→G, S→G)) (ALGORITHMS.md §6.2); 1 at the goal and when S = G."""
+    """μ = max(μ_min, cos∠(j→G, S→G)) (the robust form of eq. 4); 1 at the goal and when S = G."""
     v, d = _to_goal(problem)
     sg = problem.xy[problem.goal] - problem.xy[problem.start]
     l_sg = jnp.sqrt(jnp.sum(sg * sg))
@@ -210,7 +211,7 @@ _DOC = (
 
 IAACO = make_variant(
     "iaaco",
-    "Miao et al. 2021 (seed 002), eqs. 1–10",
+    "Miao et al. 2021, eqs. 1–10",
     _DOC + " Angle guidance μ = max(μ_min, cos∠(j→G, S→G)) (robust form of eq. 4).",
     IAACO_PARAMS,
     IAACO_DEFAULTS,

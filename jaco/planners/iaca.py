@@ -12,7 +12,8 @@ after every step) and on its own tabu list (the heuristic 4-5 normalises over th
 neighbours), so :func:`iaca_colony` replaces the engine's :func:`jaco.engine.colony.single_colony`:
 it carries τ through the walk and computes each ant's 8 weights per step.
 
-Interpretations (ALGORITHMS.md §4; also in ``docs/variants_iaca.md``):
+Interpretations (equations in ``docs/algorithms.md`` §4; also in ``docs/variants.md``, section
+IACA):
 
 * **Heuristic (4-5)** ``η_B = 1 − (d_AB + d_BE) / Σ_{C∈M_A} (d_AC + d_CE)``, Euclidean
   distances, ``M_A`` = the moves the map allows from A minus the ant's tabu list. With a single

@@ -1,5 +1,5 @@
 """Policy-gradient ACO (``pg-aco``): log-pheromone as the logits of the ants' policy, stepped by an
-optax optimiser from a REINFORCE estimate of the expected path cost (ALGORITHMS.md §9).
+optax optimiser from a REINFORCE estimate of the expected path cost (docs/algorithms.md §8).
 
 Meuleau & Dorigo, *Ant colony optimization and stochastic gradient descent*, Artificial Life
 8(2):103–121, 2002, show that Ant System's update is a form of stochastic gradient descent on the
@@ -39,7 +39,7 @@ scale (with adam that would not matter; with sgd it does).
   path ``penalty`` times longer than the colony's mean successful path (default 0.3), so the
   moves that led into dead ends are discouraged.
 * **Baseline** b = the mean cost over *all* A ants, the failed ones at their penalty cost
-  (``baseline="all"``, the default). ALGORITHMS.md §9 only says "with a baseline"; the mean cost
+  (``baseline="all"``, the default). REINFORCE only asks for "a baseline"; the mean cost
   of the successful ants alone, ``b = L̄`` (``baseline="successful"``), is available. We did not
   make it the default: while few ants arrive, a lone successful ant then has advantage 0, and
   nothing reinforces the one path that worked. Only the failures push the policy, away from
@@ -238,7 +238,7 @@ def make_pg_aco(
         raise JacoError(f"baseline must be one of {', '.join(BASELINES)}, got {baseline!r}")
     return make_variant(
         name,
-        "Meuleau & Dorigo 2002 (Artificial Life 8(2)); REINFORCE, Williams 1992; ALGORITHMS.md §9",
+        "Meuleau & Dorigo 2002 (Artificial Life 8(2)); REINFORCE, Williams 1992",
         "Policy-gradient ACO (Meuleau & Dorigo 2002; eqs. (1)-(4) of jaco.pg): τ = exp(θ), the "
         "logits θ of the ants' policy p_ij ∝ exp(θ_ij)·η_ij^β over the allowed non-tabu moves "
         "(α ≡ 1); after each iteration one optax step (default adam, lr 1, scaled by Q) on the "

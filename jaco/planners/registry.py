@@ -11,24 +11,24 @@ from __future__ import annotations
 from ..engine.cost import COST_PARAMS, COSTS
 from ..engine.variant import Variant
 from ..errors import JacoError, ParamError
-from .apf_guided import APF_ACO, PF_ACO  # APF-ACO and its PF-ACO baseline (seed 003)
-from .chaos import CHAOS_ACO  # chaos ACO (seed 004)
-from .classic import ACS, AS, AS_DENSITY, AS_QUANTITY, EAS, MMAS, RAS  # the classic family (§2)
+from .apf_guided import APF_ACO, PF_ACO  # APF-ACO and its PF-ACO baseline (Dong & Zhao 2021)
+from .chaos import CHAOS_ACO  # chaos ACO (the Xi'an Technological University paper)
+from .classic import ACS, AS, AS_DENSITY, AS_QUANTITY, EAS, MMAS, RAS  # docs/algorithms.md §2
 from .double import DACA, IDACA  # thesis chapter 3
-from .iaaco import IAACO, IAACO_PRINTED  # IAACO (seed 002)
+from .iaaco import IAACO, IAACO_PRINTED  # IAACO (Miao et al. 2021)
 from .iaca import IACA  # thesis chapter 4
 from .compose import parse
-from .pg import PG_ACO  # policy-gradient ACO (ALGORITHMS.md §9)
+from .pg import PG_ACO  # policy-gradient ACO (Meuleau & Dorigo 2002)
 
 __all__ = ["VARIANTS", "get_variant", "register", "with_cost"]
 
 VARIANTS: dict[str, Variant] = {
     v.name: v
     for v in (
-        AS, AS_DENSITY, AS_QUANTITY, EAS, RAS, ACS, MMAS,  # the classic family (§2)
-        DACA, IDACA, IACA,  # the thesis (§3, §4)
-        IAACO, IAACO_PRINTED, APF_ACO, PF_ACO, CHAOS_ACO,  # the papers (§6, §7, §8)
-        PG_ACO,  # beyond the sources (§9)
+        AS, AS_DENSITY, AS_QUANTITY, EAS, RAS, ACS, MMAS,  # the classic family (docs/algorithms.md §2)
+        DACA, IDACA, IACA,  # the thesis (docs/algorithms.md §3, §4)
+        IAACO, IAACO_PRINTED, APF_ACO, PF_ACO, CHAOS_ACO,  # the papers (docs/algorithms.md §5, §6, §7)
+        PG_ACO,  # beyond the sources (docs/algorithms.md §8)
     )
 }
 

@@ -1,5 +1,5 @@
 """Hyperparameter tuning with optax: evolution-strategy gradients over continuous parameters
-(ALGORITHMS.md §9; docs/tuning.md).
+(docs/algorithms.md §9; docs/tuning.md).
 
 ``jaco.tune(grid, start, goal, variant, tune=("alpha", "beta", "rho"), ...) -> TuneResult``
 
