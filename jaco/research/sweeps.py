@@ -33,6 +33,7 @@ import numpy as np
 import pandas as pd
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
+from .. import progress as _progress
 from ..engine import native
 from ..engine.params import ORDERED, check_values
 from ..engine.problem import make_problem, stack
@@ -148,14 +149,16 @@ def _shapes(batch) -> tuple:
     return tuple((tuple(x.shape), str(x.dtype)) for x in jax.tree.leaves(batch))
 
 
-def _executable(variant, n_ants, n_iters, steplimit, mesh, batch, n_params: int, chunk: int):
+def _executable(variant, n_ants, n_iters, steplimit, mesh, batch, n_params: int, chunk: int, on_compile=None):
     """The compiled chunk program for ``chunk`` configurations per device (cached), and whether
-    it was compiled by this call."""
+    it was compiled by this call (``on_compile()`` is called first when it is)."""
     pkey, program = _program(variant, n_ants, n_iters, steplimit, mesh)
     key = (pkey, _shapes(batch), n_params, chunk)
     new = not is_cached(key)
 
     def build():
+        if on_compile is not None:
+            on_compile()
         width = chunk * mesh.size
         on_cfg, replicated = NamedSharding(mesh, PartitionSpec(AXIS)), NamedSharding(mesh, PartitionSpec())
         seeds = jax.ShapeDtypeStruct((width,), np.uint32, sharding=on_cfg)
@@ -183,7 +186,7 @@ def _fit(budget: int, fixed: int, per: float, rows_per_device: int) -> int:
     return math.ceil(rows_per_device / n_chunks)
 
 
-def _plan(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, n_rows, budget):
+def _plan(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, n_rows, budget, on_compile=None):
     """Choose the chunk size under the budget from the compiled program's memory analysis.
 
     Returns ``(executable, configurations per device and chunk, info dict)``."""
@@ -196,7 +199,7 @@ def _plan(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, n_rows, bu
     chunk = _agree(_fit(budget, fixed, per, rows_per_device))
     compiles, tried = 0, []
     while True:
-        exe, new = _executable(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, chunk)
+        exe, new = _executable(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, chunk, on_compile)
         compiles += new
         tried.append(chunk)
         used = _footprint(exe)
@@ -303,7 +306,8 @@ class _Setup(NamedTuple):
     info: dict
 
 
-def _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices):
+def _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices,
+           on_compile=None):
     """Validate everything (before compiling), then plan the chunks and compile the program."""
     variant = get_variant(variant)
     queries = _queries(grid, start, goal)
@@ -324,7 +328,8 @@ def _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit
     seed_arr = np.tile(seed_list, n_cfg)
     mesh = Mesh(np.array(devs), (AXIS,))
     batch = stack(problems)
-    exe, chunk, info = _plan(variant, n_ants, n_iters, steplimit, mesh, batch, len(values), len(config), int(memory_budget))
+    exe, chunk, info = _plan(variant, n_ants, n_iters, steplimit, mesh, batch, len(values), len(config), int(memory_budget),
+                             on_compile)
     info = dict(runs=len(config) * len(problems), configurations=n_cfg, seeds=len(seed_list), queries=len(problems), **info)
     return _Setup(variant, queries, problems, values, config, seed_arr, mesh, exe, chunk, info)
 
@@ -366,7 +371,7 @@ def sweep(
     steplimit: int | None = None,
     connectivity: int = 8,
     memory_budget: int = 2 << 30,
-    progress: bool = False,
+    progress: bool | None = None,
     devices=None,
 ) -> pd.DataFrame:
     """Run every configuration of ``params`` × ``seeds`` × queries; one row per run.
@@ -381,8 +386,10 @@ def sweep(
     temporaries, from the compiled program's memory analysis); the configurations run in as few
     equal chunks as fit. ``devices``: None (all devices, all processes' after
     ``jax.distributed.initialize``; or the one chosen by ``jax.default_device``), an int (the
-    first n) or a list; the configuration axis is sharded over them. ``progress``: a tqdm bar over
-    the chunks (on process 0).
+    first n) or a list; the configuration axis is sharded over them. ``progress``: a bar on stderr
+    (process 0) that says "compiling…" while the chunk program compiles, then counts the chunks
+    and ends with the elapsed time; None (default) shows it on a terminal or in a notebook, True
+    always, False never (:mod:`jaco.progress`).
 
     Returns a tidy DataFrame: ``map, start, goal`` (when there are several queries), ``config``
     (the configuration's row in the design), the variant's parameters, ``seed`` and the results
@@ -399,7 +406,18 @@ def sweep(
         kwargs = dict(n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, connectivity=connectivity,
                       memory_budget=memory_budget, progress=progress, devices=devices)
         return _over_variants(variant, lambda v: sweep(grid, start, goal, v, params, seeds, **kwargs), params)
-    st = _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices)
+    name = get_variant(variant).name
+    bar = _progress.Bar(_progress.enabled(progress) and jax.process_index() == 0, f"sweep {name}", "chunk")
+    try:
+        return _sweep(bar, grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity,
+                      memory_budget, devices)
+    finally:
+        bar.close()
+
+
+def _sweep(bar, grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices):
+    st = _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices,
+                on_compile=lambda: bar.status("compiling…"))
     n_rows, n_q = len(st.config), len(st.problems)
     width = st.chunk * st.mesh.size
     on_cfg, replicated = NamedSharding(st.mesh, PartitionSpec(AXIS)), NamedSharding(st.mesh, PartitionSpec())
@@ -409,18 +427,15 @@ def sweep(
     cost = np.empty((n_q, n_rows), np.float32)
     length = np.empty((n_q, n_rows), np.float32)
     best_iter, covered = np.empty((n_q, n_rows), np.int32), np.empty((n_q, n_rows), np.int32)
-    bar = range(n_chunks)
-    if progress and n_chunks > 1 and jax.process_index() == 0:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(bar, desc=f"sweep {st.variant.name} ({width} runs/chunk)", unit="chunk")
-    for c in bar:
+    bar.start(n_chunks, f"sweep {st.variant.name}: {n_rows * n_q} runs")
+    for c in range(n_chunks):
         lo, hi = c * width, min((c + 1) * width, n_rows)
         idx = np.minimum(np.arange(lo, lo + width), n_rows - 1)  # pad the last chunk
         prm = params_from({k: v[st.config[idx]] for k, v in st.values.items()}, (width,))
         out = st.exe(_put(st.seeds[idx], on_cfg), batch, jax.tree.map(lambda x: _put(x, on_cfg), prm))
         for dst, src in zip((cost, length, best_iter, covered), out):
             dst[:, lo:hi] = _fetch(src)[:, : hi - lo]
+        bar.update(c + 1)
 
     table = _tidy(st.variant, st.queries, st.problems, st.values, st.config, st.seeds, cost, length, best_iter, covered)
     table.attrs["sweep"] = st.info
