@@ -32,7 +32,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
-from report import table, write_section  # noqa: E402 (the experiments' shared helpers)
+from report import output_dir, table, write_section  # noqa: E402 (the experiments' shared helpers)
 
 SECTION = "movingai_suite"
 
@@ -62,7 +62,8 @@ SMOKE = dict(scenarios=2, seeds=1, budget=(6, 4), larger=(8, 6), maps=["empty-16
 def parse_args(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--smoke", action="store_true", help="tiny sizes: two small maps, two planners, to check that it runs")
-    ap.add_argument("--out", type=Path, default=None, help="folder for results.md, figures/ and the CSV (default docs/)")
+    ap.add_argument("--out", type=Path, default=None,
+                    help="folder for results.md, figures/ and the CSV (default docs/; with --smoke a temporary folder)")
     ap.add_argument("--maps", nargs="*", default=None, help="bundled map files (default: every MovingAI map)")
     ap.add_argument("--planners", nargs="*", default=None,
                     help="planners: registered names and composition names (default: all registered + the compositions)")
@@ -71,8 +72,7 @@ def parse_args(argv=None):
     ap.add_argument("--scenarios", type=int, default=None, help="scenarios per map")
     ap.add_argument("--seeds", type=int, default=None, help="seeds per scenario")
     args = ap.parse_args(argv)
-    if args.smoke and args.out is None:
-        ap.error("--smoke writes nothing into docs/: give --out DIR")
+    args.out = output_dir(args.out, args.smoke)
     return args
 
 
@@ -245,7 +245,7 @@ def main(argv=None):
 
     args = parse_args(argv)
     cfg = SMOKE if args.smoke else FULL
-    out = args.out or ROOT / "docs"
+    out = args.out
     t0 = time.perf_counter()
     rows = run_suite(cfg, args)
     df = pd.DataFrame(rows)
