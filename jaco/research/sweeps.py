@@ -492,15 +492,18 @@ def summarize(table: pd.DataFrame, by=None) -> pd.DataFrame:
     """Per-configuration summary over seeds, one row per configuration (and query).
 
     ``by`` defaults to every column that is not a result (the query columns, ``config`` and the
-    parameters). Columns: ``length_mean, length_std, length_min`` over the successful runs (inf
-    when none succeeded; the std is NaN with fewer than two), ``success_rate``, ``gap_mean``
-    (inf when a run failed), ``gap_min`` and ``runs``.
+    parameters). Columns: ``success_rate``; ``length_mean, length_std, length_min, gap_mean,
+    gap_min`` over the successful runs, so they are NaN for a configuration that failed on every
+    seed (``success_rate`` 0; the std is also NaN with fewer than two successes); and ``runs``.
+    A failure is never averaged in as ``inf``: rank configurations by ``success_rate`` first,
+    e.g. ``summary.sort_values(["success_rate", "gap_mean"], ascending=[False, True])``.
     """
     by = [c for c in table.columns if c not in RESULT_COLUMNS] if by is None else list(by)
     missing = [c for c in by if c not in table.columns]
     if missing:
         raise JacoError(f"summarize: no column {missing[0]!r} in the table")
-    finite = table.assign(length=table["length"].where(table["success"].astype(bool) & np.isfinite(table["length"])))
+    ok = table["success"].astype(bool) & np.isfinite(table["length"])
+    finite = table.assign(length=table["length"].where(ok), gap=table["gap"].where(ok))
     # dropna=False: in a sweep over several planners, a planner's row has no value (NaN) for the
     # parameters only the others have
     out = finite.groupby(by, sort=False, dropna=False).agg(
@@ -508,10 +511,8 @@ def summarize(table: pd.DataFrame, by=None) -> pd.DataFrame:
         length_std=("length", "std"),
         length_min=("length", "min"),
         success_rate=("success", "mean"),
-        gap_mean=("gap", "mean"),  # any failed run (gap inf) makes the mean inf
+        gap_mean=("gap", "mean"),
         gap_min=("gap", "min"),
         runs=("seed", "count"),
     ).reset_index()
-    none = out["success_rate"] == 0
-    out.loc[none, ["length_mean", "length_min"]] = math.inf
     return out
