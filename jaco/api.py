@@ -42,7 +42,8 @@ def solve(
     in one batched call, one combined Result (:mod:`jaco.waypoints`).
     ``progress``: a bar of iterations on stderr when the call takes more than two seconds; None
     (default) shows it on a terminal or in a notebook, True always, False never
-    (:mod:`jaco.progress`; the results are the same either way).
+    (:mod:`jaco.progress`; the results are the same either way; the legs of ``waypoints`` run as
+    one batch, without a bar).
 
     >>> import jaco
     >>> grid = jaco.Grid.from_rows(["....", ".##.", "...."])

@@ -46,15 +46,15 @@ class Bar:
 
     def __init__(self, show: bool, desc: str, unit: str, delay: float = 0.0):
         self.show, self.desc, self.unit, self.delay = show, desc, unit, delay
-        self.t0 = time.time()  # tqdm's clock
+        self.t0 = time.time()
         self.total = None
         self.bar = None
 
-    def _open(self, desc):
+    def _open(self, desc, initial=0):
         from tqdm import tqdm
 
-        self.bar = tqdm(total=self.total, desc=desc, unit=self.unit, file=sys.stderr, dynamic_ncols=True)
-        self.bar.start_t = self.t0  # the elapsed time counts from the call, compilation included
+        self.bar = tqdm(total=self.total, desc=desc, unit=self.unit, initial=initial, file=sys.stderr,
+                        dynamic_ncols=True)
 
     def status(self, text: str) -> None:
         if not self.show:
@@ -79,7 +79,7 @@ class Bar:
         if self.bar is None:
             if time.time() - self.t0 < self.delay or (self.total is not None and done >= self.total):
                 return
-            self._open(self.desc)
+            self._open(self.desc, initial=int(done))  # the rate and time left count from here
         self.bar.update(int(done) - self.bar.n)
 
     def close(self) -> None:
