@@ -50,17 +50,17 @@ class Bar:
         self.total = None
         self.bar = None
 
-    def _open(self, desc, initial=0):
+    def _open(self, desc, initial=0, bar_format=None):
         from tqdm import tqdm
 
         self.bar = tqdm(total=self.total, desc=desc, unit=self.unit, initial=initial, file=sys.stderr,
-                        dynamic_ncols=True)
+                        dynamic_ncols=True, bar_format=bar_format)
 
     def status(self, text: str) -> None:
         if not self.show:
             return
         if self.bar is None:
-            self._open(f"{self.desc}: {text}")
+            self._open(f"{self.desc}: {text}", bar_format="{desc} [{elapsed}]")  # nothing counted yet
         else:
             self.bar.set_description_str(f"{self.desc}: {text}")
 
@@ -70,7 +70,7 @@ class Bar:
         if self.show and not self.delay:
             if self.bar is None:
                 self._open(self.desc)
-            self.bar.total = total
+            self.bar.total, self.bar.bar_format = total, None
             self.bar.set_description_str(self.desc)
 
     def update(self, done: int) -> None:
