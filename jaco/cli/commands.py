@@ -128,7 +128,7 @@ def _run_and_report(grid, start, goal, args, params, *, scenario=None, scen_labe
         seed=args.seed, n_ants=args.ants, n_iters=args.iters,
         steplimit=getattr(args, "steplimit", None), waypoints=via, **params,
     )
-    seconds = time.perf_counter() - args.started
+    seconds = time.perf_counter() - args.started  # main's clock: from start-up
     if via:
         from ..waypoints import exact_trip
 
@@ -141,6 +141,7 @@ def _run_and_report(grid, start, goal, args, params, *, scenario=None, scen_labe
 
 # -- commands -------------------------------------------------------------------------------------
 NO_PATH = 4  # exit code of solve / demo when no ant reached the goal (2: a user mistake)
+
 
 def cmd_demo(args) -> int:
     from .. import maps

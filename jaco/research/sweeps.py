@@ -416,6 +416,7 @@ def sweep(
 
 
 def _sweep(bar, grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices):
+    """The body of :func:`sweep` for one planner, moving ``bar`` (:class:`jaco.progress.Bar`)."""
     st = _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices,
                 on_compile=lambda: bar.status("compiling…"))
     n_rows, n_q = len(st.config), len(st.problems)
