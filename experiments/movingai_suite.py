@@ -32,7 +32,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
-from report import table, write_section  # noqa: E402 (the experiments' shared helpers)
+from report import output_dir, table, write_section  # noqa: E402 (the experiments' shared helpers)
 
 SECTION = "movingai_suite"
 
@@ -62,7 +62,8 @@ SMOKE = dict(scenarios=2, seeds=1, budget=(6, 4), larger=(8, 6), maps=["empty-16
 def parse_args(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--smoke", action="store_true", help="tiny sizes: two small maps, two planners, to check that it runs")
-    ap.add_argument("--out", type=Path, default=None, help="folder for results.md, figures/ and the CSV (default docs/)")
+    ap.add_argument("--out", type=Path, default=None,
+                    help="folder for results.md, figures/ and the CSV (default docs/; with --smoke a temporary folder)")
     ap.add_argument("--maps", nargs="*", default=None, help="bundled map files (default: every MovingAI map)")
     ap.add_argument("--planners", nargs="*", default=None,
                     help="planners: registered names and composition names (default: all registered + the compositions; "
@@ -76,8 +77,7 @@ def parse_args(argv=None):
     ap.add_argument("--skip", nargs="*", default=(), help="registered planners to leave out")
     ap.add_argument("--no-select", action="store_true", help="leave out the planner selected on other maps")
     args = ap.parse_args(argv)
-    if args.smoke and args.out is None:
-        ap.error("--smoke writes nothing into docs/: give --out DIR")
+    args.out = output_dir(args.out, args.smoke)
     return args
 
 
@@ -261,7 +261,7 @@ def main(argv=None):
 
     args = parse_args(argv)
     cfg = SMOKE if args.smoke else FULL
-    out = args.out or ROOT / "docs"
+    out = args.out
     t0 = time.perf_counter()
     shown = sys.argv[1:] if argv is None else list(argv)
     command = " ".join(["python experiments/movingai_suite.py", *shown])

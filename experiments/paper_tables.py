@@ -44,8 +44,7 @@ from jaco.metrics import SAFETY_RADIUS, path_metrics, validate_path
 from jaco.planners.classic import BASE
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from report import write_section  # noqa: E402 (the experiments' shared helpers)
-from thesis_tables import fmt  # noqa: E402
+from report import fixed as fmt, output_dir, write_section  # noqa: E402 (the experiments' shared helpers)
 
 MAPS = ["simple-20", "complex-30"]
 SQRT2 = math.sqrt(2.0)
@@ -448,8 +447,10 @@ def main(argv=None):
     ap.add_argument("--ants", type=int, default=50)
     ap.add_argument("--iters", type=int, default=100)
     ap.add_argument("--steplimit", type=int, default=None, help="default: 4·(H+W), at most the free cells")
-    ap.add_argument("--out", type=Path, default=Path("docs"), help="folder for the markdown and figures")
+    ap.add_argument("--out", type=Path, default=None,
+                    help="folder for the markdown and figures (default docs/; with --smoke a temporary folder)")
     args = ap.parse_args(argv)
+    args.out = output_dir(args.out, args.smoke)
     maps, labels = list(MAPS), None
     if args.smoke:  # one map, and the comparison against AS only: few compilations
         maps, args.runs, args.compare_runs, args.ants, args.iters = ["simple-20"], 2, 2, 8, 4

@@ -16,6 +16,12 @@ INTRO = (
 )
 
 
+def unsigned_zero(text: str) -> str:
+    """``"-0.0"`` -> ``"0.0"``: a float32 length a hair below the float64 optimum (or an exact
+    -0.0) rounds to a zero that keeps its sign, which a table should not show."""
+    return text[1:] if text.startswith("-") and not text.strip("-0.,%") else text
+
+
 def fmt(x, digits=3):
     """A figure for a table: ints with thousands separators, floats to ``digits`` significant
     digits, "–" for None and non-finite values."""
@@ -30,13 +36,31 @@ def fmt(x, digits=3):
         return f"{x:.3g}" if ax < 1e9 else f"{x:.3e}"
     if ax >= 100:
         return f"{x:,.0f}"
-    return f"{x:.{digits}g}"
+    return unsigned_zero(f"{x:.{digits}g}")
+
+
+def fixed(x, digits=2):
+    """A figure to ``digits`` decimals; "–" for None and non-finite values; never "-0.00"."""
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "–"
+    return unsigned_zero(f"{x:.{digits}f}")
 
 
 def table(header, rows) -> str:
     out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
     out += ["| " + " | ".join(fmt(v) for v in r) + " |" for r in rows]
     return "\n".join(out)
+
+
+def output_dir(out, smoke: bool) -> Path:
+    """Where a script writes its markdown and figures: ``--out`` when given; else, for a
+    ``--smoke`` run, a fresh temporary folder (a smoke run never touches the committed ``docs/``);
+    else the repository's ``docs/``."""
+    if out is not None:
+        return Path(out)
+    if smoke:
+        return Path(tempfile.mkdtemp(prefix="jaco-smoke-"))
+    return Path(__file__).resolve().parents[1] / "docs"
 
 
 def write_section(path: Path, tag: str, body: str, intro: str = INTRO) -> None:

@@ -15,7 +15,6 @@ Lengths are in cell units (the thesis's tables are ×10: cell size 10).
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 from pathlib import Path
@@ -26,7 +25,7 @@ import jaco
 from jaco.metrics import performance_indices, validate_path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from report import write_section  # noqa: E402 (the experiments' shared helpers)
+from report import fixed as fmt, output_dir, write_section  # noqa: E402 (the experiments' shared helpers)
 
 RANDOM = [f"random-{n}-{p}" for n in (20, 30, 40) for p in ("05", "10", "30", "50")]
 TRAPS = ["utrap-15", "utrap-20", "utrap-30"]
@@ -73,10 +72,6 @@ def run_cell(grid, variant, runs, n_ants, n_iters, steplimit):
                 E0=idx["E0"], Et=idx["Et"], Er=idx["Er"], time=per_run, result=r)
 
 
-def fmt(x, digits=2):
-    return "–" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.{digits}f}"
-
-
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--smoke", action="store_true", help="tiny sizes, for the tests")
@@ -84,8 +79,10 @@ def main(argv=None):
     ap.add_argument("--ants", type=int, default=50)
     ap.add_argument("--iters", type=int, default=100)
     ap.add_argument("--steplimit", type=int, default=400, help="the thesis's step limit")
-    ap.add_argument("--out", type=Path, default=Path("docs"), help="folder for the markdown and figures")
+    ap.add_argument("--out", type=Path, default=None,
+                    help="folder for the markdown and figures (default docs/; with --smoke a temporary folder)")
     args = ap.parse_args(argv)
+    args.out = output_dir(args.out, args.smoke)
     maps = RANDOM + TRAPS + SPARSE
     if args.smoke:
         maps, args.runs, args.ants, args.iters, args.steplimit = ["random-20-10", "utrap-15"], 2, 8, 4, 120

@@ -31,6 +31,7 @@ def solve(
     connectivity: int = 8,
     keep_pheromone: bool = False,
     waypoints=None,
+    progress: bool | None = None,
     **params,
 ) -> Result:
     """Plan a path from ``start`` to ``goal`` (``(row, col)`` cells) with one ACO variant.
@@ -39,6 +40,10 @@ def solve(
     is reachable), the sizes, and every parameter (unknown names list the valid ones).
     ``waypoints=[(r, c), ...]``: visit them in order, then the goal; one leg per target, all legs
     in one batched call, one combined Result (:mod:`jaco.waypoints`).
+    ``progress``: a bar of iterations on stderr when the call takes more than two seconds; None
+    (default) shows it on a terminal or in a notebook, True always, False never
+    (:mod:`jaco.progress`; the results are the same either way; the legs of ``waypoints`` run as
+    one batch, without a bar).
 
     >>> import jaco
     >>> grid = jaco.Grid.from_rows(["....", ".##.", "...."])
@@ -51,7 +56,7 @@ def solve(
               keep_pheromone=keep_pheromone, **params)
     if waypoints is not None:
         return solve_waypoints(grid, start, goal, variant, waypoints, **kw)
-    return _run.solve(grid, start, goal, variant, **kw)
+    return _run.solve(grid, start, goal, variant, progress=progress, **kw)
 
 
 def make_run(variant, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromone: bool | str = False):

@@ -109,8 +109,8 @@ def test_solve_named_map_with_params_and_explicit_start_goal(tmp_path, capsys):
 def test_failed_run_gives_null_not_infinity_in_json(tmp_path, capsys):
     out_json = tmp_path / "fail.json"
     code, out, err = run(capsys, "solve", "demo", *SMALL, "--steplimit", "2", "--json", str(out_json))
-    assert code == 0, err
-    assert re.search(r"^success\s+no", out, re.M)
+    assert code == 4, err  # no ant reached the goal
+    assert re.search(r"^success\s+no", out, re.M) and re.search(r"^hint\s+no ant reached the goal", out, re.M)
     text = out_json.read_text()
     assert "Infinity" not in text and "NaN" not in text
     doc = json.loads(text)
@@ -309,3 +309,64 @@ def test_bad_world_points_are_one_line_exit_2(capsys, mapname, args, needles):
     code, out, err = run(capsys, "solve", mapname, *SMALL, *full, *args)
     assert_user_error(code, err, *needles)
     assert out == ""
+
+
+# -- guidance on failure, sweep summaries, output formats ----------------------------------------
+def test_den312d_query_fails_with_a_hint_and_exit_4_and_iaca_solves_it(capsys):
+    query = ["solve", "den312d.map", "--scen", "den312d.map.scen", "--index", "289", *SMALL]
+    code, out, err = run(capsys, *query)
+    assert code == 4, err
+    assert re.search(r"^length\s+none: no ant reached the goal", out, re.M)
+    hint = out[out.index("\nhint"):]
+    assert "--variant iaca" in hint and "--ants 40" in hint and "--param beta=16" in hint
+    assert re.search(r"^time\s+[\d.]+ s \(since the command started", out, re.M)
+    code, out, err = run(capsys, *query, "--variant", "iaca")
+    assert code == 0, err
+    assert re.search(r"^success\s+yes", out, re.M) and "hint" not in out
+
+
+def test_sweep_shows_failed_configurations_as_failed_not_inf(capsys):
+    code, out, err = run(capsys, "sweep", "demo", "--param", "alpha=1,2", "--seeds", "2", *SMALL,
+                         "--steplimit", "2")
+    assert code == 0, err
+    table = out[out.index("top 2 of 2"):]
+    rows = [line.split() for line in table.splitlines()[2:4]]
+    assert all(r[-6:-1] == ["0", "failed", "failed", "failed", "failed"] for r in rows), table
+    assert "inf" not in out and "nan" not in out.lower()
+    assert "no configuration reached the goal" in out
+
+
+def test_sweep_table_of_successes_has_numbers(capsys):
+    code, out, err = run(capsys, "sweep", "demo", "--param", "alpha=1,2", "--seeds", "2", *SMALL)
+    assert code == 0, err
+    head, *rows = out[out.index("top 2 of 2"):].splitlines()[1:4]
+    assert head.split() == ["alpha", "success_%", "length_mean", "length_std", "length_min", "gap_mean_%", "runs"]
+    for r in rows:
+        cells = r.split()
+        assert float(cells[1]) > 0 and float(cells[2]) > 0 and not cells[5].startswith("-0")
+
+
+def test_variants_sources_start_in_one_column(capsys):
+    code, out, _ = run(capsys, "variants")
+    assert code == 0
+    columns = {line.index(v.source) for line, v in zip(out.splitlines(), jaco.VARIANTS.values())}
+    assert len(columns) == 1 and "iaaco-printed" in jaco.VARIANTS
+
+
+def test_json_writes_each_list_on_one_line(tmp_path, capsys):
+    out_json = tmp_path / "out.json"
+    code, _, err = run(capsys, "solve", MAP, "--scen", SCEN, "--index", "34", *SMALL, "--json", str(out_json))
+    assert code == 0, err
+    text = out_json.read_text()
+    doc = json.loads(text)
+    assert len(doc["path"]) > 20
+    assert f'"path": {json.dumps(doc["path"])},' in text  # the whole path on one line
+    assert f'"best": {json.dumps(doc["history"]["best"])}' in text
+    assert len(text.splitlines()) < 80
+
+
+def test_negative_zero_never_shows():
+    from jaco.cli.commands import _unsigned_zero
+
+    assert _unsigned_zero(f"{-1e-9:.2f}") == "0.00" and _unsigned_zero(f"{-0.0:.4g}") == "0"
+    assert _unsigned_zero("-0.5") == "-0.5" and _unsigned_zero("-10") == "-10"

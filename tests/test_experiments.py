@@ -70,3 +70,23 @@ def test_paper_tables_smoke(tmp_path):
     assert {"paper003_paths_simple-20.png", "paper003_convergence_simple-20.png",
             "paper_compare_paths_simple-20.png", "paper_compare_convergence_simple-20.png"} <= set(pngs)
     assert all((tmp_path / "figures" / p).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in pngs)
+
+
+def test_report_never_prints_negative_zero_and_smoke_runs_stay_out_of_docs():
+    sys.path.insert(0, str(ROOT / "experiments"))
+    try:
+        import report
+    finally:
+        sys.path.remove(str(ROOT / "experiments"))
+    # a float32 length a hair below the float64 optimum: a gap of -1e-7 prints as zero
+    assert report.fixed(100 * -1e-9, 1) == "0.0" and report.fixed(-0.0) == "0.00" and report.fmt(-0.0) == "0"
+    assert report.fixed(-0.06, 1) == "-0.1" and report.fixed(None) == "–" and report.fixed(float("inf")) == "–"
+    assert "-0.0" not in report.table(["gap"], [[-0.0], [-1e-12]])
+    given = report.output_dir(Path("somewhere"), smoke=True)
+    assert given == Path("somewhere")
+    assert report.output_dir(None, smoke=False) == ROOT / "docs"
+    tmp = report.output_dir(None, smoke=True)  # --smoke without --out: a fresh temporary folder
+    try:
+        assert tmp.is_dir() and not list(tmp.iterdir()) and ROOT not in tmp.parents
+    finally:
+        tmp.rmdir()

@@ -94,3 +94,46 @@ def test_summarize_aggregates_over_seeds():
     assert summary.loc[0, "length_min"] == pytest.approx(first.length.min())
     assert summary.loc[0, "success_rate"] == pytest.approx(first.success.mean())
     assert math.isfinite(summary.loc[0, "gap_mean"])
+
+
+# -- progress bars and the hint on failure ------------------------------------------------------
+def test_solve_progress_bar_changes_nothing_and_compiles_once(capsys, monkeypatch):
+    from jaco import progress
+
+    assert progress.enabled(None) is False  # auto: stderr is no terminal under pytest
+    monkeypatch.setattr(progress, "SOLVE_DELAY", 0.0)  # show the bar at once, not after two seconds
+    kw = dict(seed=5, n_ants=6, n_iters=30, steplimit=40)
+    plain = jaco.solve(GRID, (0, 0), (3, 5), "acs", progress=False, **kw)
+    assert capsys.readouterr().err == ""
+    before = TRACES["acs"]
+    shown = [jaco.solve(GRID, (0, 0), (3, 5), "acs", progress=True, **kw) for _ in range(2)]
+    err = capsys.readouterr().err
+    assert "solve acs" in err and "30/30" in err and err.count("30/30") >= 2
+    assert TRACES["acs"] == before + 1  # the reporting run: compiled once, reused
+    for r in shown:  # bit for bit the run without a bar
+        assert np.array_equal(r.path, plain.path) and r.length == plain.length
+        assert r.best_iteration == plain.best_iteration and r.coverage == plain.coverage
+        for k, v in plain.history.items():
+            assert np.array_equal(r.history[k], v), k
+    jaco.solve(GRID, (0, 0), (3, 5), "acs", progress=False, **kw)
+    assert TRACES["acs"] == before + 1 and capsys.readouterr().err == ""
+
+
+def test_a_failed_run_explains_what_usually_helps():
+    trap = jaco.maps.named("utrap-15")
+    start, goal = trap.meta["start"], trap.meta["goal"]
+    r = jaco.solve(trap, start, goal, "as", n_ants=4, n_iters=2, steplimit=3)
+    assert not r.success and r.path.shape == (0, 2)
+    hint = r.hint
+    assert hint.startswith("no ant reached the goal")
+    # the shortest path is longer than the step limit: that tip comes first, then backtracking
+    assert hint.index("steplimit=6") < hint.index("variant='iaca'") < hint.index("n_ants=16")
+    assert "beta=8" in hint  # twice the variant's β = 4
+    ok = jaco.solve(trap, start, goal, "iaca", n_ants=8, n_iters=5)
+    assert ok.success and ok.hint == ""
+    from jaco.engine.result import failure_hint
+
+    cli = failure_hint(r, cli=True)
+    assert "--variant iaca" in cli and "--steplimit 6" in cli and "--ants 16" in cli
+    stuck = jaco.solve(trap, start, goal, "iaca", n_ants=2, n_iters=1, steplimit=3)
+    assert not stuck.success and "backtracking" not in stuck.hint  # it backtracks already

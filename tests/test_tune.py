@@ -7,6 +7,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import optax
+import pandas as pd
 import pytest
 
 import jaco
@@ -172,3 +173,16 @@ def test_any_optax_optimiser_is_used_as_given():
     np.testing.assert_allclose(res.history.rho, 0.2, rtol=1e-5)
     assert res.params["alpha"] == jaco.VARIANTS["mmas"].defaults["alpha"]  # untuned: unchanged
     assert callable(jaco.tune) and jaco.research.tuning.TuneResult is jaco.TuneResult
+
+
+def test_tune_progress_bar_counts_steps_and_changes_nothing(capsys):
+    grid = jaco.maps.random_map(10, 0.1, seed=0)
+    kw = dict(tune=("beta",), steps=3, population=4, n_seeds=1, n_ants=6, n_iters=4)
+    shown = jaco.tune(grid, (0, 0), (9, 9), "as", progress=True, **kw)
+    err = capsys.readouterr().err
+    assert "tune as" in err and "3/3" in err
+    before = TRACES["as"]
+    plain = jaco.tune(grid, (0, 0), (9, 9), "as", progress=False, **kw)
+    assert capsys.readouterr().err == "" and TRACES["as"] == before  # one program with or without a bar
+    assert shown.params == plain.params
+    pd.testing.assert_frame_equal(shown.history, plain.history)

@@ -3,6 +3,8 @@
 Run ``jaco --help`` or ``jaco COMMAND --help`` for the options. Every user mistake (bad argument,
 unknown map / variant / parameter, missing file, blocked or unreachable start/goal, out-of-range
 parameter) ends as one line ``jaco: error: ...`` on stderr and exit code 2, never a traceback.
+``jaco solve`` and ``jaco demo`` exit with 4 when no ant reached the goal, after a hint of what
+usually helps (:func:`jaco.engine.result.failure_hint`).
 
 Heavy modules (jax, matplotlib, pandas) are imported inside the command functions, so building the
 parser and printing help cost nothing beyond importing the :mod:`jaco` package itself.
@@ -11,9 +13,12 @@ parser and printing help cost nothing beyond importing the :mod:`jaco` package i
 from __future__ import annotations
 
 import sys
+import time
 
-from .args import UsageError, _one_line
-from .parser import _join_negative_xy, build_parser
+_IMPORTED = [time.perf_counter()]  # before jax and the rest are imported: the reported time counts start-up
+
+from .args import UsageError, _one_line  # noqa: E402
+from .parser import _join_negative_xy, build_parser  # noqa: E402
 
 __all__ = ["main", "build_parser"]
 
@@ -28,6 +33,7 @@ def main(argv=None) -> int:
             args = parser.parse_args(_join_negative_xy(argv))
         except SystemExit as e:  # --help / --version
             return e.code if isinstance(e.code, int) else 0
+        args.started = _IMPORTED.pop() if _IMPORTED else time.perf_counter()  # later calls: from main
         if args.walk is not None:
             from ..engine import native
 

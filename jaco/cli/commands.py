@@ -57,7 +57,24 @@ def _fmt_len(x: float) -> str:
     return f"{x:.4f}" if math.isfinite(x) else "none"
 
 
+def _unsigned_zero(text: str) -> str:
+    """``"-0.00"`` -> ``"0.00"`` (a float32 length a hair below the optimum rounds to a signed zero)."""
+    return text[1:] if text.startswith("-") and not text.strip("-+0.,%") else text
+
+
+def _dumps(doc, level: int = 0) -> str:
+    """JSON with one key per line and every list (a path, a history) on one line."""
+    if isinstance(doc, dict) and doc:
+        pad = "  " * (level + 1)
+        items = ",\n".join(f"{pad}{json.dumps(k)}: {_dumps(v, level + 1)}" for k, v in doc.items())
+        return "{\n" + items + "\n" + "  " * level + "}"
+    return json.dumps(doc, allow_nan=False)
+
+
 def _report(grid, result, exact_length, seconds, scenario=None, scen_label=None) -> None:
+    """The run as the shell user reads it; a failed run ends with :func:`failure_hint`."""
+    from ..engine.result import failure_hint
+
     w = 9
     print(f"{'map':<{w}} {grid.name} ({grid.height}x{grid.width}, {grid.n_free} free cells)")
     print(f"{'query':<{w}} start {tuple(result.start)} -> goal {tuple(result.goal)}")
@@ -67,7 +84,8 @@ def _report(grid, result, exact_length, seconds, scenario=None, scen_label=None)
         f"seed {result.seed}; {shown})"
     )
     if result.success:
-        gap = "n/a" if not math.isfinite(result.gap) else f"{100 * result.gap:+.2f}%"
+        pct = 100 * result.gap if math.isfinite(result.gap) else math.nan
+        gap = "n/a" if math.isnan(pct) else f"{0.0 if round(pct, 2) == 0 else pct:+.2f}%"  # never -0.00%
         print(f"{'length':<{w}} {_fmt_len(result.length)} (exact optimum {_fmt_len(exact_length)}, gap {gap})")
     else:
         print(f"{'length':<{w}} none: no ant reached the goal (exact optimum {_fmt_len(exact_length)})")
@@ -77,7 +95,12 @@ def _report(grid, result, exact_length, seconds, scenario=None, scen_label=None)
     best_at = result.best_iteration if result.success else "-"
     print(f"{'best at':<{w}} iteration {best_at} of {result.n_iters}")
     print(f"{'success':<{w}} {'yes' if result.success else 'no'}")
-    print(f"{'time':<{w}} {seconds:.2f} s (including JIT compilation)")
+    print(f"{'time':<{w}} {seconds:.2f} s (since the command started: imports, map, JIT compilation and the run)")
+    if not result.success:
+        import textwrap
+
+        text = failure_hint(result, cli=True)
+        print(textwrap.fill(text, 100, initial_indent=f"{'hint':<{w}} ", subsequent_indent=" " * (w + 1)))
 
 
 def _plot(grid, result, exact_path, exact_length, out) -> Path:
@@ -100,13 +123,12 @@ def _run_and_report(grid, start, goal, args, params, *, scenario=None, scen_labe
     from ..api import solve
 
     via = getattr(args, "waypoint", None)  # solve --waypoint R,C (several targets, jaco.waypoints)
-    t0 = time.perf_counter()
     result = solve(
         grid, start, goal, args.variant,
         seed=args.seed, n_ants=args.ants, n_iters=args.iters,
         steplimit=getattr(args, "steplimit", None), waypoints=via, **params,
     )
-    seconds = time.perf_counter() - t0
+    seconds = time.perf_counter() - args.started  # main's clock: from start-up
     if via:
         from ..waypoints import exact_trip
 
@@ -118,6 +140,9 @@ def _run_and_report(grid, start, goal, args, params, *, scenario=None, scen_labe
 
 
 # -- commands -------------------------------------------------------------------------------------
+NO_PATH = 4  # exit code of solve / demo when no ant reached the goal (2: a user mistake)
+
+
 def cmd_demo(args) -> int:
     from .. import maps
 
@@ -125,7 +150,7 @@ def cmd_demo(args) -> int:
     result, exact_length, exact_path = _run_and_report(grid, grid.meta["start"], grid.meta["goal"], args, {})
     out = _plot(grid, result, exact_path, exact_length, args.out)
     print(f"wrote {out}")
-    return 0
+    return 0 if result.success else NO_PATH
 
 
 def cmd_solve(args) -> int:
@@ -151,7 +176,7 @@ def cmd_solve(args) -> int:
             doc["world"] = _world_doc(grid, result)
         path = Path(args.json)
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(_json_safe(doc), indent=2, allow_nan=False) + "\n")
+        path.write_text(_dumps(_json_safe(doc)) + "\n")
         print(f"wrote {path}")
     if args.plot:
         print(f"wrote {_plot(grid, result, exact_path, exact_length, args.plot)}")
@@ -159,7 +184,7 @@ def cmd_solve(args) -> int:
         print(f"wrote {result.save_path(args.path_csv, frame='world' if grid.resolution is not None else 'cells')}")
     if args.record:
         print(f"wrote {result.save(args.record)} (rerun it with 'jaco rerun {args.record}')")
-    return 0
+    return 0 if result.success else NO_PATH
 
 
 def cmd_sweep(args) -> int:
@@ -168,8 +193,6 @@ def cmd_sweep(args) -> int:
         raise UsageError(f"--record writes the table as CSV plus a .json sidecar: give a name ending in .csv, got {args.record!r}")
     grid = load_map(args.map)
     start, goal, scenario, label = resolve_query(grid, args)
-    import pandas as pd
-
     from ..planners.registry import get_variant
     from ..research.sweeps import summarize, sweep
 
@@ -183,13 +206,12 @@ def cmd_sweep(args) -> int:
         f"{args.ants} ants x {args.iters} iterations",
         flush=True,
     )
-    t0 = time.perf_counter()
     table = sweep(
         grid, start, goal, variant, axes, args.seeds,
-        n_ants=args.ants, n_iters=args.iters, steplimit=args.steplimit, progress=True,
+        n_ants=args.ants, n_iters=args.iters, steplimit=args.steplimit,  # progress: a bar on a terminal
     )
-    seconds = time.perf_counter() - t0
-    print(f"{len(table)} runs in {seconds:.2f} s (including JIT compilation)")
+    seconds = time.perf_counter() - args.started
+    print(f"{len(table)} runs in {seconds:.2f} s (since the command started: imports, JIT compilation and the runs)")
     if scenario is not None:
         print(f"scenario {label}: optimal length {scenario.optimal:.4f} (from the .scen file)")
     if args.csv:
@@ -205,24 +227,42 @@ def cmd_sweep(args) -> int:
             n_ants=args.ants, n_iters=args.iters, steplimit=args.steplimit,
         )
         print(f"wrote {args.record} and {sidecar} (rerun them with 'jaco rerun {sidecar}')")
-    summary = summarize(table).sort_values(["gap_mean", "length_mean"], kind="stable").reset_index(drop=True)
+    summary = summarize(table).sort_values(
+        ["success_rate", "gap_mean", "length_mean"], ascending=[False, True, True], kind="stable"
+    ).reset_index(drop=True)
     swept = ["variant", *axes] if len(variants) > 1 else [k for k in axes] or list(variant.params)
-    cols = swept + ["length_mean", "length_std", "length_min", "success_rate", "gap_mean", "runs"]
-    shown = summary[cols].head(10).rename(columns={"gap_mean": "gap_mean_%"})
-    shown["gap_mean_%"] = 100 * shown["gap_mean_%"]
-    with pd.option_context("display.width", 200, "display.max_columns", 50):
-        print(f"\ntop {len(shown)} of {len(summary)} configurations (by mean gap, then mean length):")
-        print(shown.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
+    cols = swept + ["success_rate", "length_mean", "length_std", "length_min", "gap_mean", "runs"]
+    print(f"\ntop {min(10, len(summary))} of {len(summary)} configurations (by success rate, then mean gap "
+          "over the successful runs, then mean length):")
+    print(_summary_table(summary[cols].head(10), swept))
     best = summary.iloc[0]
     winner = get_variant(best["variant"]) if len(variants) > 1 else variants[0]
     conf = ", ".join(f"{k}={best[k]:g}" for k in winner.params)
-    gap = f"{100 * best['gap_mean']:.2f}%" if math.isfinite(best["gap_mean"]) else "inf (some runs failed)"
+    if best["success_rate"] == 0:
+        print(f"\nno configuration reached the goal (optimum {table['optimal'].iloc[0]:.4f}): every run failed")
+        return 0
     print(
         f"\nbest: {winner.name} {conf}\n      mean length {best['length_mean']:.4f} "
-        f"(optimum {table['optimal'].iloc[0]:.4f}), mean gap {gap}, "
-        f"success {100 * best['success_rate']:.0f}% over {int(best['runs'])} seeds"
+        f"(optimum {table['optimal'].iloc[0]:.4f}), mean gap {_unsigned_zero(format(100 * best['gap_mean'], '.2f'))}% "
+        f"over the successful runs, success {100 * best['success_rate']:.0f}% over {int(best['runs'])} seeds"
     )
     return 0
+
+
+def _summary_table(shown, swept) -> str:
+    """The sweep's summary as text: a configuration that failed on every seed reads "failed" in
+    its length and gap columns (never inf or NaN), a missing std (one success) "-"."""
+    import pandas as pd
+
+    failed = shown["success_rate"] == 0
+    text = pd.DataFrame({k: shown[k].map(lambda x: x if isinstance(x, str) else f"{x:g}") for k in swept})
+    text["success_%"] = (100 * shown["success_rate"]).map(lambda x: f"{x:.0f}")
+    for col in ("length_mean", "length_std", "length_min", "gap_mean"):
+        scale = 100 if col == "gap_mean" else 1
+        values = (scale * shown[col]).map(lambda x: "-" if math.isnan(x) else _unsigned_zero(f"{x:.4g}"))
+        text[col + ("_%" if col == "gap_mean" else "")] = values.where(~failed, "failed")
+    text["runs"] = shown["runs"].map(str)
+    return text.to_string(index=False)
 
 
 def cmd_rerun(args) -> int:
@@ -257,8 +297,9 @@ def cmd_rerun(args) -> int:
 def cmd_variants(args) -> int:
     from ..planners.registry import VARIANTS
 
+    width = max(len(name) for name in VARIANTS)  # the sources column starts at one place
     for v in VARIANTS.values():
-        print(v.describe())
+        print(v.describe(width))
         if args.verbose:
             import textwrap
 
@@ -279,7 +320,7 @@ def cmd_maps(args) -> int:
         print(f"  {name}")
     print(
         "\nA MAP argument is a file path, a named map, or a bundled file name, e.g.\n"
-        "  jaco solve random-32-32-10.map --scen random-32-32-10-even-10.scen --index 5"
+        "  jaco solve random-32-32-10.map --scen random-32-32-10-even-10.scen --index 34"
     )
     return 0
 

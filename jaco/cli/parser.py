@@ -77,7 +77,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser(
         "solve", help="plan one path on a map",
-        description="Plan one path with one ACO variant and report it beside the exact optimum.",
+        description="Plan one path with one ACO variant and report it beside the exact optimum. "
+        "When no ant reaches the goal it prints a hint of what usually helps and exits with 4.",
     )
     p.add_argument("map", metavar="MAP",
                    help="map file (.map .yaml .txt .npy .png .pgm ...), named map or bundled file; see 'jaco maps'")

@@ -22,7 +22,8 @@ class Result:
 
     ``path`` is a ``(K, 2)`` array of ``(row, col)`` (empty when no ant reached the goal);
     ``length`` and ``optimal`` are in cell units times the grid's ``cell_size``; ``cost`` is the
-    variant's objective (the length in cell units unless the variant says otherwise).
+    variant's objective (the length in cell units unless the variant says otherwise). When no ant
+    reached the goal, ``hint`` says so and what usually helps on such a map.
     """
 
     variant: str
@@ -46,6 +47,12 @@ class Result:
     pheromone: np.ndarray | None = field(default=None, repr=False)
     connectivity: int = 8  # records: a rerun needs the move set (jaco.research.records)
     waypoints: tuple = ()  # the targets visited between start and goal (jaco.waypoints)
+
+    @property
+    def hint(self) -> str:
+        """Empty when the run succeeded; otherwise a plain explanation of the failure and what
+        usually helps (:func:`failure_hint`)."""
+        return failure_hint(self)
 
     def metrics(self) -> dict:
         """:func:`jaco.metrics.path_metrics` of the best path (length, turns, heading change E,
@@ -112,6 +119,38 @@ class Result:
         from ..research.record_format import save_path
 
         return save_path(self, path, frame)
+
+
+def failure_hint(result: Result, *, cli: bool = False) -> str:
+    """What to try when no ant of ``result`` reached the goal ("" when one did), most likely
+    first: a larger step limit when the shortest path is long for it; a backtracking planner
+    (IACA's ants step back from a dead end, where the other planners' ants die: the usual cause on
+    maps of rooms, corridors and traps); then more ants or iterations and a larger β (the pull
+    toward the goal). ``cli``: name the ``jaco`` options instead of the keyword arguments."""
+    if result.success:
+        return ""
+    opt = {"steplimit": "--steplimit ", "variant": "--variant iaca", "n_ants": "--ants ", "n_iters": "--iters ",
+           "beta": "--param beta="} if cli else {
+           "steplimit": "steplimit=", "variant": "variant='iaca'", "n_ants": "n_ants=", "n_iters": "n_iters=",
+           "beta": "beta="}
+    cell = result.grid.cell_size if result.grid is not None else 1.0
+    steps = result.optimal / cell if math.isfinite(result.optimal) else 0.0  # the shortest path's length in cells
+    tips = []
+    if steps > 0.5 * result.steplimit:
+        tips.append(f"a larger step limit ({opt['steplimit']}{2 * result.steplimit}; it is {result.steplimit} and the "
+                    f"shortest path is {steps:.0f} cells long, so an ant that strays runs out of steps)")
+    backtracks = result.variant == "iaca" or "backtrack" in result.variant
+    if not backtracks:
+        tips.append(f"a backtracking planner ({opt['variant']}): {result.variant}'s ants die in dead ends, and maps "
+                    "of rooms, corridors and traps are full of them; IACA's ants step back instead")
+    beta = result.params.get("beta")
+    more_beta = f", currently {beta:g}" if beta is not None else ""
+    tips.append(f"more ants or iterations ({opt['n_ants']}{result.n_ants * 4}, {opt['n_iters']}{result.n_iters * 4}; "
+                f"now {result.n_ants} x {result.n_iters})")
+    if beta is not None:
+        tips.append(f"a larger beta, the pull toward the goal ({opt['beta']}{2 * beta:g}{more_beta})")
+    listed = "; ".join(f"{i}. {t}" for i, t in enumerate(tips, 1))
+    return f"no ant reached the goal (exact optimum {result.optimal:.4g}). What usually helps, most likely first: {listed}."
 
 
 def path_cells(grid: Grid, start, best_cells) -> np.ndarray:

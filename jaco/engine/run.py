@@ -20,6 +20,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .. import progress as _progress
 from ..errors import JacoError
 from . import native
 from ..grid import Grid
@@ -62,11 +63,15 @@ class _Best(NamedTuple):
     iteration: jax.Array
 
 
-def make_run(variant, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromone: bool | str = False):
+def make_run(variant, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromone: bool | str = False,
+             report: bool = False):
     """Build ``run(key, problem, params) -> RunOutput`` for fixed shapes (not jitted here).
 
     ``keep_pheromone``: False (none), True (the final pheromone ``(M,)``) or ``"history"`` (the
     pheromone after every iteration, ``(n_iters, M)``, e.g. for :func:`jaco.plot.animate_pheromone`).
+    ``report``: hand the number of finished iterations to :func:`jaco.progress.report` every
+    :func:`jaco.progress.every` iterations (a host callback that reads nothing back; for an
+    unbatched run, since under vmap each run of a batch would report).
     """
     if not isinstance(variant, Variant):
         raise JacoError(f"make_run takes a Variant, got {variant!r} (by name: jaco.make_run or jaco.VARIANTS[name])")
@@ -115,6 +120,9 @@ def make_run(variant, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromo
             mean = jnp.where(count > 0, jnp.sum(jnp.where(ok, col.cost, 0.0)) / jnp.maximum(count, 1), jnp.inf)
             hist = History(best.cost, col.cost[b], mean, count / col.cost.shape[0])
             snapshot = trail.tau if keep_pheromone == "history" else None
+            if report:
+                k = _progress.every(n_iters)
+                jax.lax.cond((t + 1) % k == 0, lambda: jax.debug.callback(_progress.report, t + 1), lambda: None)
             return (trail, best, seen | col.visited, steps + jnp.sum(col.n_steps)), (hist, snapshot)
 
         seen = jnp.zeros((n,), bool)
@@ -164,20 +172,27 @@ def clear_compiled() -> None:
     _COMPILED.clear()
 
 
-def compiled_run(variant: Variant, n_ants: int, n_iters: int, steplimit: int, keep_pheromone: bool, batched: bool):
+def compiled_run(variant: Variant, n_ants: int, n_iters: int, steplimit: int, keep_pheromone: bool, batched: bool,
+                 report: bool = False):
     """The jitted run for these static choices (cached by variant identity and shapes).
+
+    ``report``: the unbatched run that reports its iterations to a progress bar (a program of its
+    own, compiled once, so that a run without a bar pays nothing for the callbacks; the two give
+    the same results bit for bit).
 
     ``batched``: ``run(keys (B,), problems (P, ...), params (B,))`` vmapped over configurations
     × seeds (inner) and problems (outer) -> outputs ``(P, B, ...)``.
     """
 
     def build():
-        run = make_run(variant, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, keep_pheromone=keep_pheromone)
+        run = make_run(variant, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, keep_pheromone=keep_pheromone,
+                       report=report and not batched)
         if batched:
             run = jax.vmap(jax.vmap(run, in_axes=(0, None, 0)), in_axes=(None, 0, None))
         return jax.jit(run)
 
-    return cached(("run", id(variant), n_ants, n_iters, steplimit, keep_pheromone, batched), build, variant)
+    key = ("run", id(variant), n_ants, n_iters, steplimit, keep_pheromone, batched)
+    return cached(key + (("report",) if report and not batched else ()), build, variant)
 
 
 def default_steplimit(grid: Grid) -> int:
@@ -220,17 +235,22 @@ def prepare(grid: Grid, variant: Variant, *, seed, n_ants, n_iters, steplimit, p
 
 
 def solve(grid: Grid, start, goal, variant: Variant, *, seed, n_ants, n_iters, steplimit, connectivity, keep_pheromone,
-          **params) -> Result:
+          progress=None, **params) -> Result:
     """One run of ``variant`` from ``start`` to ``goal``: the body of :func:`jaco.solve` without
     waypoints (whose signature has the defaults). The call is validated by :func:`prepare` and
     :func:`~jaco.engine.problem.make_problem` (map, start, goal, reachability) before anything
-    compiles."""
+    compiles. ``progress`` (:mod:`jaco.progress`): a bar of iterations once the call has taken
+    :data:`jaco.progress.SOLVE_DELAY` seconds."""
     steplimit, values = prepare(grid, variant, seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, params=params)
     problem = make_problem(grid, start, goal, connectivity=connectivity)
-    run = compiled_run(variant, n_ants, n_iters, steplimit, keep_pheromone, batched=False)
-    out = run(jax.random.key(seed), problem, params_from(values))
+    show = _progress.enabled(progress)
+    bar = _progress.Bar(show, f"solve {variant.name}", "it", delay=_progress.SOLVE_DELAY)
+    bar.start(n_iters)
+    with _progress.listening(bar):
+        run = compiled_run(variant, n_ants, n_iters, steplimit, keep_pheromone, batched=False, report=show)
+        out = jax.device_get(run(jax.random.key(seed), problem, params_from(values)))
     return to_result(
-        jax.device_get(out),
+        out,
         grid=grid,
         variant=variant,
         start=start,

@@ -46,10 +46,11 @@ class Variant(NamedTuple):
     def default_params(self) -> Params:
         return Params(**dict(self.defaults))
 
-    def describe(self) -> str:
+    def describe(self, name_width: int = 12) -> str:
+        """One line: the name (padded to ``name_width``), the source, the default parameters."""
         values = self.default_params().to_dict()
         shown = ", ".join(f"{k}={values[k]:g}" for k in self.params)
-        return f"{self.name:12s} {self.source}  [{shown}]"
+        return f"{self.name:<{name_width}} {self.source}  [{shown}]"
 
 
 def make_variant(name, source, doc, params, defaults, rule, **kw) -> Variant:

@@ -33,6 +33,7 @@ import numpy as np
 import pandas as pd
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
+from .. import progress as _progress
 from ..engine import native
 from ..engine.params import ORDERED, check_values
 from ..engine.problem import make_problem, stack
@@ -148,14 +149,16 @@ def _shapes(batch) -> tuple:
     return tuple((tuple(x.shape), str(x.dtype)) for x in jax.tree.leaves(batch))
 
 
-def _executable(variant, n_ants, n_iters, steplimit, mesh, batch, n_params: int, chunk: int):
+def _executable(variant, n_ants, n_iters, steplimit, mesh, batch, n_params: int, chunk: int, on_compile=None):
     """The compiled chunk program for ``chunk`` configurations per device (cached), and whether
-    it was compiled by this call."""
+    it was compiled by this call (``on_compile()`` is called first when it is)."""
     pkey, program = _program(variant, n_ants, n_iters, steplimit, mesh)
     key = (pkey, _shapes(batch), n_params, chunk)
     new = not is_cached(key)
 
     def build():
+        if on_compile is not None:
+            on_compile()
         width = chunk * mesh.size
         on_cfg, replicated = NamedSharding(mesh, PartitionSpec(AXIS)), NamedSharding(mesh, PartitionSpec())
         seeds = jax.ShapeDtypeStruct((width,), np.uint32, sharding=on_cfg)
@@ -183,7 +186,7 @@ def _fit(budget: int, fixed: int, per: float, rows_per_device: int) -> int:
     return math.ceil(rows_per_device / n_chunks)
 
 
-def _plan(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, n_rows, budget):
+def _plan(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, n_rows, budget, on_compile=None):
     """Choose the chunk size under the budget from the compiled program's memory analysis.
 
     Returns ``(executable, configurations per device and chunk, info dict)``."""
@@ -196,7 +199,7 @@ def _plan(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, n_rows, bu
     chunk = _agree(_fit(budget, fixed, per, rows_per_device))
     compiles, tried = 0, []
     while True:
-        exe, new = _executable(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, chunk)
+        exe, new = _executable(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, chunk, on_compile)
         compiles += new
         tried.append(chunk)
         used = _footprint(exe)
@@ -303,7 +306,8 @@ class _Setup(NamedTuple):
     info: dict
 
 
-def _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices):
+def _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices,
+           on_compile=None):
     """Validate everything (before compiling), then plan the chunks and compile the program."""
     variant = get_variant(variant)
     queries = _queries(grid, start, goal)
@@ -324,7 +328,8 @@ def _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit
     seed_arr = np.tile(seed_list, n_cfg)
     mesh = Mesh(np.array(devs), (AXIS,))
     batch = stack(problems)
-    exe, chunk, info = _plan(variant, n_ants, n_iters, steplimit, mesh, batch, len(values), len(config), int(memory_budget))
+    exe, chunk, info = _plan(variant, n_ants, n_iters, steplimit, mesh, batch, len(values), len(config), int(memory_budget),
+                             on_compile)
     info = dict(runs=len(config) * len(problems), configurations=n_cfg, seeds=len(seed_list), queries=len(problems), **info)
     return _Setup(variant, queries, problems, values, config, seed_arr, mesh, exe, chunk, info)
 
@@ -366,7 +371,7 @@ def sweep(
     steplimit: int | None = None,
     connectivity: int = 8,
     memory_budget: int = 2 << 30,
-    progress: bool = False,
+    progress: bool | None = None,
     devices=None,
 ) -> pd.DataFrame:
     """Run every configuration of ``params`` × ``seeds`` × queries; one row per run.
@@ -381,8 +386,10 @@ def sweep(
     temporaries, from the compiled program's memory analysis); the configurations run in as few
     equal chunks as fit. ``devices``: None (all devices, all processes' after
     ``jax.distributed.initialize``; or the one chosen by ``jax.default_device``), an int (the
-    first n) or a list; the configuration axis is sharded over them. ``progress``: a tqdm bar over
-    the chunks (on process 0).
+    first n) or a list; the configuration axis is sharded over them. ``progress``: a bar on stderr
+    (process 0) that says "compiling…" while the chunk program compiles, then counts the chunks
+    and ends with the elapsed time; None (default) shows it on a terminal or in a notebook, True
+    always, False never (:mod:`jaco.progress`).
 
     Returns a tidy DataFrame: ``map, start, goal`` (when there are several queries), ``config``
     (the configuration's row in the design), the variant's parameters, ``seed`` and the results
@@ -390,7 +397,7 @@ def sweep(
     holds the plan (:func:`plan_sweep`).
 
     ``variant`` may also be a list of planners (names, compositions of :func:`jaco.compose`,
-    :class:`~jaco.engine.variant.Variant`\ s): a categorical axis. Each planner runs the same
+    ``Variant`` objects): a categorical axis. Each planner runs the same
     configurations × seeds × queries as its own compiled batch (a planner's structure is part of
     the program), every ``params`` axis must be a parameter of every planner, and the tables are
     stacked with a first column ``variant``; ``attrs["sweep"]`` maps each planner to its plan.
@@ -399,7 +406,19 @@ def sweep(
         kwargs = dict(n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, connectivity=connectivity,
                       memory_budget=memory_budget, progress=progress, devices=devices)
         return _over_variants(variant, lambda v: sweep(grid, start, goal, v, params, seeds, **kwargs), params)
-    st = _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices)
+    name = get_variant(variant).name
+    bar = _progress.Bar(_progress.enabled(progress) and jax.process_index() == 0, f"sweep {name}", "chunk")
+    try:
+        return _sweep(bar, grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity,
+                      memory_budget, devices)
+    finally:
+        bar.close()
+
+
+def _sweep(bar, grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices):
+    """The body of :func:`sweep` for one planner, moving ``bar`` (:class:`jaco.progress.Bar`)."""
+    st = _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices,
+                on_compile=lambda: bar.status("compiling…"))
     n_rows, n_q = len(st.config), len(st.problems)
     width = st.chunk * st.mesh.size
     on_cfg, replicated = NamedSharding(st.mesh, PartitionSpec(AXIS)), NamedSharding(st.mesh, PartitionSpec())
@@ -409,18 +428,15 @@ def sweep(
     cost = np.empty((n_q, n_rows), np.float32)
     length = np.empty((n_q, n_rows), np.float32)
     best_iter, covered = np.empty((n_q, n_rows), np.int32), np.empty((n_q, n_rows), np.int32)
-    bar = range(n_chunks)
-    if progress and n_chunks > 1 and jax.process_index() == 0:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(bar, desc=f"sweep {st.variant.name} ({width} runs/chunk)", unit="chunk")
-    for c in bar:
+    bar.start(n_chunks, f"sweep {st.variant.name}: {n_rows * n_q} runs")
+    for c in range(n_chunks):
         lo, hi = c * width, min((c + 1) * width, n_rows)
         idx = np.minimum(np.arange(lo, lo + width), n_rows - 1)  # pad the last chunk
         prm = params_from({k: v[st.config[idx]] for k, v in st.values.items()}, (width,))
         out = st.exe(_put(st.seeds[idx], on_cfg), batch, jax.tree.map(lambda x: _put(x, on_cfg), prm))
         for dst, src in zip((cost, length, best_iter, covered), out):
             dst[:, lo:hi] = _fetch(src)[:, : hi - lo]
+        bar.update(c + 1)
 
     table = _tidy(st.variant, st.queries, st.problems, st.values, st.config, st.seeds, cost, length, best_iter, covered)
     table.attrs["sweep"] = st.info
@@ -477,15 +493,18 @@ def summarize(table: pd.DataFrame, by=None) -> pd.DataFrame:
     """Per-configuration summary over seeds, one row per configuration (and query).
 
     ``by`` defaults to every column that is not a result (the query columns, ``config`` and the
-    parameters). Columns: ``length_mean, length_std, length_min`` over the successful runs (inf
-    when none succeeded; the std is NaN with fewer than two), ``success_rate``, ``gap_mean``
-    (inf when a run failed), ``gap_min`` and ``runs``.
+    parameters). Columns: ``success_rate``; ``length_mean, length_std, length_min, gap_mean,
+    gap_min`` over the successful runs, so they are NaN for a configuration that failed on every
+    seed (``success_rate`` 0; the std is also NaN with fewer than two successes); and ``runs``.
+    A failure is never averaged in as ``inf``: rank configurations by ``success_rate`` first,
+    e.g. ``summary.sort_values(["success_rate", "gap_mean"], ascending=[False, True])``.
     """
     by = [c for c in table.columns if c not in RESULT_COLUMNS] if by is None else list(by)
     missing = [c for c in by if c not in table.columns]
     if missing:
         raise JacoError(f"summarize: no column {missing[0]!r} in the table")
-    finite = table.assign(length=table["length"].where(table["success"].astype(bool) & np.isfinite(table["length"])))
+    ok = table["success"].astype(bool) & np.isfinite(table["length"])
+    finite = table.assign(length=table["length"].where(ok), gap=table["gap"].where(ok))
     # dropna=False: in a sweep over several planners, a planner's row has no value (NaN) for the
     # parameters only the others have
     out = finite.groupby(by, sort=False, dropna=False).agg(
@@ -493,10 +512,8 @@ def summarize(table: pd.DataFrame, by=None) -> pd.DataFrame:
         length_std=("length", "std"),
         length_min=("length", "min"),
         success_rate=("success", "mean"),
-        gap_mean=("gap", "mean"),  # any failed run (gap inf) makes the mean inf
+        gap_mean=("gap", "mean"),
         gap_min=("gap", "min"),
         runs=("seed", "count"),
     ).reset_index()
-    none = out["success_rate"] == 0
-    out.loc[none, ["length_mean", "length_min"]] = math.inf
     return out

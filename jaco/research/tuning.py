@@ -39,6 +39,7 @@ import numpy as np
 import optax
 import pandas as pd
 
+from .. import progress as _progress
 from ..engine.params import ORDERED, SPECS, Params, param_names
 from ..engine.problem import make_problem
 from ..engine.run import cached, check_sizes, default_steplimit, make_run, params_from, resolve_params
@@ -140,6 +141,7 @@ def _build(variant, names, optimizer, n_ants, n_iters, steplimit, steps, populat
             f = member_objective(cost, penalty)
             updates, state = optimizer.update(es_gradient(eps, f, sigma), state, z)
             record = (to_params(names, z), jnp.mean(f), jnp.mean(jnp.isfinite(cost)))
+            jax.debug.callback(_progress.report, t + 1)  # a progress bar's step (reads nothing back)
             return (optax.apply_updates(z, updates), state), record
 
         (z, _), (x, objective, success) = jax.lax.scan(step, (z0, optimizer.init(z0)), jnp.arange(steps))
@@ -243,6 +245,7 @@ def tune(
     n_iters: int = 30,
     steplimit: int | None = None,
     connectivity: int = 8,
+    progress: bool | None = None,
 ) -> TuneResult:
     """Tune continuous hyperparameters of ``variant`` on one query by evolution strategies.
 
@@ -256,7 +259,9 @@ def tune(
     identity); ``penalty``: the cost of a failed run (default √2 × the run's path buffer, an upper
     bound of any path length the run can return, so a failure is never better than a success;
     give one for a variant whose cost is not the path length); ``seed``: the key of the
-    perturbations and of the runs; ``n_ants``, ``n_iters``, ``steplimit``: the planner's sizes.
+    perturbations and of the runs; ``n_ants``, ``n_iters``, ``steplimit``: the planner's sizes;
+    ``progress``: a bar of the steps on stderr; None (default) shows it on a terminal or in a
+    notebook, True always, False never (:mod:`jaco.progress`; the results are the same either way).
 
     Everything is validated before anything compiles. Repeated calls with the same variant,
     optimiser, names and sizes reuse one compiled loop (any map of the same shape, any start,
@@ -299,9 +304,12 @@ def tune(
         penalty = math.sqrt(2.0) * path_buffer(run, key, problem, base)
 
     z0 = jnp.asarray(to_unconstrained(names, [values[n] for n in names]), jnp.float32)
-    final, x, objective, success = jax.device_get(
-        loop(key, problem, base, z0, jnp.float32(sigma), jnp.float32(penalty))
-    )
+    bar = _progress.Bar(_progress.enabled(progress), f"tune {variant.name}", "step")
+    bar.start(steps)
+    with _progress.listening(bar):
+        final, x, objective, success = jax.device_get(
+            loop(key, problem, base, z0, jnp.float32(sigma), jnp.float32(penalty))
+        )
     start_values = {k: float(values[k]) for k in variant.params}
     tuned = dict(start_values)
     tuned.update({n: float(final[i]) for i, n in enumerate(names)})

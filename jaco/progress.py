@@ -1,0 +1,115 @@
+"""Progress bars on stderr for the long calls (``jaco.solve``, ``jaco.sweep``, ``jaco.tune``).
+
+``progress`` is ``None`` (auto: on when stderr is a terminal or the code runs in a Jupyter
+kernel, so a test run or a redirected script prints none), ``True`` (always) or ``False``
+(never). The bars are tqdm's text bars, which a terminal and a notebook both render.
+
+A compiled loop reports its finished steps through :func:`jax.debug.callback` to :func:`report`
+at most :data:`REPORTS` times per call. The callback reads nothing back, so the results are the
+same bit for bit with and without bars. ``jaco.tune``'s loop always reports (once per step, next
+to a whole population of runs); ``jaco.solve`` compiles a reporting run only when a bar is shown
+(one more program, compiled once; a run without a bar pays nothing for the callbacks).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+REPORTS = 25  # a compiled loop reports at most this often per run (every ceil(n / REPORTS) steps)
+SOLVE_DELAY = 2.0  # seconds: a solve shows its bar only once it has taken this long
+
+
+def enabled(progress) -> bool:
+    """Whether to show bars: ``progress`` True/False, or None for auto (a terminal or a notebook)."""
+    if progress is not None:
+        return bool(progress)
+    try:
+        if sys.stderr is not None and sys.stderr.isatty():
+            return True
+    except (AttributeError, ValueError):  # a closed or unusual stream
+        return False
+    shell = getattr(sys.modules.get("IPython"), "get_ipython", lambda: None)()
+    return type(shell).__name__ == "ZMQInteractiveShell"  # a Jupyter kernel
+
+
+def every(n: int) -> int:
+    """Report every this many steps of a loop of ``n``: at most :data:`REPORTS` reports."""
+    return max(1, -(-int(n) // REPORTS))
+
+
+class Bar:
+    """A tqdm bar opened on first use: ``status(text)`` shows a line before the work is counted
+    (e.g. "compiling…"), ``start(total, desc)`` sets what is counted, ``update(done)`` moves it to
+    ``done``; ``delay``: open only when an update comes this many seconds after creation and
+    work remains. Nothing is printed when ``show`` is false."""
+
+    def __init__(self, show: bool, desc: str, unit: str, delay: float = 0.0):
+        self.show, self.desc, self.unit, self.delay = show, desc, unit, delay
+        self.t0 = time.time()
+        self.total = None
+        self.bar = None
+
+    def _open(self, desc, initial=0, bar_format=None):
+        from tqdm import tqdm
+
+        self.bar = tqdm(total=self.total, desc=desc, unit=self.unit, initial=initial, file=sys.stderr,
+                        dynamic_ncols=True, bar_format=bar_format)
+
+    def status(self, text: str) -> None:
+        if not self.show:
+            return
+        if self.bar is None:
+            self._open(f"{self.desc}: {text}", bar_format="{desc} [{elapsed}]")  # nothing counted yet
+        else:
+            self.bar.set_description_str(f"{self.desc}: {text}")
+
+    def start(self, total: int, desc: str | None = None) -> None:
+        self.total = total
+        self.desc = desc or self.desc
+        if self.show and not self.delay:
+            if self.bar is None:
+                self._open(self.desc)
+            self.bar.total, self.bar.bar_format = total, None
+            self.bar.set_description_str(self.desc)
+
+    def update(self, done: int) -> None:
+        if not self.show:
+            return
+        if self.bar is None:
+            if time.time() - self.t0 < self.delay or (self.total is not None and done >= self.total):
+                return
+            self._open(self.desc, initial=int(done))  # the rate and time left count from here
+        self.bar.update(int(done) - self.bar.n)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
+
+
+# -- what a compiled loop reports to (one listener at a time, set by the call that runs it) ----
+_LISTENER: list = [None]
+
+
+def report(done) -> None:
+    """Host side of :func:`jax.debug.callback` in a compiled loop: ``done`` steps are finished."""
+    bar = _LISTENER[0]
+    if bar is not None:
+        bar.update(int(done))
+
+
+class listening:
+    """``with listening(bar):`` the compiled loops' reports move ``bar`` (then it is closed)."""
+
+    def __init__(self, bar: Bar):
+        self.bar = bar
+
+    def __enter__(self):
+        _LISTENER[0] = self.bar
+        return self.bar
+
+    def __exit__(self, *exc):
+        _LISTENER[0] = None
+        self.bar.close()
+        return False

@@ -1,0 +1,28 @@
+"""The README's Python example runs as a script and prints what its comments promise."""
+
+import re
+from pathlib import Path
+
+import pytest
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def python_blocks() -> list[str]:
+    return re.findall(r"```python\n(.*?)```", README.read_text(encoding="utf-8"), re.S)
+
+
+@pytest.mark.slow
+def test_readme_python_example_runs_and_prints(tmp_path, monkeypatch, capsys):
+    (code,) = python_blocks()
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code, "README.md", "exec"), {"__name__": "__main__"})
+    out = capsys.readouterr().out.splitlines()
+    length, optimum = map(float, re.match(r"length ([\d.]+), optimum ([\d.]+), gap", out[0]).groups())
+    assert length >= optimum > 0
+    assert out[1].startswith("[[2, 21], ")  # the path starts on the start cell
+    assert re.match(r"\s*beta\s+q0\s+success_rate\s+length_mean\s+gap_mean", out[2])
+    assert len(out) == 3 + 9 + 3 and out[-2] == "True"  # nine configurations; the record reran bit for bit
+    assert out[-3].startswith("via ((10, 5), (20, 20)): length ")
+    assert "'beta':" in out[-1]
+    assert {p.name for p in tmp_path.iterdir()} == {"paths.png", "heatmap.png", "run.json"}
