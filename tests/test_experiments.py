@@ -5,9 +5,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
+@pytest.mark.slow  # about 15 s; paper_tables' smoke run proves the shared machinery in the normal run
 def test_thesis_tables_smoke(tmp_path):
     out = subprocess.run(
         [sys.executable, str(ROOT / "experiments" / "thesis_tables.py"), "--smoke", "--out", str(tmp_path)],
@@ -90,3 +93,34 @@ def test_report_never_prints_negative_zero_and_smoke_runs_stay_out_of_docs():
         assert tmp.is_dir() and not list(tmp.iterdir()) and ROOT not in tmp.parents
     finally:
         tmp.rmdir()
+
+
+@pytest.mark.slow  # about 30 s of compiling many planners
+def test_movingai_suite_smoke(tmp_path):
+    """The suite at --smoke size: every run's optimum is its scenario's, no successful run is
+    shorter than it, the gap is measured against it, and a second part (--update) adds a planner
+    to the same table without dropping the first part's rows."""
+    import pandas as pd
+
+    sys.path.insert(0, str(ROOT / "experiments"))
+    try:
+        import movingai_suite
+    finally:
+        sys.path.remove(str(ROOT / "experiments"))
+    assert movingai_suite.main(["--smoke", "--out", str(tmp_path)]) == 0
+    assert movingai_suite.main(["--smoke", "--out", str(tmp_path), "--update", "--no-select", "--planners", "acs"]) == 0
+    df = pd.read_csv(tmp_path / "movingai_suite.csv")
+    assert {"mmas", "iaca", "acs"} <= set(df.planner) and any(p.startswith("selected") for p in df.planner)
+    import jaco
+
+    for m, part in df.groupby("map"):
+        scen = jaco.maps.load_scenarios(jaco.maps.bundled(next(
+            n for n in jaco.maps.BUNDLED if n.startswith(m) and n.endswith(".scen"))))
+        assert set(part.optimal.round(4)) <= {round(s.optimal, 4) for s in scen}
+    ok = df[df.success]
+    assert (ok.length >= ok.optimal - 1e-4).all()
+    assert ((ok.length - ok.optimal) / ok.optimal).round(5).tolist() == ok.gap.round(5).tolist()
+    assert df[~df.success].gap.map(lambda g: g == float("inf")).all()
+    text = (tmp_path / "results.md").read_text()
+    assert "<!-- movingai_suite:start -->" in text and "Fixed budget" in text
+    assert (tmp_path / "figures" / "movingai_suite_gap.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
