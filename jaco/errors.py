@@ -1,4 +1,6 @@
-"""Errors a user can cause. All derive from ``ValueError`` and are raised before anything compiles."""
+"""Errors a user can cause. All derive from ``ValueError`` and are raised before anything compiles.
+
+The command line prints a :class:`JacoError` as one line and exits with code 2."""
 
 
 class JacoError(ValueError):
@@ -15,3 +17,13 @@ class ProblemError(JacoError):
 
 class ParamError(JacoError):
     """A hyperparameter is unknown, NaN or out of its range."""
+
+
+class ResourceError(JacoError):
+    """A call too large for this machine: its memory estimate exceeds the budget (or a size
+    overflows the 32-bit indices of the compiled program)."""
+
+
+class OutputError(JacoError):
+    """An output path that cannot be written: its folder is missing a parent or not writable, it
+    is a directory, it names one of the run's inputs, or its suffix is not a format jaco writes."""

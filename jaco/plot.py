@@ -19,6 +19,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from .errors import ParamError, ProblemError
+from .outputs import atomic_path, check_output
 
 __all__ = [
     "plot_map", "plot_paths", "plot_pheromone", "plot_convergence", "plot_sweep_heatmap", "plot_sweep_box",
@@ -407,16 +408,29 @@ def save_gif(animation, path, fps: int = 8) -> Path:
     """Write an animation as an animated GIF with matplotlib's Pillow writer; returns the path."""
     from matplotlib.animation import PillowWriter
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    animation.save(path, writer=PillowWriter(fps=fps))
+    path = check_output(path, "animation", suffixes=(".gif",))
+    with atomic_path(path) as tmp:
+        animation.save(tmp, writer=PillowWriter(fps=fps))
     return path
 
 
 # -- output ------------------------------------------------------------------------------------
+def figure_suffixes() -> tuple[str, ...]:
+    """The file suffixes matplotlib writes figures in (``.png``, ``.svg``, ``.pdf``, ...)."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    return tuple(sorted("." + s for s in FigureCanvasBase.get_supported_filetypes()))
+
+
+def check_figure_path(path, what: str = "figure", inputs=()) -> Path:
+    """:func:`jaco.outputs.check_output` for a figure: a suffix matplotlib can write."""
+    return check_output(path, what, suffixes=figure_suffixes(), inputs=inputs)
+
+
 def save(fig, path) -> Path:
-    """Write ``fig`` as PNG (dpi 120, tight bounding box), creating parent folders; returns the path."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120, bbox_inches="tight", format="png")
+    """Write ``fig`` in the format its suffix names (``.png`` at dpi 120, ``.svg``, ``.pdf``, ...;
+    tight bounding box), atomically, creating parent folders; returns the path."""
+    path = check_figure_path(path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=120, bbox_inches="tight", format=path.suffix[1:].lower())
     return path

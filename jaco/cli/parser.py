@@ -56,6 +56,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--walk", choices=("auto", "native", "jax"), default=None,
                         help="the ant walk: auto (default: native when built), native (C++ kernel) or jax; "
                         "the same results either way (also JACO_WALK)")
+    parser.add_argument("--debug", action="store_true",
+                        help="on an internal error (exit code 3), print the traceback instead of one line")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     p = sub.add_parser(

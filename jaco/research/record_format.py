@@ -28,6 +28,7 @@ import numpy as np
 
 from ..errors import JacoError, ProblemError
 from ..grid import Grid
+from ..outputs import check_output, write_text
 
 __all__ = [
     "CHECKED_VERSIONS",
@@ -249,13 +250,11 @@ def _dumps(x, indent: int = 0) -> str:
     return json.dumps(x, allow_nan=False)
 
 
-def _write_json(doc: dict, path: Path) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+def _write_json(doc: dict, path: Path, what: str = "record") -> Path:
+    path = check_output(path, what)
     text = _dumps(doc) + "\n"
     json.loads(text)  # never write a file that does not read back
-    path.write_text(text, encoding="utf-8")
-    return path
+    return write_text(path, text)
 
 
 def _header(kind: str) -> dict:
@@ -312,6 +311,7 @@ def recordable_name(variant) -> str:
 
 def save_run(result, path) -> Path:
     """Write ``result`` (a :class:`jaco.Result` from :func:`jaco.solve`) as a JSON record."""
+    path = check_output(path, "record")
     if result.grid is None:
         raise RecordError("this Result has no grid (it was not made by jaco.solve): cannot record its map")
     recordable_name(result.variant)
@@ -366,7 +366,7 @@ def save_path(result, path, frame: str | None = None) -> Path:
     frame ``length_m`` (the length in metres: cell units × resolution). Coordinates are rounded
     to 1e-9 m.
     """
-    path = Path(path)
+    path = check_output(path, "path file", suffixes=(".csv", ".json"))
     grid = result.grid
     if grid is None:
         raise RecordError("this Result has no grid: cannot write its path")
@@ -379,11 +379,8 @@ def save_path(result, path, frame: str | None = None) -> Path:
             f"map {grid.name!r} has no resolution/origin: world coordinates need a ROS map (use frame='cells')"
         )
     suffix = path.suffix.lower()
-    if suffix not in (".csv", ".json"):
-        raise JacoError(f"a path file is .csv or .json, got {path.name!r}")
     cells = np.asarray(result.path, np.int64).reshape(-1, 2)
     xy = grid.cell_to_world(cells) if frame == "world" else None
-    path.parent.mkdir(parents=True, exist_ok=True)
     if suffix == ".csv":
         lines = ["row,col,x,y" if xy is not None else "row,col"]
         for i, (r, c) in enumerate(cells):
@@ -391,8 +388,7 @@ def save_path(result, path, frame: str | None = None) -> Path:
             if xy is not None:
                 row += f",{_metres(xy[i, 0])!r},{_metres(xy[i, 1])!r}"
             lines.append(row)
-        path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-        return path
+        return write_text(path, "\n".join(lines) + "\n")
     doc = {
         "map": grid.name,
         "frame": frame,
@@ -406,4 +402,4 @@ def save_path(result, path, frame: str | None = None) -> Path:
     if xy is not None:
         doc["length_m"] = _num(result.length / grid.cell_size * grid.resolution)
         doc["xy"] = [[_metres(x), _metres(y)] for x, y in xy]
-    return _write_json(doc, path)
+    return _write_json(doc, path, "path file")

@@ -40,6 +40,7 @@ import numpy as np
 from ..engine.result import Result, gap
 from ..engine.variant import Variant
 from ..grid import Grid
+from ..outputs import atomic_path, check_output, write_text
 from .record_format import (
     CHECKED_VERSIONS,
     EMBED_ROWS_MAX,
@@ -258,9 +259,10 @@ def save_sweep(table, path, *args, **kwargs) -> Path:
     from . import sweeps
     from ..planners.registry import get_variant
 
-    path = Path(path)
+    path = check_output(path, "sweep record")
     if path.suffix.lower() != ".csv":
         raise RecordError(f"a sweep record is a .csv table plus a .json sidecar; got {path.name!r} (use a .csv name)")
+    check_output(_sidecar(path), "sweep record sidecar")
     try:
         bound = inspect.signature(sweeps.sweep).bind(*args, **kwargs)
     except TypeError as e:
@@ -311,13 +313,15 @@ def save_sweep(table, path, *args, **kwargs) -> Path:
         else:
             call[name] = _jsonable(name, value.item() if isinstance(value, np.generic) else value)
     text = _csv_text(table)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text, encoding="utf-8")
     doc = _header("sweep")
     doc["call"] = call
     doc["table"] = {"file": path.name, "rows": len(table), "columns": list(map(str, table.columns)),
                     "sha256": hashlib.sha256(text.encode()).hexdigest()}
-    return _write_json(doc, _sidecar(path))
+    # both files complete before either replaces an old one: the sidecar, then the table
+    with atomic_path(path) as table_tmp:
+        write_text(table_tmp, text)
+        sidecar = _write_json(doc, _sidecar(path), "sweep record sidecar")
+    return sidecar
 
 
 @dataclass
