@@ -22,10 +22,13 @@ from ..moves import MOVES, cached_table
 
 def _as_cell(grid: Grid, cell, what: str) -> tuple[int, int]:
     try:
-        r, c = (int(v) for v in cell)
-        if (r, c) != tuple(float(v) for v in cell):
+        values = list(cell)
+        if len(values) != 2 or any(isinstance(v, (str, bytes, bool, np.bool_)) for v in values):
             raise ValueError
-    except (TypeError, ValueError):
+        r, c = (int(v) for v in values)
+        if (r, c) != tuple(float(v) for v in values):
+            raise ValueError
+    except (TypeError, ValueError, OverflowError):
         raise ProblemError(f"{what} must be a (row, col) pair of integers, got {cell!r}") from None
     if not grid.in_bounds((r, c)):
         raise ProblemError(
@@ -75,6 +78,8 @@ def make_problem(grid: Grid, start, goal, *, connectivity: int = 8) -> Problem:
 
     if not isinstance(grid, Grid):
         raise ProblemError(f"expected a jaco.Grid, got {type(grid).__name__}")
+    if isinstance(connectivity, bool) or connectivity not in (4, 8):
+        raise ProblemError(f"connectivity must be 4 or 8 (int), got {connectivity!r}")
     if grid.n_free == 0:
         raise ProblemError(f"map {grid.name!r} has no free cell")
     s = _as_cell(grid, start, "start")
