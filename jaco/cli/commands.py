@@ -197,7 +197,7 @@ def cmd_solve(args) -> int:
 
 
 def cmd_sweep(args) -> int:
-    axes = parse_sweep_params(args.param, runs_per_config=args.seeds)
+    axes = parse_sweep_params(args.param)
     if args.record and Path(args.record).suffix.lower() != ".csv":
         raise UsageError(f"--record writes the table as CSV plus a .json sidecar: give a name ending in .csv, got {args.record!r}")
     grid = load_map(args.map)

@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 import os
 from collections import Counter
+from dataclasses import fields
 from typing import NamedTuple
 
 import jax
@@ -237,6 +238,11 @@ def bytes_per_run(n_cells: int, n_ants: int, n_iters: int, steplimit: int, path_
     per_slot = 52 if path_len > s else (14 if jax_walk else 8)
     per = (n_ants * n_cells if jax_walk else 0) + per_slot * path_len * n_ants + 100 * n_cells + 32 * n_iters
     return int(1.1 * per)
+
+
+#: Host bytes one configuration of a sweep costs before it runs: every parameter as float64 in the
+#: configuration table, its copies while the design is built, and its row of the result table.
+CONFIG_BYTES = 16 * (len(fields(Params)) + 8)
 
 
 def _parse_bytes(text: str) -> int:

@@ -38,7 +38,7 @@ from ..engine.params import ORDERED, check_values
 from ..engine.problem import make_problem, stack
 from ..engine.variant import Variant
 from ..engine.run import (
-    SEED_LIMIT, bytes_per_run, cached, check_memory, check_run_memory, check_sizes, default_steplimit, is_cached,
+    CONFIG_BYTES, SEED_LIMIT, bytes_per_run, cached, check_memory, check_run_memory, check_sizes, default_steplimit, is_cached,
     make_run, params_from, resolve_params,
 )
 from ..errors import JacoError, ParamError
@@ -257,7 +257,7 @@ def _config_table(variant, params) -> tuple[dict, list[str]]:
     if isinstance(params, dict):
         check_values(params, variant.params, where)  # the variant's own names in the message
         n = math.prod(np.size(v) for v in params.values())
-        check_memory(n * 8 * (len(variant.params) + len(params) + 4), f"a grid of {n} configurations",
+        check_memory(n * CONFIG_BYTES, f"a grid of {n} configurations",
                      "use fewer values per axis, or a random or Latin hypercube design")
     design = as_design(params)
     unknown = [k for k in design.names if k not in variant.params]
