@@ -53,6 +53,7 @@ from .record_format import (
     _uncells,
     _unnum,
     _write_json,
+    check_record,
     grid_from_entry,
     map_entry,
     map_hash,
@@ -380,6 +381,10 @@ class SweepRecord:
 
 
 # -- loading --------------------------------------------------------------------------------
+def _one_line(e) -> str:
+    return " ".join(str(e).split())
+
+
 def load_run(path):
     """Load a record written by :meth:`jaco.Result.save` (returns a :class:`RunRecord`) or by
     :func:`save_sweep` (a :class:`SweepRecord`; the sidecar ``.json`` or its ``.csv`` table).
@@ -394,9 +399,12 @@ def load_run(path):
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise RecordError(f"{path.name}: not a JSON record ({e})") from None
+        raise RecordError(f"{path.name}: not a JSON record ({_one_line(e)})") from None
+    except RecursionError:
+        raise RecordError(f"{path.name}: not a jaco record (JSON nested too deeply)") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise RecordError(f"{path.name}: not a jaco record (no \"format\": \"{FORMAT}\")")
+    check_record(doc, path.name)
     if doc.get("format_version", 0) > FORMAT_VERSION:
         raise RecordError(
             f"{path.name}: record format version {doc.get('format_version')} is newer than this "
