@@ -4,7 +4,13 @@ The command line prints a :class:`JacoError` as one line and exits with code 2."
 
 
 class JacoError(ValueError):
-    """Base class of every user-facing jaco error."""
+    """Base class of every user-facing jaco error. Its message is one line: a message that quotes
+    a multi-line text (a YAML parser's error, say) has its line breaks joined by spaces."""
+
+    def __init__(self, *args):
+        if len(args) == 1 and isinstance(args[0], str) and ("\n" in args[0] or "\r" in args[0]):
+            args = (" ".join(args[0].split()),)
+        super().__init__(*args)
 
 
 class MapFormatError(JacoError):

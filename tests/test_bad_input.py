@@ -132,6 +132,14 @@ def test_ros_yaml_and_pgm_pairs(fields, pgm):
 
 
 @FAST
+@given(text=st.text(alphabet="image:resolution origin[]{},-0.5\n \t'\"&*!|>#", max_size=80))
+def test_ros_yaml_text(text):
+    with tempfile.TemporaryDirectory() as d:
+        (Path(d) / "m.yaml").write_text(text)
+        assert outcome(lambda: maps.load(Path(d) / "m.yaml")) is None  # no image beside it: never a grid
+
+
+@FAST
 @given(shape=st.lists(st.integers(0, 3), max_size=3),
        dtype=st.sampled_from(["bool", "int8", "uint16", "float32", "complex64", "U1"]), fill=st.integers(-1, 2))
 def test_npy_arrays(shape, dtype, fill):
