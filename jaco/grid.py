@@ -132,6 +132,27 @@ class Grid:
         r, c = cell
         return 0 <= r < self.height and 0 <= c < self.width
 
+    def check_cell(self, cell, what: str = "cell") -> tuple[int, int]:
+        """``cell`` as a ``(row, col)`` pair of ints, or a :class:`ProblemError` saying why not: not
+        a pair of integers, outside the map, or on an obstacle."""
+        try:
+            values = list(cell)
+            if len(values) != 2 or any(isinstance(v, (str, bytes, bool, np.bool_)) for v in values):
+                raise ValueError
+            r, c = (int(v) for v in values)
+            if (r, c) != tuple(float(v) for v in values):
+                raise ValueError
+        except (TypeError, ValueError, OverflowError):
+            raise ProblemError(f"{what} must be a (row, col) pair of integers, got {cell!r}") from None
+        if not self.in_bounds((r, c)):
+            raise ProblemError(
+                f"{what} {(r, c)} is outside the {self.height}x{self.width} map "
+                f"(rows 0..{self.height - 1}, cols 0..{self.width - 1})"
+            )
+        if not self.free[r, c]:
+            raise ProblemError(f"{what} {(r, c)} is on an obstacle")
+        return r, c
+
     def is_free(self, cell) -> bool:
         return self.in_bounds(cell) and bool(self.free[cell[0], cell[1]])
 
@@ -173,7 +194,12 @@ class Grid:
         Row 0 is the top of the image, i.e. the largest y, as map_server reads the image.
         """
         res, ox, oy, yaw = self._frame()
-        rc = np.asarray(cells, dtype=float)
+        try:
+            rc = np.asarray(cells, dtype=float)
+        except (TypeError, ValueError):
+            rc = np.empty(0)
+        if rc.ndim < 1 or rc.shape[-1] != 2:
+            raise ProblemError(f"cells are (row, col) pairs of numbers, got {cells!r}")
         r, c = rc[..., 0], rc[..., 1]
         lx = (c + 0.5) * res
         ly = (self.height - 1 - r + 0.5) * res

@@ -17,12 +17,14 @@ from pathlib import Path
 from .errors import OutputError
 
 
-def _as_path(path, what: str) -> Path:
+def as_path(path, what: str, error=OutputError) -> Path:
+    """``path`` (a str or ``os.PathLike``) as a :class:`~pathlib.Path`, or ``error`` saying a file
+    path was expected (inputs pass their own error class)."""
     if isinstance(path, bool) or not isinstance(path, (str, os.PathLike)):
-        raise OutputError(f"{what}: expected a file path (str or os.PathLike), got {type(path).__name__}")
+        raise error(f"{what}: expected a file path (str or os.PathLike), got {type(path).__name__}")
     text = os.fspath(path)
     if isinstance(text, bytes) or not text.strip() or "\0" in text:
-        raise OutputError(f"{what}: expected a file path, got {path!r}")
+        raise error(f"{what}: expected a file path, got {path!r}")
     return Path(text)
 
 
@@ -39,7 +41,7 @@ def check_output(path, what: str, *, suffixes=None, inputs=()) -> Path:
     """``path`` as a :class:`~pathlib.Path` once it is known to be writable: not a directory, a
     suffix in ``suffixes`` (when given; lower-case, with the dot), not one of ``inputs`` (files the
     run reads), and its nearest existing folder writable. Raises :class:`OutputError`."""
-    path = _as_path(path, what)
+    path = as_path(path, what)
     if path.is_dir():
         raise OutputError(f"{what} {str(path)!r} is a directory, not a file")
     if suffixes is not None and path.suffix.lower() not in suffixes:

@@ -21,23 +21,7 @@ from ..moves import MOVES, cached_table
 
 
 def _as_cell(grid: Grid, cell, what: str) -> tuple[int, int]:
-    try:
-        values = list(cell)
-        if len(values) != 2 or any(isinstance(v, (str, bytes, bool, np.bool_)) for v in values):
-            raise ValueError
-        r, c = (int(v) for v in values)
-        if (r, c) != tuple(float(v) for v in values):
-            raise ValueError
-    except (TypeError, ValueError, OverflowError):
-        raise ProblemError(f"{what} must be a (row, col) pair of integers, got {cell!r}") from None
-    if not grid.in_bounds((r, c)):
-        raise ProblemError(
-            f"{what} {(r, c)} is outside the {grid.height}x{grid.width} map "
-            f"(rows 0..{grid.height - 1}, cols 0..{grid.width - 1})"
-        )
-    if not grid.free[r, c]:
-        raise ProblemError(f"{what} {(r, c)} is on an obstacle")
-    return r, c
+    return grid.check_cell(cell, what)
 
 
 @jax.tree_util.register_dataclass

@@ -75,6 +75,7 @@ def make_run(variant, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromo
         raise JacoError(f"make_run takes a Variant, got {variant!r} (by name: jaco.make_run or jaco.VARIANTS[name])")
     if keep_pheromone not in (False, True, "history"):
         raise JacoError(f"keep_pheromone must be False, True or 'history', got {keep_pheromone!r}")
+    check_sizes(n_ants, n_iters, steplimit)
 
     def run(key, problem: Problem, params: Params) -> RunOutput:
         TRACES[variant.name] += 1  # Python side effect: runs once per trace, never when cached

@@ -171,8 +171,8 @@ def load_image(
     path: Path, *, threshold: float = 0.5, negate: bool = False, cell_size: float = 1.0
 ) -> Grid:
     """An image as a map: free where ``brightness / maxval > threshold`` (``negate``: darkness)."""
-    if not 0.0 <= threshold < 1.0:
-        raise MapFormatError(f"threshold must be in [0, 1), got {threshold}")
+    if isinstance(threshold, bool) or not isinstance(threshold, (int, float)) or not 0.0 <= threshold < 1.0:
+        raise MapFormatError(f"threshold must be a number in [0, 1), got {threshold!r}")
     pixels, has_alpha, maxval = read_image(path)
     level = grey(pixels, has_alpha) / maxval
     if negate:

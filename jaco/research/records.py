@@ -40,7 +40,7 @@ import numpy as np
 from ..engine.result import Result, gap
 from ..engine.variant import Variant
 from ..grid import Grid
-from ..outputs import atomic_path, check_output, write_text
+from ..outputs import as_path, atomic_path, check_output, write_text
 from .record_format import (
     CHECKED_VERSIONS,
     EMBED_ROWS_MAX,
@@ -391,7 +391,7 @@ def load_run(path):
     ``load_run(path).rerun()`` reruns it and reports whether it matched."""
     import pandas as pd
 
-    path = Path(path)
+    path = as_path(path, "record", RecordError)
     if path.suffix.lower() == ".csv":
         path = _sidecar(path)
     if not path.is_file():

@@ -490,6 +490,8 @@ def summarize(table: pd.DataFrame, by=None) -> pd.DataFrame:
     when none succeeded; the std is NaN with fewer than two), ``success_rate``, ``gap_mean``
     (inf when a run failed), ``gap_min`` and ``runs``.
     """
+    if not isinstance(table, pd.DataFrame):
+        raise JacoError(f"summarize takes the DataFrame of jaco.sweep, got {type(table).__name__}")
     by = [c for c in table.columns if c not in RESULT_COLUMNS] if by is None else list(by)
     missing = [c for c in by if c not in table.columns]
     if missing:

@@ -31,6 +31,7 @@ seed noise), and the whole loop of ``steps`` steps is one jitted ``lax.scan``.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import jax
@@ -286,6 +287,8 @@ def tune(
     optimizer = DEFAULT_OPTIMIZER if optimizer is None else optimizer
     if not (callable(getattr(optimizer, "init", None)) and callable(getattr(optimizer, "update", None))):
         raise JacoError(f"optimizer must be an optax GradientTransformation, got {type(optimizer).__name__}")
+    if init is not None and not isinstance(init, Mapping):
+        raise ParamError(f"init must be a mapping of parameter names to values, got {type(init).__name__} {init!r}")
     values = resolve_params(variant, dict(init or {}), where=f"variant {variant.name!r}")
     for k, v in values.items():
         if v.ndim:
