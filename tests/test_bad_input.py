@@ -192,6 +192,35 @@ def test_cells_and_connectivity(start, goal, connectivity):
         assert math.isfinite(problem.optimal)
 
 
+DEPOT = maps.load_bundled("depot.yaml")
+CALLS = {
+    "maps.load": lambda v: maps.load(v),
+    "maps.load threshold": lambda v: maps.load(maps.bundled("arena.map"), threshold=v),
+    "maps.load_scenarios": lambda v: maps.load_scenarios(v),
+    "load_run": lambda v: load_run(v),
+    "random_map size": lambda v: maps.random_map(v, 0.1, seed=0),
+    "random_map p": lambda v: maps.random_map(6, v, seed=0),
+    "random_map seed": lambda v: maps.random_map(6, 0.1, seed=v),
+    "random_map start": lambda v: maps.random_map(6, 0.1, seed=0, start=v),
+    "exact.shortest_path": lambda v: jaco.exact.shortest_path(GRID, v, (3, 5)),
+    "exact.distance_field": lambda v: jaco.exact.distance_field(GRID, v),
+    "Grid.check_cell": lambda v: GRID.check_cell(v),
+    "Grid.cell_to_world": lambda v: DEPOT.cell_to_world(v),
+    "Grid.world_to_cell": lambda v: DEPOT.world_to_cell(v),
+    "plot.plot_map": lambda v: jaco.plot.plot_map(v),
+    "plot.plot_paths": lambda v: jaco.plot.plot_paths(GRID, v),
+    "plot.plot_pheromone": lambda v: jaco.plot.plot_pheromone(GRID, v),
+    "summarize": lambda v: jaco.summarize(v),
+    "make_run": lambda v: jaco.make_run("as", n_ants=v, n_iters=2, steplimit=3),
+}
+
+
+@settings(FAST, max_examples=200)
+@given(call=st.sampled_from(sorted(CALLS)), value=ANY)
+def test_any_argument_of_the_api(call, value):
+    outcome(lambda: CALLS[call](value))
+
+
 PARAM_NAMES = st.sampled_from(sorted(SPECS) + ["nope", ""])
 
 

@@ -85,7 +85,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="set a hyperparameter (repeatable), e.g. --param alpha=1.5 --param rho=0.2")
     p.add_argument("--json", metavar="OUT", help="write the result and its path metrics as JSON")
-    p.add_argument("--plot", metavar="PNG", help="write a PNG of the map, the ACO path and the exact path")
+    p.add_argument("--plot", metavar="FILE", help="write a figure of the map, the ACO path and the exact path "
+                   "in the format its suffix names (.png, .svg, .pdf ...)")
     p.add_argument("--path-csv", metavar="OUT",
                    help="write the path as CSV: row,col and, on a ROS map, x,y in metres (cell centres)")
     p.add_argument("--record", metavar="OUT",

@@ -31,8 +31,6 @@ Modules: :mod:`.files` (bundled data, shared file checks), the formats :mod:`.mo
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from ..errors import MapFormatError
 from ..grid import Grid
 from ..outputs import as_path
