@@ -22,6 +22,9 @@ def _connected(grid: Grid, start, goal) -> bool:
     return bool(reachable(grid, start)[goal[0], goal[1]])
 
 
+MAX_CELLS = 2**28  # a generated map's limit: its boolean mask and index tables stay a few GiB
+
+
 def _hw(size_or_hw) -> tuple[int, int]:
     if isinstance(size_or_hw, (tuple, list)):
         if len(size_or_hw) != 2:
@@ -31,6 +34,8 @@ def _hw(size_or_hw) -> tuple[int, int]:
         h = w = size_or_hw
     if not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 1 for v in (h, w)):
         raise ProblemError(f"map size must be positive integers, got {size_or_hw!r}")
+    if int(h) * int(w) > MAX_CELLS:
+        raise ProblemError(f"map size {int(h)}x{int(w)} is more than the {MAX_CELLS} cells a generated map may have")
     return int(h), int(w)
 
 
