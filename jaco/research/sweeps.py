@@ -68,7 +68,7 @@ def _queries(grid, start, goal):
             raise JacoError(f"{what} must be a (row, col) pair or a non-empty list of pairs, got {x!r}")
         return xs
 
-    grids = [grid] if isinstance(grid, Grid) else [] if isinstance(grid, (str, bytes)) else list(grid) if hasattr(grid, "__iter__") else []
+    grids = [grid] if isinstance(grid, Grid) else list(grid) if isinstance(grid, (list, tuple)) else []
     if not grids or not all(isinstance(g, Grid) for g in grids):
         raise JacoError(f"grid must be a jaco.Grid or a non-empty list of Grids of one shape, got {type(grid).__name__}")
     starts = [start] if is_pair(start) else as_list(start, "start")
