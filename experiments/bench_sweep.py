@@ -35,7 +35,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
-from report import write_section  # noqa: E402 (the experiments' shared helpers)
+from report import write_section, write_text  # noqa: E402 (the experiments' shared helpers)
 SECTION = "bench_sweep"
 RANGES = {"alpha": (0.5, 4.0), "beta": (1.0, 8.0), "rho": (0.02, 0.5)}
 FULL = dict(configs=10_000, n_ants=20, n_iters=20, budget=2 << 30, variants=["mmas", "daca"], estimate=True)
@@ -208,7 +208,7 @@ def main(argv=None):
         write_section(out, SECTION, text)
         print(f"wrote {out}")
     if args.json:
-        Path(args.json).write_text(json.dumps(R, indent=1))
+        write_text(args.json, json.dumps(R, indent=1))
     return 0
 
 

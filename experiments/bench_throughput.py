@@ -52,7 +52,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
-from report import table, write_section  # noqa: E402 (the experiments' shared helpers)
+from report import table, write_section, write_text  # noqa: E402 (the experiments' shared helpers)
 
 SECTION = "bench_throughput"
 
@@ -622,7 +622,7 @@ def main(argv=None):
         write_section(Path(args.out), SECTION, text)
         print(f"wrote {args.out}")
     if args.json:
-        Path(args.json).write_text(json.dumps(R, indent=1, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o)))
+        write_text(args.json, json.dumps(R, indent=1, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o)))
     return 0
 
 

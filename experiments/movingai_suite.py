@@ -29,10 +29,12 @@ from pathlib import Path
 
 import numpy as np
 
+from jaco.outputs import atomic_path
+
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
-from report import output_dir, table, write_section  # noqa: E402 (the experiments' shared helpers)
+from report import output_dir, table, write_section, write_text  # noqa: E402 (the experiments' shared helpers)
 
 SECTION = "movingai_suite"
 
@@ -249,10 +251,8 @@ def figure(df, path: Path):
     ax.set_title("Gap to the optimum on the MovingAI maps, 50 ants × 100 iterations")
     ax.legend(fontsize=6, ncol=2)
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp.png")
-    fig.savefig(tmp, dpi=110)
-    tmp.replace(path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
     plt.close(fig)
 
 
@@ -275,8 +275,7 @@ def main(argv=None):
                                        if df.planner.str.startswith("selected").any() else set())
             df = pd.concat([kept[~kept.planner.isin(again)], df], ignore_index=True)
         out.mkdir(parents=True, exist_ok=True)
-        df.to_csv(csv.with_suffix(".tmp"), index=False)
-        csv.with_suffix(".tmp").replace(csv)
+        write_text(csv, df.to_csv(index=False, lineterminator="\n"))
         figure(df, out / "figures" / "movingai_suite_gap.png")
         text = report(df, "`; `".join(dict.fromkeys(df.command)), "figures/movingai_suite_gap.png")
         write_section(out / "results.md", SECTION, text + f"\nTime of the last run: {time.perf_counter() - t0:.0f} s.\n",

@@ -4,9 +4,9 @@ section of a markdown file (BENCHMARKS.md, docs/results.md) without touching the
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from pathlib import Path
+
+from jaco.outputs import write_text
 
 INTRO = (
     "# Benchmarks\n\n"
@@ -76,11 +76,4 @@ def write_section(path: Path, tag: str, body: str, intro: str = INTRO) -> None:
         text = text[: text.index(start)] + block + text[text.index(end) + len(end) + 1 :]
     else:
         text = text.rstrip() + "\n\n" + block
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise
+    write_text(path, text)

@@ -17,7 +17,7 @@ designs, tuning, records), and :mod:`jaco.api` (``solve``), :mod:`jaco.waypoints
 from importlib import import_module
 from importlib.util import find_spec
 
-from .errors import JacoError, MapFormatError, ParamError, ProblemError
+from .errors import JacoError, MapFormatError, OutputError, ParamError, ProblemError, ResourceError
 from .grid import Grid
 
 __version__ = "0.1.0"
@@ -44,7 +44,7 @@ _LAZY = {
     "TuneResult": "research.tuning",
 }
 _SUBMODULES = {
-    "api", "apf", "cli", "engine", "exact", "maps", "metrics", "moves", "planners", "plot", "potential",
+    "api", "apf", "cli", "engine", "exact", "maps", "metrics", "moves", "outputs", "planners", "plot", "potential",
     "research", "waypoints",
 }
 #: Modules that moved into the engine, planners and research packages, by the name they had
@@ -72,7 +72,7 @@ _MOVED = {
 }
 
 __all__ = [
-    "Grid", "JacoError", "MapFormatError", "ParamError", "ProblemError", *_LAZY, *sorted(_SUBMODULES | set(_MOVED))
+    "Grid", "JacoError", "MapFormatError", "OutputError", "ParamError", "ProblemError", "ResourceError", *_LAZY, *sorted(_SUBMODULES | set(_MOVED))
 ]
 
 

@@ -31,12 +31,9 @@ def _graph(grid: Grid, connectivity: int) -> csr_matrix:
 
 
 def _check_cell(grid: Grid, cell, what: str) -> int:
-    r, c = (int(v) for v in cell)
-    if not grid.in_bounds((r, c)):
-        raise ProblemError(f"{what} {(r, c)} is outside the {grid.height}x{grid.width} map")
-    if not grid.free[r, c]:
-        raise ProblemError(f"{what} {(r, c)} is on an obstacle")
-    return grid.index((r, c))
+    if not isinstance(grid, Grid):
+        raise ProblemError(f"expected a jaco.Grid, got {type(grid).__name__}")
+    return grid.index(grid.check_cell(cell, what))
 
 
 def distance_field(grid: Grid, goal, *, connectivity: int = 8) -> np.ndarray:

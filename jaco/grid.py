@@ -31,7 +31,12 @@ class Grid:
     meta: dict = field(default_factory=dict)
 
     def __post_init__(self):
-        free = np.asarray(self.free)
+        try:
+            free = np.asarray(self.free)
+        except (TypeError, ValueError):  # ragged rows
+            raise ProblemError("a grid needs a rectangular 2-D free mask; its rows have different lengths") from None
+        if free.dtype == object:
+            raise ProblemError("a grid needs a rectangular 2-D boolean free mask (or 0/1 integers), got objects")
         if free.ndim != 2:
             raise ProblemError(f"a grid needs a 2-D free mask, got shape {free.shape}")
         if free.shape[0] < 1 or free.shape[1] < 1:
@@ -42,8 +47,14 @@ class Grid:
                     f"the free mask must be boolean (or 0/1 integers), got dtype {free.dtype}"
                 )
             free = free.astype(bool)
+        if isinstance(self.cell_size, bool) or not isinstance(self.cell_size, (int, float, np.integer, np.floating)):
+            raise ProblemError(f"cell_size must be a positive number (float), got {type(self.cell_size).__name__} {self.cell_size!r}")
         if not np.isfinite(self.cell_size) or self.cell_size <= 0:
             raise ProblemError(f"cell_size must be a positive number, got {self.cell_size}")
+        if not isinstance(self.name, str):
+            raise ProblemError(f"name must be a str, got {type(self.name).__name__} {self.name!r}")
+        if not isinstance(self.meta, dict):
+            raise ProblemError(f"meta must be a dict, got {type(self.meta).__name__}")
         free = np.ascontiguousarray(free)
         free.setflags(write=False)
         object.__setattr__(self, "free", free)
@@ -52,14 +63,27 @@ class Grid:
     @classmethod
     def from_array(cls, free, **meta) -> "Grid":
         """A grid from a boolean mask ``(H, W)``, True = free."""
-        return cls(np.asarray(free), **meta)
+        return cls(free, **meta)  # checked (and made an array) by __post_init__
 
     @classmethod
     def from_rows(cls, rows, **meta) -> "Grid":
-        """A grid from text rows: ``.`` free, ``#`` or ``@`` blocked. All rows must be equally long."""
+        """A grid from text rows: ``.`` free, ``#`` or ``@`` blocked. All rows must be equally long.
+
+        ``rows`` is a list of strings or one string of lines (``\n`` or ``\r\n`` line ends); blank
+        lines at the start and end are ignored."""
         if isinstance(rows, str):
-            rows = [r for r in rows.strip("\n").splitlines()]
-        rows = [r.rstrip("\r") for r in rows]
+            rows = rows.split("\n")
+        elif isinstance(rows, (bytes, bytearray)) or not hasattr(rows, "__iter__"):
+            raise MapFormatError(f"a text map is a str or a list of str rows, got {type(rows).__name__}")
+        rows = list(rows)
+        for i, r in enumerate(rows):
+            if not isinstance(r, str):
+                raise MapFormatError(f"a text map is a str or a list of str rows; row {i} is {type(r).__name__} {r!r}")
+        rows = [r[:-1] if r.endswith("\r") else r for r in rows]
+        while rows and not rows[-1].strip():
+            rows.pop()
+        while rows and not rows[0].strip():
+            rows.pop(0)
         if not rows:
             raise MapFormatError("a text map needs at least one row")
         width = len(rows[0])
@@ -108,6 +132,27 @@ class Grid:
         r, c = cell
         return 0 <= r < self.height and 0 <= c < self.width
 
+    def check_cell(self, cell, what: str = "cell") -> tuple[int, int]:
+        """``cell`` as a ``(row, col)`` pair of ints, or a :class:`ProblemError` saying why not: not
+        a pair of integers, outside the map, or on an obstacle."""
+        try:
+            values = list(cell)
+            if len(values) != 2 or any(isinstance(v, (str, bytes, bool, np.bool_)) for v in values):
+                raise ValueError
+            r, c = (int(v) for v in values)
+            if (r, c) != tuple(float(v) for v in values):
+                raise ValueError
+        except (TypeError, ValueError, OverflowError):
+            raise ProblemError(f"{what} must be a (row, col) pair of integers, got {cell!r}") from None
+        if not self.in_bounds((r, c)):
+            raise ProblemError(
+                f"{what} {(r, c)} is outside the {self.height}x{self.width} map "
+                f"(rows 0..{self.height - 1}, cols 0..{self.width - 1})"
+            )
+        if not self.free[r, c]:
+            raise ProblemError(f"{what} {(r, c)} is on an obstacle")
+        return r, c
+
     def is_free(self, cell) -> bool:
         return self.in_bounds(cell) and bool(self.free[cell[0], cell[1]])
 
@@ -149,7 +194,12 @@ class Grid:
         Row 0 is the top of the image, i.e. the largest y, as map_server reads the image.
         """
         res, ox, oy, yaw = self._frame()
-        rc = np.asarray(cells, dtype=float)
+        try:
+            rc = np.asarray(cells, dtype=float)
+        except (TypeError, ValueError):
+            rc = np.empty(0)
+        if rc.ndim < 1 or rc.shape[-1] != 2:
+            raise ProblemError(f"cells are (row, col) pairs of numbers, got {cells!r}")
         r, c = rc[..., 0], rc[..., 1]
         lx = (c + 0.5) * res
         ly = (self.height - 1 - r + 0.5) * res
@@ -159,12 +209,20 @@ class Grid:
     def world_to_cell(self, xy) -> np.ndarray:
         """The ``(row, col)`` cell containing world point(s) ``(x, y)``; may be out of bounds."""
         res, ox, oy, yaw = self._frame()
-        p = np.asarray(xy, dtype=float)
+        try:
+            p = np.asarray(xy, dtype=float)
+        except (TypeError, ValueError):
+            raise ProblemError(f"a world point is (x, y) in metres, got {xy!r}") from None
+        if p.ndim < 1 or p.shape[-1] != 2 or not np.isfinite(p).all():
+            raise ProblemError(f"a world point is (x, y) in metres, two finite numbers, got {xy!r}")
         dx, dy = p[..., 0] - ox, p[..., 1] - oy
         cs, sn = np.cos(yaw), np.sin(yaw)
-        lx, ly = cs * dx + sn * dy, -sn * dx + cs * dy
-        col = np.floor(lx / res).astype(int)
-        row = self.height - 1 - np.floor(ly / res).astype(int)
+        with np.errstate(over="ignore", invalid="ignore"):
+            lx, ly = cs * dx + sn * dy, -sn * dx + cs * dy
+            # far-off points stay far off (out of bounds) without overflowing the integer cast
+            limit = 4.0 * (self.height + self.width) + 4
+            col = np.floor(np.clip(np.nan_to_num(lx / res, nan=-limit), -limit, limit)).astype(int)
+            row = self.height - 1 - np.floor(np.clip(np.nan_to_num(ly / res, nan=-limit), -limit, limit)).astype(int)
         return np.stack([row, col], axis=-1)
 
     def __repr__(self) -> str:

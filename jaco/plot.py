@@ -19,6 +19,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from .errors import ParamError, ProblemError
+from .outputs import atomic_path, check_output
 
 __all__ = [
     "plot_map", "plot_paths", "plot_pheromone", "plot_convergence", "plot_sweep_heatmap", "plot_sweep_box",
@@ -39,6 +40,14 @@ def _figure_axes(ax, figsize=(6.0, 6.0)):
         return ax.figure, ax
     fig = Figure(figsize=figsize)
     return fig, fig.add_subplot()
+
+
+def _check_grid(grid):
+    from .grid import Grid
+
+    if not isinstance(grid, Grid):
+        raise ProblemError(f"expected a jaco.Grid, got {type(grid).__name__}")
+    return grid
 
 
 def _cell_axes(ax, grid, title) -> None:
@@ -69,7 +78,10 @@ def _mark_ends(ax, start, goal) -> None:
 
 
 def _as_path(path) -> np.ndarray:
-    arr = np.asarray(path if path is not None else np.zeros((0, 2)), dtype=float)
+    try:
+        arr = np.asarray(path if path is not None else np.zeros((0, 2)), dtype=float)
+    except (TypeError, ValueError):
+        raise ProblemError(f"a path must be a (K, 2) array of (row, col) cells, got {type(path).__name__}") from None
     if arr.size == 0:
         return np.zeros((0, 2))
     if arr.ndim != 2 or arr.shape[1] != 2:
@@ -97,6 +109,8 @@ def _normalise_paths(paths, labels):
         paths = [paths]
         if isinstance(labels, str):
             labels = [labels]
+    if isinstance(paths, (str, bytes)) or not hasattr(paths, "__iter__"):
+        raise ProblemError(f"paths: expected a (K, 2) path, a list of paths or a dict of them, got {type(paths).__name__}")
     paths = [_as_path(p) for p in paths]
     if labels is not None:
         labels = [str(lab) for lab in labels]
@@ -114,6 +128,7 @@ def _draw_path(ax, path, **style):
 # -- maps and paths ----------------------------------------------------------------------------
 def plot_map(grid, *, start=None, goal=None, ax=None, title=None) -> Figure:
     """The occupancy grid: obstacles dark, free cells light, start (green dot) and goal (red star)."""
+    _check_grid(grid)
     fig, ax = _figure_axes(ax)
     ax.imshow(grid.free.astype(np.uint8), cmap=_MAP_CMAP, vmin=0, vmax=1, origin="upper",
               interpolation="nearest")
@@ -153,8 +168,12 @@ def _per_cell(grid, tau) -> np.ndarray:
     Per-move values are summed over the 8 moves out of each cell; non-finite entries (some layouts
     mark impossible moves with inf or NaN) count as 0 in that sum.
     """
+    _check_grid(grid)
     H, W = grid.shape
-    t = np.asarray(tau, dtype=float)
+    try:
+        t = np.asarray(tau, dtype=float)
+    except (TypeError, ValueError):
+        raise ProblemError(f"pheromone must be an array of numbers, got {type(tau).__name__}") from None
     if t.shape == (H * W * 8,):  # the engine's flat per-move layout, from·8 + move
         t = t.reshape(H * W, 8)
     if t.shape == (H * W, 8) or t.shape == (H, W, 8):
@@ -407,16 +426,29 @@ def save_gif(animation, path, fps: int = 8) -> Path:
     """Write an animation as an animated GIF with matplotlib's Pillow writer; returns the path."""
     from matplotlib.animation import PillowWriter
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    animation.save(path, writer=PillowWriter(fps=fps))
+    path = check_output(path, "animation", suffixes=(".gif",))
+    with atomic_path(path) as tmp:
+        animation.save(tmp, writer=PillowWriter(fps=fps))
     return path
 
 
 # -- output ------------------------------------------------------------------------------------
+def figure_suffixes() -> tuple[str, ...]:
+    """The file suffixes matplotlib writes figures in (``.png``, ``.svg``, ``.pdf``, ...)."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    return tuple(sorted("." + s for s in FigureCanvasBase.get_supported_filetypes()))
+
+
+def check_figure_path(path, what: str = "figure", inputs=()) -> Path:
+    """:func:`jaco.outputs.check_output` for a figure: a suffix matplotlib can write."""
+    return check_output(path, what, suffixes=figure_suffixes(), inputs=inputs)
+
+
 def save(fig, path) -> Path:
-    """Write ``fig`` as PNG (dpi 120, tight bounding box), creating parent folders; returns the path."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120, bbox_inches="tight", format="png")
+    """Write ``fig`` in the format its suffix names (``.png`` at dpi 120, ``.svg``, ``.pdf``, ...;
+    tight bounding box), atomically, creating parent folders; returns the path."""
+    path = check_figure_path(path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=120, bbox_inches="tight", format=path.suffix[1:].lower())
     return path

@@ -146,8 +146,9 @@ def solve_waypoints(grid: Grid, start, goal, variant: Variant, waypoints, *, see
     """The body of ``jaco.solve(..., waypoints=...)`` (whose signature has the defaults): validate
     the call as a single run is validated, and every target; run the legs in one batched call;
     combine them."""
-    steplimit, values = prepare(grid, variant, seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, params=params)
     points = check_waypoints(grid, start, goal, waypoints, connectivity=connectivity)
+    steplimit, values = prepare(grid, variant, seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, params=params,
+                                runs=len(points) - 1, keep_pheromone=keep_pheromone)
     legs = run_legs(
         grid, points, variant, seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,
         connectivity=connectivity, keep_pheromone=keep_pheromone, values=values,

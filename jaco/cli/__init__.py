@@ -2,9 +2,11 @@
 
 Run ``jaco --help`` or ``jaco COMMAND --help`` for the options. Every user mistake (bad argument,
 unknown map / variant / parameter, missing file, blocked or unreachable start/goal, out-of-range
-parameter) ends as one line ``jaco: error: ...`` on stderr and exit code 2, never a traceback.
-``jaco solve`` and ``jaco demo`` exit with 4 when no ant reached the goal, after a hint of what
-usually helps (:func:`jaco.engine.result.failure_hint`).
+parameter, an output that cannot be written, a call too large for the memory budget) ends as one
+line ``jaco: error: ...`` on stderr and exit code 2, never a traceback. Anything else that escapes
+is a bug in jaco: one line ``jaco: internal error: ...`` and exit code 3 (``jaco --debug COMMAND``
+prints the traceback instead). ``jaco solve`` and ``jaco demo`` exit with 4 when no ant reached
+the goal, after a hint of what usually helps (:func:`jaco.engine.result.failure_hint`).
 
 Heavy modules (jax, matplotlib, pandas) are imported inside the command functions, so building the
 parser and printing help cost nothing beyond importing the :mod:`jaco` package itself.
@@ -22,15 +24,20 @@ from .parser import _join_negative_xy, build_parser  # noqa: E402
 
 __all__ = ["main", "build_parser"]
 
+#: Exit codes: 2 a user error (a :class:`~jaco.errors.JacoError` or a bad argument), 3 a bug.
+USER_ERROR, INTERNAL_ERROR = 2, 3
+
 
 def main(argv=None) -> int:
     """Entry point of the ``jaco`` console script; returns the exit code."""
     from ..errors import JacoError
 
+    argv = _join_negative_xy(argv)
+    debug = "--debug" in argv[: argv.index("--") if "--" in argv else None]
     try:
         parser = build_parser()
         try:
-            args = parser.parse_args(_join_negative_xy(argv))
+            args = parser.parse_args(argv)
         except SystemExit as e:  # --help / --version
             return e.code if isinstance(e.code, int) else 0
         args.started = _IMPORTED.pop() if _IMPORTED else time.perf_counter()  # later calls: from main
@@ -41,11 +48,23 @@ def main(argv=None) -> int:
         return args.func(args)
     except (UsageError, JacoError) as e:
         print(f"jaco: error: {_one_line(e)}", file=sys.stderr)
-        return 2
+        return USER_ERROR
     except OSError as e:
         text = f"{e.filename}: {e.strerror}" if e.strerror and e.filename else str(e)
         print(f"jaco: error: {_one_line(text)}", file=sys.stderr)
-        return 2
+        return USER_ERROR
     except KeyboardInterrupt:
         print("jaco: interrupted", file=sys.stderr)
         return 130
+    except Exception as e:  # a bug: one line and exit code 3, the traceback only with --debug
+        if debug:
+            import traceback
+
+            traceback.print_exc()
+        else:
+            print(
+                f"jaco: internal error: {type(e).__name__}: {_one_line(e)[:500]} (this is a bug in jaco: "
+                "please report it with the command line; 'jaco --debug ...' prints the traceback)",
+                file=sys.stderr,
+            )
+        return INTERNAL_ERROR

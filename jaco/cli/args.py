@@ -67,6 +67,14 @@ _nonneg_int = _int_at_least(0, "an integer >= 0")
 _pos_int = _int_at_least(1, "a positive integer")
 
 
+def _seed(text: str) -> int:
+    """A seed: an integer in [0, 2**32) (jax keys take 32 bits; a larger seed is not wrapped)."""
+    v = _nonneg_int(text)
+    if v >= 2**32:
+        raise argparse.ArgumentTypeError(f"expected a seed in [0, 2**32), got {text!r}")
+    return v
+
+
 def _float(name: str, text: str) -> float:
     try:
         return float(text)
@@ -119,6 +127,9 @@ def parse_axis(name: str, value: str) -> list[float]:
             raise UsageError(
                 f"--param {name}={value}: COUNT in START:STOP:COUNT must be a positive integer"
             )
+        from ..engine.run import CONFIG_BYTES, check_memory
+
+        check_memory(CONFIG_BYTES * n, f"--param {name}={value} ({n} configurations)", "use fewer values")
         return [float(x) for x in np.linspace(a, b, n)]
     if "," in value:
         return [_float(name, v) for v in value.split(",") if v.strip() != ""] or [

@@ -143,9 +143,42 @@ def _run_and_report(grid, start, goal, args, params, *, scenario=None, scen_labe
 NO_PATH = 4  # exit code of solve / demo when no ant reached the goal (2: a user mistake)
 
 
+def _map_inputs(args, grid) -> list:
+    """The files a command reads (the map, a ROS map's image, the scenario): no output may name one."""
+    out = []
+    for spec in (getattr(args, "map", None), getattr(args, "scen", None)):
+        if spec is not None and Path(spec).is_file():
+            out.append(Path(spec))
+    image = grid.meta.get("image") if grid is not None else None
+    if isinstance(image, str) and out:
+        out.append(out[0].parent / image)
+    return out
+
+
+def _check_outputs(args, grid=None, figures=(), files=()) -> None:
+    """Every output flag checked before anything runs (:func:`jaco.outputs.check_output`)."""
+    from ..outputs import check_distinct, check_output
+    from ..plot import check_figure_path
+
+    inputs = _map_inputs(args, grid)
+    named = {}
+    for flag, suffixes in files:
+        value = getattr(args, flag.lstrip("-").replace("-", "_"))
+        if value is not None:
+            named[flag] = check_output(value, flag, suffixes=suffixes, inputs=inputs)
+    for flag in figures:
+        value = getattr(args, flag.lstrip("-").replace("-", "_"))
+        if value is not None:
+            named[flag] = check_figure_path(value, flag, inputs=inputs)
+    if args.command == "sweep" and "--record" in named:  # the sweep record's JSON sidecar
+        named["--record sidecar"] = check_output(named["--record"].with_suffix(".json"), "--record sidecar", inputs=inputs)
+    check_distinct(named)
+
+
 def cmd_demo(args) -> int:
     from .. import maps
 
+    _check_outputs(args, figures=("--out",))
     grid = maps.named("demo")
     result, exact_length, exact_path = _run_and_report(grid, grid.meta["start"], grid.meta["goal"], args, {})
     out = _plot(grid, result, exact_path, exact_length, args.out)
@@ -159,6 +192,7 @@ def cmd_solve(args) -> int:
         raise UsageError(f"--path-csv writes CSV: give a file name ending in .csv, got {args.path_csv!r}")
     grid = load_map(args.map)
     start, goal, scenario, label = resolve_query(grid, args)
+    _check_outputs(args, grid, figures=("--plot",), files=(("--json", None), ("--path-csv", (".csv",)), ("--record", None)))
     result, exact_length, exact_path = _run_and_report(
         grid, start, goal, args, params, scenario=scenario, scen_label=label
     )
@@ -174,9 +208,9 @@ def cmd_solve(args) -> int:
             doc["scenario"] = {"label": label, "optimal": scenario.optimal, "bucket": scenario.bucket}
         if grid.resolution is not None:
             doc["world"] = _world_doc(grid, result)
-        path = Path(args.json)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(_dumps(_json_safe(doc)) + "\n")
+        from ..outputs import write_text
+
+        path = write_text(args.json, _dumps(_json_safe(doc)) + "\n")
         print(f"wrote {path}")
     if args.plot:
         print(f"wrote {_plot(grid, result, exact_path, exact_length, args.plot)}")
@@ -193,6 +227,7 @@ def cmd_sweep(args) -> int:
         raise UsageError(f"--record writes the table as CSV plus a .json sidecar: give a name ending in .csv, got {args.record!r}")
     grid = load_map(args.map)
     start, goal, scenario, label = resolve_query(grid, args)
+    _check_outputs(args, grid, files=(("--csv", None), ("--record", (".csv",))))
     from ..planners.registry import get_variant
     from ..research.sweeps import summarize, sweep
 
@@ -215,9 +250,9 @@ def cmd_sweep(args) -> int:
     if scenario is not None:
         print(f"scenario {label}: optimal length {scenario.optimal:.4f} (from the .scen file)")
     if args.csv:
-        path = Path(args.csv)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        table.to_csv(path, index=False)
+        from ..outputs import write_text
+
+        path = write_text(args.csv, table.to_csv(index=False, lineterminator="\n"))
         print(f"wrote {path}")
     if args.record:
         from ..research.records import save_sweep

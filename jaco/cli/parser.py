@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .args import _cell, _nonneg_int, _Parser, _pos_int, _xy
+from .args import _cell, _nonneg_int, _Parser, _pos_int, _seed, _xy
 from .commands import cmd_demo, cmd_info, cmd_maps, cmd_rerun, cmd_solve, cmd_sweep, cmd_variants
 
 DEMO_VARIANT = "mmas"  # on the demo map MMAS comes closer to the optimum than ACS (see --help)
@@ -62,6 +62,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--walk", choices=("auto", "native", "jax"), default=None,
                         help="the ant walk: auto (default: native when built), native (C++ kernel) or jax; "
                         "the same results either way (also JACO_WALK)")
+    parser.add_argument("--debug", action="store_true",
+                        help="on an internal error (exit code 3), print the traceback instead of one line")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     p = sub.add_parser(
@@ -71,7 +73,7 @@ def build_parser() -> argparse.ArgumentParser:
         "reached a 5.1% mean gap on this map, ACS 5.9%.",
     )
     _add_run_options(p, default_variant=DEMO_VARIANT, steplimit=False)
-    p.add_argument("--seed", type=_nonneg_int, default=0, metavar="S", help="random seed (default 0)")
+    p.add_argument("--seed", type=_seed, default=0, metavar="S", help="random seed (default 0)")
     p.add_argument("--out", default="demo.png", metavar="PNG", help="figure to write (default demo.png)")
     p.set_defaults(func=cmd_demo)
 
@@ -86,11 +88,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--waypoint", action="append", type=_cell, metavar="R,C",
                    help="visit this cell on the way to the goal (repeatable, visited in the order given)")
     _add_run_options(p, default_variant="mmas")
-    p.add_argument("--seed", type=_nonneg_int, default=0, metavar="S", help="random seed (default 0)")
+    p.add_argument("--seed", type=_seed, default=0, metavar="S", help="random seed (default 0)")
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="set a hyperparameter (repeatable), e.g. --param alpha=1.5 --param rho=0.2")
     p.add_argument("--json", metavar="OUT", help="write the result and its path metrics as JSON")
-    p.add_argument("--plot", metavar="PNG", help="write a PNG of the map, the ACO path and the exact path")
+    p.add_argument("--plot", metavar="FILE", help="write a figure of the map, the ACO path and the exact path "
+                   "in the format its suffix names (.png, .svg, .pdf ...)")
     p.add_argument("--path-csv", metavar="OUT",
                    help="write the path as CSV: row,col and, on a ROS map, x,y in metres (cell centres)")
     p.add_argument("--record", metavar="OUT",

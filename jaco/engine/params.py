@@ -181,9 +181,11 @@ def check_values(values: dict, allowed: tuple[str, ...], where: str) -> dict:
                 f"unknown parameter {name!r} for {where}; valid: {', '.join(sorted(allowed))}"
             )
         try:
+            if v is None or isinstance(v, (str, bytes)) or np.asarray(v).dtype.kind not in "iuf":
+                raise TypeError
             a = np.asarray(v, dtype=np.float64)
         except (TypeError, ValueError):
-            raise ParamError(f"parameter {name!r} must be a number, got {v!r}") from None
+            raise ParamError(f"parameter {name!r} must be a number (float) or a 1-D list of numbers, got {v!r}") from None
         if a.ndim > 1:
             raise ParamError(f"parameter {name!r} must be a number or a 1-D list, got shape {a.shape}")
         if np.isnan(a).any():

@@ -21,20 +21,7 @@ from ..moves import MOVES, cached_table
 
 
 def _as_cell(grid: Grid, cell, what: str) -> tuple[int, int]:
-    try:
-        r, c = (int(v) for v in cell)
-        if (r, c) != tuple(float(v) for v in cell):
-            raise ValueError
-    except (TypeError, ValueError):
-        raise ProblemError(f"{what} must be a (row, col) pair of integers, got {cell!r}") from None
-    if not grid.in_bounds((r, c)):
-        raise ProblemError(
-            f"{what} {(r, c)} is outside the {grid.height}x{grid.width} map "
-            f"(rows 0..{grid.height - 1}, cols 0..{grid.width - 1})"
-        )
-    if not grid.free[r, c]:
-        raise ProblemError(f"{what} {(r, c)} is on an obstacle")
-    return r, c
+    return grid.check_cell(cell, what)
 
 
 @jax.tree_util.register_dataclass
@@ -75,6 +62,8 @@ def make_problem(grid: Grid, start, goal, *, connectivity: int = 8) -> Problem:
 
     if not isinstance(grid, Grid):
         raise ProblemError(f"expected a jaco.Grid, got {type(grid).__name__}")
+    if isinstance(connectivity, bool) or connectivity not in (4, 8):
+        raise ProblemError(f"connectivity must be 4 or 8 (int), got {connectivity!r}")
     if grid.n_free == 0:
         raise ProblemError(f"map {grid.name!r} has no free cell")
     s = _as_cell(grid, start, "start")

@@ -13,7 +13,10 @@ built on top of it.
 
 from __future__ import annotations
 
+import math
+import os
 from collections import Counter
+from dataclasses import fields
 from typing import NamedTuple
 
 import jax
@@ -21,7 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import progress as _progress
-from ..errors import JacoError
+from ..errors import JacoError, ProblemError, ResourceError
 from . import native
 from ..grid import Grid
 from .params import Params, check_order, check_values
@@ -77,6 +80,7 @@ def make_run(variant, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromo
         raise JacoError(f"make_run takes a Variant, got {variant!r} (by name: jaco.make_run or jaco.VARIANTS[name])")
     if keep_pheromone not in (False, True, "history"):
         raise JacoError(f"keep_pheromone must be False, True or 'history', got {keep_pheromone!r}")
+    check_sizes(n_ants, n_iters, steplimit)
 
     def run(key, problem: Problem, params: Params) -> RunOutput:
         TRACES[variant.name] += 1  # Python side effect: runs once per trace, never when cached
@@ -201,10 +205,116 @@ def default_steplimit(grid: Grid) -> int:
     return int(max(1, min(4 * (grid.height + grid.width), grid.n_free)))
 
 
+INT32_MAX = 2**31 - 1
+#: Seeds are 32-bit: ``jax.random.key(seed)`` keeps only the low 32 bits, so 2**32 would silently
+#: give the run of seed 0. A larger seed is an error, never wrapped.
+SEED_LIMIT = 2**32
+
+
 def check_sizes(n_ants, n_iters, steplimit):
+    """Positive integers whose products still fit the compiled program's 32-bit indices."""
     for name, v in (("n_ants", n_ants), ("n_iters", n_iters), ("steplimit", steplimit)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-            raise JacoError(f"{name} must be a positive integer, got {v!r}")
+            raise JacoError(f"{name} must be a positive integer (int), got {type(v).__name__} {v!r}")
+        if v > INT32_MAX:
+            raise ResourceError(f"{name} = {v} is more than the compiled program's 32-bit indices hold ({INT32_MAX})")
+    if int(n_ants) * int(steplimit) > INT32_MAX:
+        raise ResourceError(
+            f"n_ants x steplimit = {int(n_ants) * int(steplimit)} ant-steps per iteration is more than the "
+            f"compiled program's 32-bit indices hold ({INT32_MAX})"
+        )
+
+
+def check_seed(seed, what: str = "seed") -> int:
+    """An integer seed in [0, 2**32) (:data:`SEED_LIMIT`), as a Python int."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+        raise JacoError(f"{what} must be an integer in [0, 2**32), got {type(seed).__name__} {seed!r}")
+    if not 0 <= seed < SEED_LIMIT:
+        raise JacoError(
+            f"{what} must be in [0, 2**32) (jax keys take 32 bits; a larger one would alias a smaller seed), got {seed}"
+        )
+    return int(seed)
+
+
+def bytes_per_run(n_cells: int, n_ants: int, n_iters: int, steplimit: int, path_len: int | None = None) -> int:
+    """First guess of the peak bytes one run (one configuration, one query) adds to a batch.
+
+    Fitted to XLA's memory analysis of compiled sweeps (one and two colonies, both walks): about
+    8 bytes per ant and step slot with the native walk (moves, cells, targets, step lengths), 14
+    with the JAX walk, which also keeps every ant's tabu bitmap (``A·N`` bytes) in XLA's memory;
+    the pheromone, weights and heuristic tables ``(N, 8)``, about 100 bytes per cell; the
+    history. ``path_len`` is the length of the construct step's candidate buffer: when it is
+    longer than one walk (two colonies spliced by crossover), the crossover tables cost about 52
+    bytes per ant and candidate slot. A 10 % margin on top. :func:`jaco.sweep` only starts from
+    this guess: the compiled program's own memory analysis decides.
+    """
+    s = steplimit
+    path_len = s if path_len is None else path_len
+    jax_walk = native.active_walk() == "jax"
+    per_slot = 52 if path_len > s else (14 if jax_walk else 8)
+    per = (n_ants * n_cells if jax_walk else 0) + per_slot * path_len * n_ants + 100 * n_cells + 32 * n_iters
+    return int(1.1 * per)
+
+
+#: Host bytes one configuration of a sweep costs before it runs: every parameter as float64 in the
+#: configuration table, its copies while the design is built, and its row of the result table.
+CONFIG_BYTES = 16 * (len(fields(Params)) + 8)
+
+
+def _parse_bytes(text: str) -> int:
+    units = {"": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}
+    t = text.strip().upper().removesuffix("IB").removesuffix("B")
+    unit = t[-1:] if t[-1:] in units else ""
+    try:
+        value = float(t[: len(t) - len(unit)]) * units[unit]
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value >= 1):
+        raise JacoError(f"JACO_MEMORY_BUDGET must be a number of bytes (e.g. 8G, 512M, 1000000), got {text!r}")
+    return int(value)
+
+
+def memory_budget() -> int:
+    """Bytes one call may plan to use: ``JACO_MEMORY_BUDGET`` (bytes, or with a K, M, G or T
+    suffix) when set, else half of the physical memory (8 GiB where that cannot be read)."""
+    text = os.environ.get("JACO_MEMORY_BUDGET")
+    if text:
+        return _parse_bytes(text)
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")) // 2
+    except (AttributeError, ValueError, OSError):  # pragma: no cover - not a POSIX system
+        return 8 << 30
+
+
+def _size(n: float) -> str:
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB"):
+        if n < 1024 or unit == "TiB":
+            return f"{n:.3g} {unit}" if unit != "B" else f"{int(n)} B"
+        n /= 1024
+    return f"{n:.3g} PiB"  # pragma: no cover
+
+
+def check_memory(need: int, what: str, hint: str) -> None:
+    """A :class:`ResourceError` naming the estimate and the budget when ``need`` bytes exceed
+    :func:`memory_budget`."""
+    budget = memory_budget()
+    if need > budget:
+        raise ResourceError(
+            f"{what} needs about {_size(need)} of memory, more than the budget of {_size(budget)} "
+            f"(half the physical memory, or JACO_MEMORY_BUDGET): {hint}"
+        )
+
+
+def check_run_memory(n_cells, n_ants, n_iters, steplimit, *, runs: int = 1, keep_pheromone=False, what="this call"):
+    """The memory estimate of ``runs`` runs held at once (:func:`bytes_per_run`, plus the
+    pheromone of every iteration with ``keep_pheromone="history"``) against the budget."""
+    need = runs * bytes_per_run(n_cells, n_ants, n_iters, steplimit)
+    if keep_pheromone == "history":
+        need += runs * n_iters * 8 * n_cells * 4
+    check_memory(
+        need, f"{what} ({runs} run(s) of {n_ants} ants x {n_iters} iterations, step limit {steplimit}, {n_cells} cells)",
+        "use fewer ants, iterations or runs, or a smaller step limit",
+    )
 
 
 def resolve_params(variant: Variant, values: dict, *, where: str) -> dict:
@@ -219,14 +329,26 @@ def params_from(values: dict, shape=()) -> Params:
     return Params(**{k: np.broadcast_to(np.float32(v), shape) for k, v in values.items()})
 
 
-def prepare(grid: Grid, variant: Variant, *, seed, n_ants, n_iters, steplimit, params: dict) -> tuple[int, dict]:
-    """Validate one call with numpy before anything compiles: the sizes, the seed and every
-    parameter (unknown names list the valid ones). Returns the step limit (the default when
-    ``steplimit`` is None) and the parameter values over the variant's defaults."""
+def check_grid(grid) -> Grid:
+    if not isinstance(grid, Grid):
+        hint = " (a map name: load it with jaco.maps.named or jaco.maps.load first)" if isinstance(grid, str) else ""
+        raise ProblemError(f"expected a jaco.Grid, got {type(grid).__name__}{hint}")
+    return grid
+
+
+def prepare(grid: Grid, variant: Variant, *, seed, n_ants, n_iters, steplimit, params: dict, runs: int = 1,
+            keep_pheromone=False) -> tuple[int, dict]:
+    """Validate one call with numpy before anything compiles: the map's type, the sizes and their
+    memory estimate (``runs`` runs at once), the seed and every parameter (unknown names list the
+    valid ones). Returns the step limit (the default when ``steplimit`` is None) and the parameter
+    values over the variant's defaults."""
+    check_grid(grid)
+    if keep_pheromone not in (False, True, "history"):
+        raise JacoError(f"keep_pheromone must be False, True or 'history', got {keep_pheromone!r}")
     steplimit = default_steplimit(grid) if steplimit is None else steplimit
     check_sizes(n_ants, n_iters, steplimit)
-    if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool):
-        raise JacoError(f"seed must be an integer, got {seed!r}")
+    check_seed(seed)
+    check_run_memory(grid.n_cells, n_ants, n_iters, steplimit, runs=runs, keep_pheromone=keep_pheromone)
     values = resolve_params(variant, params, where=f"variant {variant.name!r}")
     for k, v in values.items():
         if v.ndim:
@@ -241,7 +363,8 @@ def solve(grid: Grid, start, goal, variant: Variant, *, seed, n_ants, n_iters, s
     :func:`~jaco.engine.problem.make_problem` (map, start, goal, reachability) before anything
     compiles. ``progress`` (:mod:`jaco.progress`): a bar of iterations once the call has taken
     :data:`jaco.progress.SOLVE_DELAY` seconds."""
-    steplimit, values = prepare(grid, variant, seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, params=params)
+    steplimit, values = prepare(grid, variant, seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,
+                                params=params, keep_pheromone=keep_pheromone)
     problem = make_problem(grid, start, goal, connectivity=connectivity)
     show = _progress.enabled(progress)
     bar = _progress.Bar(show, f"solve {variant.name}", "it", delay=_progress.SOLVE_DELAY)

@@ -31,10 +31,9 @@ Modules: :mod:`.files` (bundled data, shared file checks), the formats :mod:`.mo
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from ..errors import MapFormatError
 from ..grid import Grid
+from ..outputs import as_path
 from .catalogue import DEMO_GOAL, DEMO_ROWS, DEMO_START, NAMED, demo, named
 from .files import BUNDLED, DATA_DIR, SUPPORTED_SUFFIXES, bundled, require_file
 from .generators import circle, complex_30, h_shape, random_map, s_shape, simple_20, utrap, wall
@@ -75,7 +74,9 @@ def load(
         Missing file, unsupported suffix, or a malformed file (the message names the file and,
         for text formats, the line).
     """
-    path = Path(path)
+    path = as_path(path, "map file", MapFormatError)
+    if isinstance(threshold, bool) or not isinstance(threshold, (int, float)) or not 0.0 <= threshold < 1.0:
+        raise MapFormatError(f"threshold must be a number in [0, 1), got {threshold!r}")
     suffix = path.suffix.lower()
     if suffix == ".scen":
         raise MapFormatError(f"{path.name} is a scenario file: read it with load_scenarios()")

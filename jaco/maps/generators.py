@@ -22,6 +22,9 @@ def _connected(grid: Grid, start, goal) -> bool:
     return bool(reachable(grid, start)[goal[0], goal[1]])
 
 
+MAX_CELLS = 2**28  # a generated map's limit: its boolean mask and index tables stay a few GiB
+
+
 def _hw(size_or_hw) -> tuple[int, int]:
     if isinstance(size_or_hw, (tuple, list)):
         if len(size_or_hw) != 2:
@@ -29,16 +32,21 @@ def _hw(size_or_hw) -> tuple[int, int]:
         h, w = size_or_hw
     else:
         h = w = size_or_hw
-    if int(h) != h or int(w) != w or h < 1 or w < 1:
+    if not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 1 for v in (h, w)):
         raise ProblemError(f"map size must be positive integers, got {size_or_hw!r}")
+    if int(h) * int(w) > MAX_CELLS:
+        raise ProblemError(f"map size {int(h)}x{int(w)} is more than the {MAX_CELLS} cells a generated map may have")
     return int(h), int(w)
 
 
 def _cell_arg(cell, h: int, w: int, what: str) -> tuple[int, int]:
-    r, c = (int(v) for v in cell)
-    if not (0 <= r < h and 0 <= c < w):
-        raise ProblemError(f"{what} {(r, c)} is outside the {h}x{w} map")
-    return r, c
+    return Grid(np.ones((h, w), bool)).check_cell(cell, what)
+
+
+def _seed_arg(seed) -> int:
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ProblemError(f"seed must be an integer >= 0, got {type(seed).__name__} {seed!r}")
+    return int(seed)
 
 
 def random_map(
@@ -97,7 +105,7 @@ def random_map(
         raise ProblemError(f"max_tries must be >= 1, got {max_tries!r}")
     start = _cell_arg((0, 0) if start is None else start, h, w, "start")
     goal = _cell_arg((h - 1, w - 1) if goal is None else goal, h, w, "goal")
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(_seed_arg(seed))
     n = h * w
     protected = {start[0] * w + start[1], goal[0] * w + goal[1]}
     allowed = np.ones(n, dtype=bool)
@@ -247,7 +255,7 @@ def _rect_map(h, w, n_rects, sides, seed, start, goal, name) -> Grid:
 
     Rectangles keep clear of ``start``/``goal``; a layout that disconnects them is redrawn.
     """
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(_seed_arg(seed))
     for _ in range(1000):
         free = np.ones((h, w), dtype=bool)
         placed = 0

@@ -11,6 +11,7 @@ bits (with rounding: a value 50 of ``maxval`` 100 becomes 128 of 255, brighter t
 from __future__ import annotations
 
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -28,14 +29,23 @@ def _pillow(path: Path) -> tuple[np.ndarray, str]:
     except ImportError:  # pragma: no cover - pillow is a dependency
         raise MapFormatError(f"{path.name}: reading this image format needs Pillow") from None
     try:
-        with Image.open(path) as img:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # the size is checked below
+            img = Image.open(path)
+        with img:
+            # Pillow's decompression-bomb limit (about 89 million pixels), checked before decoding
+            w, h, limit = *img.size, Image.MAX_IMAGE_PIXELS
+            if limit is not None and w * h > limit:
+                raise Image.DecompressionBombError(f"{w}x{h} = {w * h} pixels, more than PIL.Image.MAX_IMAGE_PIXELS = {limit}")
             img.load()
             if img.mode == "P":
                 img = img.convert("RGBA" if "transparency" in img.info else "RGB")
             elif img.mode == "1":
                 img = img.convert("L")
             return np.asarray(img), img.mode
-    except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as e:
+    except Image.DecompressionBombError as e:
+        raise MapFormatError(f"{path.name}: image too large for a map ({e})") from None
+    except (UnidentifiedImageError, OSError, SyntaxError, ValueError, EOFError) as e:
         raise MapFormatError(f"{path.name}: cannot read image ({e})") from None
 
 
@@ -161,8 +171,8 @@ def load_image(
     path: Path, *, threshold: float = 0.5, negate: bool = False, cell_size: float = 1.0
 ) -> Grid:
     """An image as a map: free where ``brightness / maxval > threshold`` (``negate``: darkness)."""
-    if not 0.0 <= threshold < 1.0:
-        raise MapFormatError(f"threshold must be in [0, 1), got {threshold}")
+    if isinstance(threshold, bool) or not isinstance(threshold, (int, float)) or not 0.0 <= threshold < 1.0:
+        raise MapFormatError(f"threshold must be a number in [0, 1), got {threshold!r}")
     pixels, has_alpha, maxval = read_image(path)
     level = grey(pixels, has_alpha) / maxval
     if negate:

@@ -10,6 +10,7 @@ import numpy as np
 
 from ..errors import MapFormatError
 from ..grid import Grid
+from ..outputs import as_path
 from .files import read_text, require_file
 
 # MovingAI terrain: '.' ground, 'G' ground, 'S' swamp (passable); '@'/'O' out of bounds,
@@ -126,7 +127,7 @@ def load_scenarios(path) -> list[Scenario]:
     length. Blank lines are skipped. Raises :class:`MapFormatError` with the line number on a
     malformed row, or when a start/goal lies outside the width x height it declares.
     """
-    path = Path(path)
+    path = as_path(path, "scenario file", MapFormatError)
     require_file(path, "scenario file")
     fname = path.name
     lines = [ln.rstrip("\r") for ln in read_text(path).split("\n")]

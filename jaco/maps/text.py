@@ -8,6 +8,7 @@ import numpy as np
 
 from ..errors import MapFormatError
 from ..grid import Grid
+from ..outputs import check_output, write_text
 from .files import read_text
 
 
@@ -25,9 +26,8 @@ def load_text(path: Path, *, cell_size: float = 1.0) -> Grid:
 
 def save_text(grid: Grid, path) -> Path:
     """Write ``grid`` as a text map (``.`` free, ``@`` blocked); :func:`load` reads it back."""
-    path = Path(path)
-    path.write_text("\n".join(grid.to_rows()) + "\n", encoding="utf-8")
-    return path
+    path = check_output(path, "text map", suffixes=(".txt",))
+    return write_text(path, "\n".join(grid.to_rows()) + "\n")
 
 
 def load_npy(path: Path, *, cell_size: float = 1.0) -> Grid:

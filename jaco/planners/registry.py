@@ -48,6 +48,9 @@ def get_variant(variant) -> Variant:
         base, _, cost = variant.rpartition("+")
         if base in VARIANTS and cost in COSTS:
             return with_cost(base, cost)
+    if not isinstance(variant, str):
+        several = " (several planners are a sweep axis: jaco.sweep(..., variant=[...]))" if isinstance(variant, (list, tuple)) else ""
+        raise JacoError(f"variant must be a planner name (str) or a Variant, got {type(variant).__name__} {variant!r}{several}")
     raise JacoError(
         f"unknown variant {variant!r}; registered: {', '.join(sorted(VARIANTS))} "
         "(or a composition: compose(construct=..., heuristic=..., rule=...))"

@@ -40,6 +40,7 @@ import numpy as np
 from ..engine.result import Result, gap
 from ..engine.variant import Variant
 from ..grid import Grid
+from ..outputs import as_path, atomic_path, check_output, write_text
 from .record_format import (
     CHECKED_VERSIONS,
     EMBED_ROWS_MAX,
@@ -52,6 +53,7 @@ from .record_format import (
     _uncells,
     _unnum,
     _write_json,
+    check_record,
     grid_from_entry,
     map_entry,
     map_hash,
@@ -258,9 +260,10 @@ def save_sweep(table, path, *args, **kwargs) -> Path:
     from . import sweeps
     from ..planners.registry import get_variant
 
-    path = Path(path)
+    path = check_output(path, "sweep record")
     if path.suffix.lower() != ".csv":
         raise RecordError(f"a sweep record is a .csv table plus a .json sidecar; got {path.name!r} (use a .csv name)")
+    check_output(_sidecar(path), "sweep record sidecar")
     try:
         bound = inspect.signature(sweeps.sweep).bind(*args, **kwargs)
     except TypeError as e:
@@ -311,13 +314,15 @@ def save_sweep(table, path, *args, **kwargs) -> Path:
         else:
             call[name] = _jsonable(name, value.item() if isinstance(value, np.generic) else value)
     text = _csv_text(table)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text, encoding="utf-8")
     doc = _header("sweep")
     doc["call"] = call
     doc["table"] = {"file": path.name, "rows": len(table), "columns": list(map(str, table.columns)),
                     "sha256": hashlib.sha256(text.encode()).hexdigest()}
-    return _write_json(doc, _sidecar(path))
+    # both files complete before either replaces an old one: the sidecar, then the table
+    with atomic_path(path) as table_tmp:
+        write_text(table_tmp, text)
+        sidecar = _write_json(doc, _sidecar(path), "sweep record sidecar")
+    return sidecar
 
 
 @dataclass
@@ -376,13 +381,17 @@ class SweepRecord:
 
 
 # -- loading --------------------------------------------------------------------------------
+def _one_line(e) -> str:
+    return " ".join(str(e).split())
+
+
 def load_run(path):
     """Load a record written by :meth:`jaco.Result.save` (returns a :class:`RunRecord`) or by
     :func:`save_sweep` (a :class:`SweepRecord`; the sidecar ``.json`` or its ``.csv`` table).
     ``load_run(path).rerun()`` reruns it and reports whether it matched."""
     import pandas as pd
 
-    path = Path(path)
+    path = as_path(path, "record", RecordError)
     if path.suffix.lower() == ".csv":
         path = _sidecar(path)
     if not path.is_file():
@@ -390,9 +399,12 @@ def load_run(path):
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise RecordError(f"{path.name}: not a JSON record ({e})") from None
+        raise RecordError(f"{path.name}: not a JSON record ({_one_line(e)})") from None
+    except RecursionError:
+        raise RecordError(f"{path.name}: not a jaco record (JSON nested too deeply)") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise RecordError(f"{path.name}: not a jaco record (no \"format\": \"{FORMAT}\")")
+    check_record(doc, path.name)
     if doc.get("format_version", 0) > FORMAT_VERSION:
         raise RecordError(
             f"{path.name}: record format version {doc.get('format_version')} is newer than this "

@@ -38,7 +38,10 @@ from ..engine import native
 from ..engine.params import ORDERED, check_values
 from ..engine.problem import make_problem, stack
 from ..engine.variant import Variant
-from ..engine.run import cached, check_sizes, default_steplimit, is_cached, make_run, params_from, resolve_params
+from ..engine.run import (
+    CONFIG_BYTES, SEED_LIMIT, bytes_per_run, cached, check_memory, check_run_memory, check_sizes, default_steplimit, is_cached,
+    make_run, params_from, resolve_params,
+)
 from ..errors import JacoError, ParamError
 from ..grid import Grid
 from ..planners.registry import get_variant
@@ -52,40 +55,34 @@ def _queries(grid, start, goal):
     """Normalise (grid | [grids], pair | [pairs], pair | [pairs]) to a list of triples."""
 
     def is_pair(x):
-        return np.ndim(x) == 1 and len(x) == 2
+        try:
+            return np.ndim(x) == 1 and len(x) == 2
+        except (TypeError, ValueError):  # ragged nesting
+            return False
 
-    grids = [grid] if isinstance(grid, Grid) else list(grid)
-    starts = [start] if is_pair(start) else list(start)
-    goals = [goal] if is_pair(goal) else list(goal)
+    def as_list(x, what):
+        try:
+            xs = [] if isinstance(x, (str, bytes)) else list(x)
+        except TypeError:
+            xs = []
+        if not xs:
+            raise JacoError(f"{what} must be a (row, col) pair or a non-empty list of pairs, got {x!r}")
+        return xs
+
+    grids = [grid] if isinstance(grid, Grid) else list(grid) if isinstance(grid, (list, tuple)) else []
+    if not grids or not all(isinstance(g, Grid) for g in grids):
+        raise JacoError(f"grid must be a jaco.Grid or a non-empty list of Grids of one shape, got {type(grid).__name__}")
+    starts = [start] if is_pair(start) else as_list(start, "start")
+    goals = [goal] if is_pair(goal) else as_list(goal, "goal")
     n = max(len(grids), len(starts), len(goals))
     for name, xs in (("grids", grids), ("starts", starts), ("goals", goals)):
         if len(xs) not in (1, n):
             raise JacoError(f"{name}: got {len(xs)}, expected 1 or {n} (one per query)")
     pick = lambda xs, i: xs[0] if len(xs) == 1 else xs[i]  # noqa: E731
-    return [(pick(grids, i), tuple(pick(starts, i)), tuple(pick(goals, i))) for i in range(n)]
+    return [(pick(grids, i), pick(starts, i), pick(goals, i)) for i in range(n)]
 
 
 # -- memory ---------------------------------------------------------------------------------
-def bytes_per_run(n_cells: int, n_ants: int, n_iters: int, steplimit: int, path_len: int | None = None) -> int:
-    """First guess of the peak bytes one run (one configuration, one query) adds to a batch.
-
-    Fitted to XLA's memory analysis of compiled sweeps (one and two colonies, both walks): about
-    8 bytes per ant and step slot with the native walk (moves, cells, targets, step lengths), 14
-    with the JAX walk, which also keeps every ant's tabu bitmap (``A·N`` bytes) in XLA's memory;
-    the pheromone, weights and heuristic tables ``(N, 8)``, about 100 bytes per cell; the
-    history. ``path_len`` is the length of the construct step's candidate buffer: when it is
-    longer than one walk (two colonies spliced by crossover), the crossover tables cost about 52
-    bytes per ant and candidate slot. A 10 % margin on top. :func:`sweep` only starts from this
-    guess: the compiled program's own memory analysis decides.
-    """
-    s = steplimit
-    path_len = s if path_len is None else path_len
-    jax_walk = native.active_walk() == "jax"
-    per_slot = 52 if path_len > s else (14 if jax_walk else 8)
-    per = (n_ants * n_cells if jax_walk else 0) + per_slot * path_len * n_ants + 100 * n_cells + 32 * n_iters
-    return int(1.1 * per)
-
-
 def _footprint(compiled) -> int | None:
     """Per-device bytes of a compiled program: arguments + outputs + XLA temporaries."""
     try:
@@ -262,6 +259,9 @@ def _config_table(variant, params) -> tuple[dict, list[str]]:
     where = f"variant {variant.name!r}"
     if isinstance(params, dict):
         check_values(params, variant.params, where)  # the variant's own names in the message
+        n = math.prod(np.size(v) for v in params.values())
+        check_memory(n * CONFIG_BYTES, f"a grid of {n} configurations",
+                     "use fewer values per axis, or a random or Latin hypercube design")
     design = as_design(params)
     unknown = [k for k in design.names if k not in variant.params]
     if unknown:
@@ -282,11 +282,14 @@ def _config_table(variant, params) -> tuple[dict, list[str]]:
 
 def _seeds(seeds) -> np.ndarray:
     if isinstance(seeds, (int, np.integer)) and not isinstance(seeds, bool):
+        check_memory(64 * int(seeds), f"{seeds} seeds", "use fewer seeds")
         seeds = range(seeds)
+    elif isinstance(seeds, (str, bytes)) or not hasattr(seeds, "__iter__"):
+        raise JacoError(f"seeds must be a count or a list of integers in [0, 2**32), got {type(seeds).__name__} {seeds!r}")
     out = []
     for s in seeds:
-        if isinstance(s, bool) or not isinstance(s, (int, np.integer)) or not 0 <= s < 2**32:
-            raise JacoError(f"seeds must be integers in [0, 2**32), got {s!r}")
+        if isinstance(s, bool) or not isinstance(s, (int, np.integer)) or not 0 <= s < SEED_LIMIT:
+            raise JacoError(f"seeds must be integers in [0, 2**32), got {type(s).__name__} {s!r}")
         out.append(int(s))
     if not out:
         raise JacoError("seeds: need at least one seed")
@@ -316,12 +319,18 @@ def _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit
         raise JacoError(f"all maps of a sweep must have one shape, got {sorted(shapes)}")
     steplimit = default_steplimit(queries[0][0]) if steplimit is None else steplimit
     check_sizes(n_ants, n_iters, steplimit)
+    # one configuration of every query must fit: the chunks are cut under memory_budget from there
+    check_run_memory(queries[0][0].n_cells, n_ants, n_iters, steplimit, runs=len(queries), what="a sweep chunk")
     seed_list = _seeds(seeds)
     if isinstance(memory_budget, bool) or not isinstance(memory_budget, (int, np.integer)) or memory_budget < 1:
         raise JacoError(f"memory_budget must be a positive number of bytes, got {memory_budget!r}")
     values, _ = _config_table(variant, params)
+    n_rows = len(next(iter(values.values()))) * len(seed_list) * len(queries)
+    check_memory(n_rows * 8 * (2 * len(values) + 16), f"a table of {n_rows} runs",
+                 "use fewer configurations, seeds or queries (or several sweeps)")
     devs = _devices(devices)
     problems = [make_problem(g, s, t, connectivity=connectivity) for g, s, t in queries]
+    queries = [(g, tuple(s), tuple(t)) for g, s, t in queries]  # valid cells now
 
     n_cfg = len(next(iter(values.values())))
     config = np.repeat(np.arange(n_cfg), len(seed_list))  # configuration-major, seeds inner
@@ -499,6 +508,8 @@ def summarize(table: pd.DataFrame, by=None) -> pd.DataFrame:
     A failure is never averaged in as ``inf``: rank configurations by ``success_rate`` first,
     e.g. ``summary.sort_values(["success_rate", "gap_mean"], ascending=[False, True])``.
     """
+    if not isinstance(table, pd.DataFrame):
+        raise JacoError(f"summarize takes the DataFrame of jaco.sweep, got {type(table).__name__}")
     by = [c for c in table.columns if c not in RESULT_COLUMNS] if by is None else list(by)
     missing = [c for c in by if c not in table.columns]
     if missing:

@@ -31,6 +31,7 @@ seed noise), and the whole loop of ``steps`` steps is one jitted ``lax.scan``.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import jax
@@ -42,7 +43,10 @@ import pandas as pd
 from .. import progress as _progress
 from ..engine.params import ORDERED, SPECS, Params, param_names
 from ..engine.problem import make_problem
-from ..engine.run import cached, check_sizes, default_steplimit, make_run, params_from, resolve_params
+from ..engine.run import (
+    cached, check_grid, check_run_memory, check_seed, check_sizes, default_steplimit, make_run, params_from,
+    resolve_params,
+)
 from ..engine.variant import Variant
 from ..errors import JacoError, ParamError
 from ..grid import Grid
@@ -275,18 +279,21 @@ def tune(
     """
     variant = get_variant(variant)
     names = _names(variant, tune)
-    problem = make_problem(grid, start, goal, connectivity=connectivity)
+    check_grid(grid)
     steplimit = default_steplimit(grid) if steplimit is None else steplimit
     check_sizes(n_ants, n_iters, steplimit)
     steps = _positive_int("steps", steps)
     population = _positive_int("population", population, even=True)
     n_seeds = _positive_int("n_seeds", n_seeds)
+    check_run_memory(grid.n_cells, n_ants, n_iters + steps, steplimit, runs=population * n_seeds, what="a tuning step")
+    problem = make_problem(grid, start, goal, connectivity=connectivity)
     sigma = _positive_float("sigma", sigma)
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
-        raise JacoError(f"seed must be an integer, got {seed!r}")
+    check_seed(seed)
     optimizer = DEFAULT_OPTIMIZER if optimizer is None else optimizer
     if not (callable(getattr(optimizer, "init", None)) and callable(getattr(optimizer, "update", None))):
         raise JacoError(f"optimizer must be an optax GradientTransformation, got {type(optimizer).__name__}")
+    if init is not None and not isinstance(init, Mapping):
+        raise ParamError(f"init must be a mapping of parameter names to values, got {type(init).__name__} {init!r}")
     values = resolve_params(variant, dict(init or {}), where=f"variant {variant.name!r}")
     for k, v in values.items():
         if v.ndim:
