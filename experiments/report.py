@@ -4,6 +4,7 @@ section of a markdown file (BENCHMARKS.md, docs/results.md) without touching the
 from __future__ import annotations
 
 import math
+import tempfile
 from pathlib import Path
 
 from jaco.outputs import write_text
