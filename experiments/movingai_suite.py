@@ -75,7 +75,8 @@ def parse_args(argv=None):
     ap.add_argument("--scenarios", type=int, default=None, help="scenarios per map")
     ap.add_argument("--seeds", type=int, default=None, help="seeds per scenario")
     ap.add_argument("--update", action="store_true",
-                    help="keep the rows of the planners not run now from the existing CSV in --out (run the suite in parts)")
+                    help="keep the rows of the (map, planner) pairs not run now from the existing CSV in --out "
+                    "(run the suite in parts)")
     ap.add_argument("--skip", nargs="*", default=(), help="registered planners to leave out")
     ap.add_argument("--no-select", action="store_true", help="leave out the planner selected on other maps")
     args = ap.parse_args(argv)
@@ -271,9 +272,11 @@ def main(argv=None):
     def write(rows):
         df = pd.DataFrame(rows).assign(command=command)
         if kept is not None:  # the other planners' rows of an earlier run
-            again = set(df.planner) | ({p for p in kept.planner if p.startswith("selected")}
-                                       if df.planner.str.startswith("selected").any() else set())
-            df = pd.concat([kept[~kept.planner.isin(again)], df], ignore_index=True)
+            # a (map, planner) run again replaces its old rows; a new selection replaces the old one's
+            again = set(zip(df["map"], df.planner))
+            redo = kept.apply(lambda r: (r["map"], r.planner) in again or (
+                r.planner.startswith("selected") and df.planner.str.startswith("selected").any()), axis=1)
+            df = pd.concat([kept[~redo.astype(bool)], df], ignore_index=True)
         out.mkdir(parents=True, exist_ok=True)
         write_text(csv, df.to_csv(index=False, lineterminator="\n"))
         figure(df, out / "figures" / "movingai_suite_gap.png")
