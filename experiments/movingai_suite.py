@@ -34,7 +34,7 @@ from jaco.outputs import atomic_path
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
-from report import output_dir, table, write_section, write_text  # noqa: E402 (the experiments' shared helpers)
+from report import fixed as decimals, output_dir, table, write_section, write_text  # noqa: E402 (the experiments' shared helpers)
 
 SECTION = "movingai_suite"
 
@@ -77,6 +77,9 @@ def parse_args(argv=None):
     ap.add_argument("--update", action="store_true",
                     help="keep the rows of the (map, planner) pairs not run now from the existing CSV in --out "
                     "(run the suite in parts)")
+    ap.add_argument("--steplimit-scale", type=float, default=None, metavar="S",
+                    help="run only the fixed budget, with S times the default step limit (at most the free cells), "
+                    "reported as a budget of its own")
     ap.add_argument("--skip", nargs="*", default=(), help="registered planners to leave out")
     ap.add_argument("--no-select", action="store_true", help="leave out the planner selected on other maps")
     args = ap.parse_args(argv)
@@ -156,13 +159,18 @@ def run_suite(cfg, args, checkpoint=lambda rows: None):
         grid = jaco.maps.load(jaco.maps.bundled(m))
         scen = scenarios(jaco, m, k)
         starts, goals = [s.start for s in scen], [s.goal for s in scen]
-        for budget, (ants, iters) in (("fixed", cfg["budget"]), ("larger", cfg["larger"])):
+        budgets = (("fixed", cfg["budget"]), ("larger", cfg["larger"]))
+        steplimit = None  # the default: 4·(H + W), at most the free cells
+        if args.steplimit_scale:
+            budgets = ((f"fixed, {args.steplimit_scale:g}× step limit", cfg["budget"]),)
+            steplimit = int(min(grid.free.sum(), round(args.steplimit_scale * 4 * (grid.height + grid.width))))
+        for budget, (ants, iters) in budgets:
             for label, v, fixed in plist:
                 if budget == "larger" and label not in larger_set(args, rows, m, cfg):
                     continue
                 t0 = time.perf_counter()
                 tab = jaco.sweep(grid, starts, goals, v, params={k: [x] for k, x in fixed.items()}, seeds=n_seeds,
-                                 n_ants=ants, n_iters=iters)
+                                 n_ants=ants, n_iters=iters, steplimit=steplimit)
                 seconds = time.perf_counter() - t0
                 per_query = seconds / (len(scen) * n_seeds)
                 for (_, r) in tab.iterrows():
@@ -172,7 +180,7 @@ def run_suite(cfg, args, checkpoint=lambda rows: None):
                                      optimal=scen[q].optimal, seed=int(r["seed"]), success=bool(r["success"]),
                                      length=float(r["length"]), gap=float(r["gap"]), seconds_per_query=per_query))
                 ok = np.mean([x["success"] for x in rows[-len(tab):]])
-                print(f"{m:28s} {budget:6s} {label:40s} success {ok:4.0%}  {per_query:6.2f} s/query", flush=True)
+                print(f"{m:28s} {budget:6s} {label:45s} success {ok:4.0%}  {per_query:6.2f} s/query", flush=True)
         checkpoint(rows)
     return rows
 
@@ -197,7 +205,7 @@ def quartiles(g):
     # An infinite gap (a failed run) sorts last; a quartile that falls next to one is ∞.
     top = g[np.isfinite(g)].max()
     q1, q2, q3 = (np.inf if x > top else x for x in np.percentile(np.minimum(g, 2 * top + 1), [25, 50, 75]))
-    f = lambda x: "∞" if not math.isfinite(x) else f"{100 * x:.1f}"  # noqa: E731
+    f = lambda x: "∞" if not math.isfinite(x) else decimals(100 * x, 1)  # noqa: E731
     return f"{f(q2)} [{f(q1)}, {f(q3)}]"
 
 
@@ -210,12 +218,12 @@ def report(df, command: str, fig_rel: str) -> str:
         "Cells: median gap in % [quartiles]; success = share of runs (scenarios × seeds) that found a path.",
         "",
     ]
-    for budget in ("fixed", "larger"):
+    for budget in sorted(set(df.budget), key=lambda b: (b != "fixed", b == "larger", b)):
         part = df[df.budget == budget]
-        if part.empty:
-            continue
         ants, iters = int(part.ants.iloc[0]), int(part.iters.iloc[0])
-        lines += [f"### {budget.capitalize()} budget: {ants} ants × {iters} iterations", ""]
+        name, _, steps = budget.partition(", ")
+        steps = f"; {steps} (at most the free cells)" if steps else ""
+        lines += [f"### {name.capitalize()} budget: {ants} ants × {iters} iterations{steps}", ""]
         maps = list(dict.fromkeys(part["map"]))
         plist = list(dict.fromkeys(part.planner))
         head = ["planner"] + [f"{m} ({part[part['map'] == m]['size'].iloc[0]})" for m in maps]
@@ -273,8 +281,8 @@ def main(argv=None):
         df = pd.DataFrame(rows).assign(command=command)
         if kept is not None:  # the other planners' rows of an earlier run
             # a (map, planner) run again replaces its old rows; a new selection replaces the old one's
-            again = set(zip(df["map"], df.planner))
-            redo = kept.apply(lambda r: (r["map"], r.planner) in again or (
+            again = set(zip(df["map"], df.planner, df.budget))
+            redo = kept.apply(lambda r: (r["map"], r.planner, r.budget) in again or (
                 r.planner.startswith("selected") and df.planner.str.startswith("selected").any()), axis=1)
             df = pd.concat([kept[~redo.astype(bool)], df], ignore_index=True)
         out.mkdir(parents=True, exist_ok=True)
