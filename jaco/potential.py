@@ -210,7 +210,7 @@ def _span(m: _Map, p, u, k):
     pm_, pn_ = jnp.where(swap, p[0], p[1]), jnp.where(swap, p[1], p[0])
     dm_, dn_ = jnp.where(swap, d[0], d[1]), jnp.where(swap, d[1], d[0])
     size = jnp.where(swap, m.h, m.w)
-    sm = jnp.sign(dm_)
+    sm = jnp.where(dm_ < 0, -1, 1)  # never 0: a masked-off walker (u = 0) must leave the map too
     across = jnp.arange(-3, 4, dtype=jnp.int32)
 
     def more(s):
@@ -221,7 +221,7 @@ def _span(m: _Map, p, u, k):
     def body(s):
         j, lo, hi = s
         a = pm_ + sm * j
-        b = pn_ + jnp.floor_divide(jnp.maximum(j, 0) * dn_, jnp.abs(dm_)) + across
+        b = pn_ + jnp.floor_divide(jnp.maximum(j, 0) * dn_, jnp.maximum(jnp.abs(dm_), 1)) + across
         r, c = jnp.where(swap, a, b), jnp.where(swap, b, a)
         inside = (r >= 0) & (r < m.h) & (c >= 0) & (c < m.w)
         ok = inside & (m.lab[jnp.where(inside, r * m.w + c, 0)] == k)
