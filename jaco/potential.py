@@ -101,12 +101,22 @@ class _Map(NamedTuple):
     rc: jax.Array  # (N, 2) int32 (row, col)
     free: jax.Array  # (N,) bool
     lab: jax.Array  # (N,) obstacle component (smallest flat index in it), −1 on free cells
-    nb_lab: jax.Array  # (N, 8) component of each 8-neighbour, −1 for free or off-map
+    edge: jax.Array  # (N,) the component's outline cells (blocked, a free or off-map 8-neighbour), by component
+    edge_key: jax.Array  # (N,) their components, sorted (N past the outline)
+    beside: jax.Array  # (8N,) free cells 8-adjacent to a component, by component (repeats allowed)
+    beside_key: jax.Array  # (8N,) that component, sorted (N past the end)
+
+
+def _sorted_by(key, values, n):
+    """``values`` ordered by ``key`` (stable), and the sorted keys; ``key == n`` marks unused."""
+    order = jnp.argsort(key, stable=True)
+    return values[order], key[order]
 
 
 def _map(problem) -> _Map:
     """Obstacle components (8-connected blocked cells) by min-label propagation with pointer
-    jumping, and each cell's neighbours' components."""
+    jumping; each component's outline cells and the free cells beside it, sorted by component
+    so that eq. (4) reads one component's cells, not the whole map."""
     w, h = _dims(problem)
     n = problem.nbr.shape[0]
     rc = problem.xy.astype(jnp.int32)
@@ -128,37 +138,129 @@ def _map(problem) -> _Map:
     lab, _ = jax.lax.while_loop(lambda s: s[1], body, (jnp.where(free, big, idx), jnp.bool_(True)))
     lab = jnp.where(free, -1, lab)
     nb_lab = jnp.where(inb, lab[nb], -1)
-    return _Map(w, h, rc, free, lab, nb_lab)
+    outline = ~free & jnp.any(~inb | free[nb], axis=1)
+    edge, edge_key = _sorted_by(jnp.where(outline, lab, big), idx, n)
+    pair = free[:, None] & (nb_lab >= 0)
+    beside, beside_key = _sorted_by(jnp.where(pair, nb_lab, big).ravel(), jnp.repeat(idx, 8), n)
+    return _Map(w, h, rc, free, lab, edge, edge_key, beside, beside_key)
 
 
 _CORNERS_J = np.array([(-1, -1), (-1, 1), (1, -1), (1, 1)], np.int32)
+#: Cells per step of eq. (4)'s loops over one component's cells.
+_CHUNK = 64
 
 
-def _pick_j(m: _Map, pi, p, t, o):
-    """Eq. (4) in JAX (see :meth:`jaco.apf._Ref.pick`): ``(cell (2,), found)``."""
-    k = m.lab[o]
-    u = t - p
-    v = 2 * (m.rc - p[None, :])
-    # Rotated frame: x = u·v, y = u×v, exact integers (held exactly in float32); a corner's
-    # coordinates are the centre's plus one of four per-walker offsets.
-    x = (v[:, 0] * u[0] + v[:, 1] * u[1]).astype(jnp.float32)
-    y = (u[0] * v[:, 1] - u[1] * v[:, 0]).astype(jnp.float32)
+def _frame(p, u, cells_rc):
+    """Cell centres in the frame of the line p→t: ``x = u·v``, ``y = u×v`` with v the doubled
+    offset from p of ``cells_rc (C, 2)`` (exact integers, held exactly in float32)."""
+    v = 2 * (cells_rc - p[None, :])
+    x = (v[..., 0] * u[0] + v[..., 1] * u[1]).astype(jnp.float32)
+    y = (u[0] * v[..., 1] - u[1] * v[..., 0]).astype(jnp.float32)
+    return x, y
+
+
+def _corner_angles(p, u, cells_rc):
+    """Pseudo-angles ``(C, 4)`` of the four corners of each cell's square seen from p."""
+    x, y = _frame(p, u, cells_rc)
     cr = jnp.asarray(_CORNERS_J)
     dx = (cr[:, 0] * u[0] + cr[:, 1] * u[1]).astype(jnp.float32)
     dy = (u[0] * cr[:, 1] - u[1] * cr[:, 0]).astype(jnp.float32)
-    ca = _dia_j(x[:, None] + dx[None, :], y[:, None] + dy[None, :])  # (N, 4)
-    in_k = (m.lab == k)[:, None]
-    hi = jnp.max(jnp.where(in_k, ca, -jnp.inf))
-    lo = jnp.min(jnp.where(in_k, ca, jnp.inf))
-    phi = _dia_j(x, y)
-    idx = jnp.arange(m.rc.shape[0], dtype=jnp.int32)
+    return _dia_j(x[:, None] + dx[None, :], y[:, None] + dy[None, :])
+
+
+def _chunks(keys, k, fold, init):
+    """Fold ``fold(state, ids (C,), ok (C,))`` over the positions of key k in the sorted
+    ``keys``, _CHUNK at a time."""
+    lo = jnp.searchsorted(keys, k, side="left").astype(jnp.int32)
+    hi = jnp.searchsorted(keys, k, side="right").astype(jnp.int32)
+    step = jnp.arange(_CHUNK, dtype=jnp.int32)
+
+    def body(s):
+        j, state = s
+        ids = j + step
+        return j + _CHUNK, fold(state, jnp.minimum(ids, keys.shape[0] - 1), ids < hi)
+
+    return jax.lax.while_loop(lambda s: s[0] < hi, body, (lo, init))[1]
+
+
+def _span(m: _Map, p, u, k):
+    """``(lo, hi)``: the least and greatest pseudo-angle of the corners of component k seen from
+    p (relative to u), exactly as over all its cells, reading only its outline and the cells of
+    it near the ray behind p.
+
+    A corner whose four cells all lie in k is the centre of a 2×2 block of k's squares; p lies
+    outside the block, so unless the block meets the ray from p away from t (where the
+    pseudo-angle jumps from 2 to −2) some corner of the block lies strictly further round on
+    either side, and the extremes are reached on the outline. Cells whose centres are within
+    1.5 (max-norm) of that ray hold every corner of such a block; they are visited along the
+    ray, at most H + W steps."""
+
+    def fold(s, ids, ok):
+        lo, hi = s
+        ca = _corner_angles(p, u, m.rc[m.edge[ids]])
+        return (jnp.minimum(lo, jnp.min(jnp.where(ok[:, None], ca, jnp.inf))),
+                jnp.maximum(hi, jnp.max(jnp.where(ok[:, None], ca, -jnp.inf))))
+
+    lo, hi = _chunks(m.edge_key, k, fold, (jnp.float32(jnp.inf), jnp.float32(-jnp.inf)))
+
+    # The band along the ray p − s·u (s ≥ 0): step along its major axis; at each step the cells
+    # within 3 of the ray across it (max-norm 1.5 plus 1.5 of slope ≤ 1).
+    d = -u
+    swap = jnp.abs(d[0]) > jnp.abs(d[1])
+    pm_, pn_ = jnp.where(swap, p[0], p[1]), jnp.where(swap, p[1], p[0])
+    dm_, dn_ = jnp.where(swap, d[0], d[1]), jnp.where(swap, d[1], d[0])
+    size = jnp.where(swap, m.h, m.w)
+    sm = jnp.where(dm_ < 0, -1, 1)  # never 0: a masked-off walker (u = 0) must leave the map too
+    across = jnp.arange(-3, 4, dtype=jnp.int32)
+
+    def more(s):
+        j = s[0]
+        a = pm_ + sm * j
+        return (j < 0) | ((a >= 0) & (a < size))
+
+    def body(s):
+        j, lo, hi = s
+        a = pm_ + sm * j
+        b = pn_ + jnp.floor_divide(jnp.maximum(j, 0) * dn_, jnp.maximum(jnp.abs(dm_), 1)) + across
+        r, c = jnp.where(swap, a, b), jnp.where(swap, b, a)
+        inside = (r >= 0) & (r < m.h) & (c >= 0) & (c < m.w)
+        ok = inside & (m.lab[jnp.where(inside, r * m.w + c, 0)] == k)
+        ca = _corner_angles(p, u, jnp.stack([r, c], axis=-1))
+        lo = jnp.minimum(lo, jnp.min(jnp.where(ok[:, None], ca, jnp.inf)))
+        hi = jnp.maximum(hi, jnp.max(jnp.where(ok[:, None], ca, -jnp.inf)))
+        return j + 1, lo, hi
+
+    _, lo, hi = jax.lax.while_loop(more, body, (jnp.int32(-2), lo, hi))
+    return lo, hi
+
+
+def _pick_j(m: _Map, pi, p, t, o):
+    """Eq. (4) in JAX (see :meth:`jaco.apf._Ref.pick`): ``(cell (2,), found)``. Reads the cells
+    of the obstacle's component only (:func:`_span`) and the free cells beside it."""
+    k = m.lab[o]
+    u = t - p
+    lo, hi = _span(m, p, u, k)
     ti = t[0] * m.w + t[1]
-    cand = m.free & jnp.any(m.nb_lab == k, axis=1) & ((phi > hi) | (phi < lo)) & (idx != pi) & (idx != ti)
-    dev = jnp.where(cand, jnp.abs(phi), jnp.inf)
-    tie = cand & (dev == jnp.min(dev))
-    near = jnp.sum((m.rc - p[None, :]) ** 2, axis=1)
-    best = jnp.argmin(jnp.where(tie, near, jnp.iinfo(jnp.int32).max))
-    return m.rc[best], jnp.any(cand)
+    imax = jnp.iinfo(jnp.int32).max
+
+    def fold(best, ids, ok):
+        cells = m.beside[ids]
+        x, y = _frame(p, u, m.rc[cells])
+        phi = _dia_j(x, y)
+        cand = ok & ((phi > hi) | (phi < lo)) & (cells != pi) & (cells != ti)
+        dev = jnp.where(cand, jnp.abs(phi), jnp.inf)
+        near = jnp.where(cand, jnp.sum((m.rc[cells] - p[None, :]) ** 2, axis=1), imax)
+        # the least (dev, near, index), as the brute force's argmin over all cells
+        key = (dev, near, jnp.where(cand, cells, imax))
+        d0 = jnp.min(key[0])
+        n0 = jnp.min(jnp.where(key[0] == d0, key[1], imax))
+        i0 = jnp.min(jnp.where((key[0] == d0) & (key[1] == n0), key[2], imax))
+        better = (d0 < best[0]) | ((d0 == best[0]) & ((n0 < best[1]) | ((n0 == best[1]) & (i0 < best[2]))))
+        return tuple(jnp.where(better, new, old) for new, old in zip((d0, n0, i0), best))
+
+    _, _, best = _chunks(m.beside_key, k, fold, (jnp.float32(jnp.inf), imax, imax))
+    found = best < imax
+    return m.rc[jnp.where(found, best, 0)], found
 
 
 def _apf_next_cell(problem, m: _Map, i):
@@ -197,35 +299,73 @@ def _apf_next_cell(problem, m: _Map, i):
     return jnp.where(i == problem.goal, i, jnp.where(live, nxt, -1))
 
 
-#: Walkers per vmapped batch of :func:`apf_next` (each holds a few ``(N, 8)`` temporaries, and
-#: a batch runs as many levels as its slowest walker needs).
+#: Walkers per vmapped batch of :func:`apf_next` (each holds a few ``(_CHUNK, 4)`` temporaries,
+#: and a batch runs as many loop steps as its slowest walker needs).
 _WALKERS = 256
-_WALKER_CELLS = 1 << 24
 
 
 def apf_next(problem) -> jax.Array:
-    """``next (N,)`` of the improved APF for every cell (one walker per cell, vmapped in
-    batches): the cell it moves to, −1 where it is stuck or blocked, the goal at the goal."""
+    """``next (N,)`` of the improved APF for every cell (one walker per free cell, vmapped in
+    batches of free cells only): the cell it moves to, −1 where it is stuck or blocked, the goal
+    at the goal."""
     m = _map(problem)
     n = problem.nbr.shape[0]
-    cells = jnp.arange(n, dtype=jnp.int32)
-    batch = max(1, min(n, _WALKERS, _WALKER_CELLS // max(n, 1)))
-    return jax.lax.map(lambda i: _apf_next_cell(problem, m, i), cells, batch_size=batch)
+    batch = min(n, _WALKERS)
+    order = jnp.argsort(~m.free, stable=True).astype(jnp.int32)  # the free cells first
+    n_free = jnp.sum(m.free, dtype=jnp.int32)
+    lanes = jnp.arange(batch, dtype=jnp.int32)
+
+    def one_batch(b, out):
+        ids = b * batch + lanes
+        cells = order[jnp.minimum(ids, n - 1)]
+        nxt = jax.vmap(lambda i: _apf_next_cell(problem, m, i))(cells)
+        return out.at[jnp.where(ids < n_free, cells, n)].set(nxt, mode="drop")
+
+    return jax.lax.fori_loop(0, (n_free + batch - 1) // batch, one_batch, jnp.full((n,), -1, jnp.int32))
 
 
 def obstacle_distance(problem) -> jax.Array:
     """Distance ``(N,)`` from each cell centre to the nearest blocked cell centre, the map's
-    outside **not** counting (inf on a map without obstacles): brute force over the blocked
-    cells, in batches of cells (``problem.clearance`` counts the outside, which would make every
-    goal on the border a local maximum of the repulsion)."""
+    outside **not** counting (inf on a map without obstacles; ``problem.clearance`` counts the
+    outside, which would make every goal on the border a local maximum of the repulsion).
+
+    An exact Euclidean distance transform in two separable passes:
+    the distance ``g`` to the nearest blocked cell of the same column (prefix max/min of blocked
+    rows by pointer doubling, ⌈log2 N⌉ rounds), then ``d² = min_δ g(col + δ)² + δ²`` along the
+    row, for δ = 0, 1, … only while δ² is below the largest d² found so far. O(N · (log N + the
+    largest distance)) instead of every cell against every blocked cell; the squared distances
+    are the same integers, so the result is the brute force's bit for bit."""
     blocked = problem.clearance <= 0
+    w, h = _dims(problem)
     n = problem.nbr.shape[0]
+    rc = problem.xy.astype(jnp.int32)
+    row, col = rc[:, 0], rc[:, 1]
+    idx = jnp.arange(n, dtype=jnp.int32)
+    big = jnp.int32(2**30)
+    up = jnp.where(blocked, row, -big)  # row of the nearest blocked cell at or above, same column
+    down = jnp.where(blocked, row, big)  # ... at or below
+    for k in range(max(1, math.ceil(math.log2(max(n, 2))))):
+        shift = jnp.minimum(jnp.int32(2**k), h) * w  # never overflows: at most N
+        above, below = idx - shift, idx + shift
+        up = jnp.maximum(up, jnp.where(above >= 0, up[jnp.maximum(above, 0)], -big))
+        down = jnp.minimum(down, jnp.where(below < n, down[jnp.minimum(below, n - 1)], big))
+    g = jnp.minimum(row - up, down - row)
+    g2 = jnp.where(g < big // 2, g.astype(jnp.float32) ** 2, jnp.inf)
 
-    def one(xy):
-        d2 = jnp.sum((problem.xy - xy[None, :]) ** 2, axis=1)
-        return jnp.sqrt(jnp.min(jnp.where(blocked, d2, jnp.inf)))
+    def more(s):
+        d, best = s
+        dd = (d * d).astype(jnp.float32)
+        return (d < w) & jnp.any(blocked) & (jnp.any(jnp.isinf(best)) | (dd < jnp.max(best)))
 
-    return jax.lax.map(one, problem.xy, batch_size=max(1, min(n, (1 << 22) // max(n, 1))))
+    def body(s):
+        d, best = s
+        dd = (d * d).astype(jnp.float32)
+        left = jnp.where(col - d >= 0, g2[jnp.maximum(idx - d, 0)], jnp.inf)
+        right = jnp.where(col + d < w, g2[jnp.minimum(idx + d, n - 1)], jnp.inf)
+        return d + 1, jnp.minimum(best, jnp.minimum(left, right) + dd)
+
+    _, d2 = jax.lax.while_loop(more, body, (jnp.int32(0), jnp.full((n,), jnp.inf, jnp.float32)))
+    return jnp.sqrt(d2)
 
 
 def classic_next(problem, k_rep, d0, k_att=K_ATT) -> jax.Array:

@@ -172,6 +172,50 @@ def test_jax_table_equals_the_numpy_reference_everywhere(maps12):
             assert not reached[prob.start] and r[prob.start] == pytest.approx(math.dist(s, g), rel=1e-6)
 
 
+def _ringed_maps():
+    """Three 9x13 maps (not square: both axes of the ray band are walked), random obstacles plus
+    a ring or a U around part of the map, so some walkers sit inside an obstacle's hull."""
+    rng = np.random.default_rng(7)
+    out = []
+    for p in (0.15, 0.3, 0.45):
+        free = rng.random((9, 13)) > p
+        free[1:7, 3] = free[1, 3:10] = free[6, 3:10] = False
+        free[2:6, 9] = p < 0.3  # a closed ring on the first map, a U on the others
+        cells = np.argwhere(free)
+        out.append((jaco.Grid.from_array(free), tuple(int(v) for v in cells[rng.integers(len(cells))])))
+    return out
+
+
+def test_jax_table_equals_the_brute_force_reference_on_ringed_maps():
+    """Eq. (4) reads only the obstacle's outline and the cells near the ray behind p; the numpy
+    reference reads every cell of the map (the brute force). Every cell's next step agrees."""
+    for grid, goal in _ringed_maps():
+        prob = make_problem(grid, goal, goal)
+        nxt = np.asarray(_next(prob))
+        ref = apf._Ref(grid, goal, np.asarray(prob.nbr))
+        for i in range(grid.n_cells):
+            p = divmod(i, 13)
+            q = ref.next(p) if grid.free[p] else None
+            assert nxt[i] == (-1 if q is None else q[0] * 13 + q[1]), (p, goal)
+
+
+def test_obstacle_distance_equals_the_brute_force():
+    """The separable distance transform gives, bit for bit, the distance from every cell centre
+    to every blocked cell centre minimised over the blocked cells (the map's outside not
+    counting; inf without obstacles)."""
+    rng = np.random.default_rng(3)
+    dist = jax.jit(potential.obstacle_distance)
+    for shape in ((7, 11), (16, 16)):
+        for p in (0.0, 0.03, 0.25, 0.6):
+            free = rng.random(shape) > p
+            free.flat[0] = True
+            prob = make_problem(jaco.Grid.from_array(free), (0, 0), (0, 0))
+            xy = np.argwhere(np.ones(shape, bool)).astype(np.float32)
+            blocked = xy[~free.ravel()]
+            d2 = ((xy[:, None, :] - blocked[None]) ** 2).sum(-1).min(1) if len(blocked) else np.full(len(xy), np.inf)
+            np.testing.assert_array_equal(np.asarray(dist(prob)), np.sqrt(d2.astype(np.float32)))
+
+
 def test_chain_lengths_by_hand():
     """A 1x4 corridor: next = [1, 2, 3, 3] reaches the goal 3; next = [1, 0, ...] loops."""
     grid = jaco.Grid.from_rows(["...."])
