@@ -171,6 +171,7 @@ def test_sweep_native_runs_every_configuration():
     assert lengths[3] == single[0] and steps[3] == single[2]
 
 
+@pytest.mark.slow  # a subprocess compiling both walks
 def test_profile_smoke_both_walks_take_the_same_moves(tmp_path):
     """The per-part profile runs at smoke size for both walks; they take the same moves (the
     script exits 1 otherwise) and every timed part is reported."""

@@ -32,6 +32,7 @@ def test_thesis_tables_smoke(tmp_path):
     assert all((tmp_path / "figures" / p).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in pngs)
 
 
+@pytest.mark.slow  # a subprocess running every planner of the papers
 def test_paper_tables_smoke(tmp_path):
     out = subprocess.run(
         [sys.executable, str(ROOT / "experiments" / "paper_tables.py"), "--smoke", "--out", str(tmp_path)],

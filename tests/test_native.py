@@ -55,7 +55,8 @@ def test_table_powers_agree_with_the_kernel_and_with_float64_pow():
     a = rng.uniform(0, 20, 1_000_000).astype(np.float32)
     got = np.asarray(jax.jit(bitexact.power)(x, a))
     np.testing.assert_array_equal(np.asarray(native.power(x, a)), got)
-    exact = np.exp(a.astype(np.float64) * np.log(x.astype(np.float64)))
+    with np.errstate(over="ignore"):  # beyond float64: inf, as it should be
+        exact = np.exp(a.astype(np.float64) * np.log(x.astype(np.float64)))
     normal = (exact > 1e-37) & (exact < 1e37)
     assert np.max(np.abs(got[normal] / exact[normal] - 1)) < 1e-5
     assert (got[exact < 1e-39] == 0).all() and np.isinf(got[exact > 4e38]).all()
@@ -122,7 +123,7 @@ _EDGES = [dict(h=1, w=1, shape=(1, 1), density=0.0, seed=0, n_ants=4, steplimit=
           dict(h=2, w=1, shape=(2, 1), density=0.0, seed=7, n_ants=1, steplimit=40, exploit=False, connectivity=4)]
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(walk_cases())
 @example(_EDGES[0])
 @example(_EDGES[1])
@@ -133,7 +134,7 @@ def test_native_dying_walk_takes_the_jax_walks_moves(case):
     _same(_dying("jax", *key)(*args), _dying("native", *key)(*args))
 
 
-@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(walk_cases(), st.sampled_from([(1.0, 8.0, 0.1, 0.1), (2.5, 3.0, 0.4, 1.0), (0.0, 0.0, 0.0, 0.5)]),
        st.booleans())
 @example(_EDGES[0], (1.0, 8.0, 0.1, 0.1), False)
