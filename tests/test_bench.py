@@ -187,3 +187,20 @@ def test_profile_smoke_both_walks_take_the_same_moves(tmp_path):
         vals = numbers(table_row(text, label)[1:])
         assert len(vals) == 4 and all(math.isfinite(v) and v > 0 for v in vals), label  # CPU, wall x 2 walks
     assert re.search(r"native walk \d+ ns CPU per step; jax walk \d+ ns CPU per step", text)
+
+
+@pytest.mark.slow  # compiles two planners
+def test_scale_benchmark_smoke_writes_its_section(tmp_path):
+    sys.path.insert(0, str(ROOT / "experiments"))
+    try:
+        import bench_scale
+    finally:
+        sys.path.remove(str(ROOT / "experiments"))
+    out = tmp_path / "BENCHMARKS.md"
+    assert bench_scale.main(["--smoke", "--out", str(out)]) == 0
+    text = out.read_text()
+    assert "<!-- bench_scale:start -->" in text and "Command: `python experiments/bench_scale.py --smoke" in text
+    rows = [line.split(" | ") for line in text.splitlines() if line.startswith("| room-32-32-4")]
+    assert [r[1] for r in rows] == ["mmas", "iaca"]
+    for r in rows:
+        assert r[4] in ("yes", "no") and (r[5].strip(" |") == "–" or float(r[5].strip(" |")) >= 0)
