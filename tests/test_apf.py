@@ -152,18 +152,24 @@ def test_clear_errors_before_anything_runs():
 
 
 # -- the distance table ----------------------------------------------------------------------------
+def _assert_table_equals_reference(grid, goal, prob):
+    """Every cell's next step in the JAX table equals the numpy planner's (-1 where it has none)."""
+    nxt = np.asarray(_next(prob))
+    ref = apf._Ref(grid, goal, np.asarray(prob.nbr))
+    for i in range(grid.n_cells):
+        p = divmod(i, grid.width)
+        q = ref.next(p) if grid.free[p] else None
+        assert nxt[i] == (-1 if q is None else q[0] * grid.width + q[1]), (grid.name, p, goal)
+    return nxt
+
+
 def test_jax_table_equals_the_numpy_reference_everywhere(maps12):
     """One walker per cell, vmapped and jitted, takes the same step as the numpy planner from
     every free cell; the table's length from the start equals the planner's path length."""
     for grid in maps12:
         s, g = grid.meta["start"], grid.meta["goal"]
         prob = make_problem(grid, s, g)
-        nxt = np.asarray(_next(prob))
-        ref = apf._Ref(grid, g, np.asarray(prob.nbr))
-        for i in range(grid.n_cells):
-            p = divmod(i, 12)
-            q = ref.next(p) if grid.free[p] else None
-            assert nxt[i] == (-1 if q is None else q[0] * 12 + q[1]), (grid.name, p)
+        nxt = _assert_table_equals_reference(grid, g, prob)
         r, reached = (np.asarray(x) for x in _lengths(prob, nxt))
         t = apf.trace(grid, s, g)
         if t.status == "arrived":
@@ -190,13 +196,7 @@ def test_jax_table_equals_the_brute_force_reference_on_ringed_maps():
     """Eq. (4) reads only the obstacle's outline and the cells near the ray behind p; the numpy
     reference reads every cell of the map (the brute force). Every cell's next step agrees."""
     for grid, goal in _ringed_maps():
-        prob = make_problem(grid, goal, goal)
-        nxt = np.asarray(_next(prob))
-        ref = apf._Ref(grid, goal, np.asarray(prob.nbr))
-        for i in range(grid.n_cells):
-            p = divmod(i, 13)
-            q = ref.next(p) if grid.free[p] else None
-            assert nxt[i] == (-1 if q is None else q[0] * 13 + q[1]), (p, goal)
+        _assert_table_equals_reference(grid, goal, make_problem(grid, goal, goal))
 
 
 def test_obstacle_distance_equals_the_brute_force():
