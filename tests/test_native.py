@@ -219,7 +219,8 @@ def test_sharded_sweep_with_the_jax_walk_equals_the_native_walk(tmp_path, walk_c
         f"t.to_pickle({str(out)!r})"
     )
     env = dict(os.environ, JAX_PLATFORMS="cpu", JACO_WALK="jax", XLA_FLAGS="--xla_force_host_platform_device_count=2")
-    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+    proc = subprocess.run([sys.executable, "-c", code], env=env, cwd=tmp_path, capture_output=True, text=True,
+                          timeout=300)
     assert proc.returncode == 0, proc.stderr[-3000:]
     pd.testing.assert_frame_equal(pd.read_pickle(out), here, check_exact=True)
 
@@ -275,10 +276,18 @@ def test_info_names_versions_devices_and_the_active_walk(capsys):
 def test_without_a_compiler_the_package_builds_and_walks_in_jax(tmp_path):
     """``pip wheel`` with a C++ compiler that always fails: the build succeeds without the
     kernel, and the package from that wheel plans with the JAX walk and says so in ``jaco info``."""
+    import shutil
     import zipfile
 
+    # A copy of the sources only: the checkout may hold a build/ folder or an in-place kernel from
+    # an earlier install, which setuptools would reuse instead of compiling.
+    src = tmp_path / "src"
+    src.mkdir()
+    for name in ("pyproject.toml", "setup.py", "README.md"):
+        shutil.copy2(ROOT / name, src / name)
+    shutil.copytree(ROOT / "jaco", src / "jaco", ignore=shutil.ignore_patterns("__pycache__", "*.so"))
     env = dict(os.environ, CC="/bin/false", CXX="/bin/false")
-    proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(ROOT)],
+    proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(src)],
                           env=env, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
     (wheel,) = tmp_path.glob("jaco-*.whl")
@@ -317,5 +326,7 @@ def test_every_planner_sharded_with_the_jax_walk_equals_the_native_walk(tmp_path
         "sys.exit(1 if bad else 0)\n"
     )
     env = dict(os.environ, JAX_PLATFORMS="cpu", XLA_FLAGS="--xla_force_host_platform_device_count=2")
-    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=1200)
+    # cwd: not the checkout, whose jaco/ has no kernel after a plain `pip install .`
+    proc = subprocess.run([sys.executable, "-c", code], env=env, cwd=tmp_path, capture_output=True, text=True,
+                          timeout=1200)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
