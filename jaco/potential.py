@@ -29,6 +29,7 @@ __all__ = [
     "D0",
     "MOVE_LEN",
     "apf_next",
+    "jax_apf_next",
     "classic_next",
     "obstacle_distance",
     "chain_lengths",
@@ -305,9 +306,21 @@ _WALKERS = 256
 
 
 def apf_next(problem) -> jax.Array:
-    """``next (N,)`` of the improved APF for every cell (one walker per free cell, vmapped in
-    batches of free cells only): the cell it moves to, −1 where it is stuck or blocked, the goal
-    at the goal."""
+    """``next (N,)`` of the improved APF for every cell: the cell it moves to, −1 where it is
+    stuck or blocked, the goal at the goal. On CPU with the native walk active
+    (:func:`jaco.engine.native.active_walk`) the C++ kernel computes it, the same integers as
+    :func:`jax_apf_next` (which defines it) walker for walker, on the threads of XLA's pool."""
+    from .engine import native
+
+    if native.active_walk() == "native":
+        args = (problem.clearance > 0, problem.nbr, problem.goal, problem.offsets)
+        return jax.lax.platform_dependent(*args, cpu=native.apf_next, default=lambda *a: jax_apf_next(problem))
+    return jax_apf_next(problem)
+
+
+def jax_apf_next(problem) -> jax.Array:
+    """:func:`apf_next` in JAX: one walker per free cell, vmapped in batches of free cells only
+    (a batch runs as many loop steps as its slowest walker)."""
     m = _map(problem)
     n = problem.nbr.shape[0]
     batch = min(n, _WALKERS)

@@ -42,7 +42,7 @@ def maps12():
     return [jaco.maps.random_map(12, 0.15, seed=0), jaco.maps.random_map(12, 0.3, seed=3), jaco.maps.utrap(12)]
 
 
-_next = jax.jit(potential.apf_next)
+_next = jax.jit(potential.jax_apf_next)  # the definition (tests/test_native.py: the kernel equals it)
 _lengths = jax.jit(potential.chain_lengths)
 
 

@@ -21,7 +21,9 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import jaco
+from jaco import potential
 from jaco.engine import bitexact, native
+from jaco.engine.problem import make_problem, stack
 from jaco.engine.walk import jax_walk, key_words, step_uniforms
 from jaco.moves import MOVES, neighbour_table
 from jaco.planners.iaca import detour, jax_backtrack_walk
@@ -157,6 +159,47 @@ def test_native_backtracking_walk_takes_the_jax_walks_moves_and_pheromone(case, 
     args = (tau, rows, factors, words, start, goal, scalars, offsets)
     key = (case["n_ants"], case["steplimit"], case["exploit"], table)
     _same(_backtracking("jax", *key)(*args), _backtracking("native", *key)(*args))
+
+
+# -- the improved APF's next-cell table (apf-aco) -------------------------------------------------
+_APF = {kind: jax.jit(jax.vmap(fn)) for kind, fn in (
+    ("jax", potential.jax_apf_next),
+    ("native", lambda p: native.apf_next(p.clearance > 0, p.nbr, p.goal, p.offsets)),
+)}
+
+
+def _apf_tables(problems):
+    batch = stack(problems)
+    return [np.asarray(_APF[kind](batch)) for kind in ("jax", "native")]
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.integers(1, 12), st.integers(1, 12), st.sampled_from([0.0, 0.15, 0.3, 0.45]), st.integers(0, 2**31 - 1),
+       st.sampled_from([4, 8]))
+def test_native_apf_table_equals_the_jax_table(h, w, density, seed, connectivity):
+    """Random maps inside one 12x12 frame (one compiled shape), three goals at once (a batch of
+    problems), both connectivities: the kernel's next cell of every cell is the JAX one's."""
+    rng = np.random.default_rng(seed)
+    free = np.zeros((12, 12), bool)
+    free[:h, :w] = rng.random((h, w)) >= density
+    free[0, 0] = True
+    grid = jaco.Grid(free)
+    goals = [tuple(int(v) for v in c) for c in rng.permutation(np.argwhere(free))[:3]]
+    problems = [make_problem(grid, g, g, connectivity=connectivity) for g in goals * (3 // len(goals) + 1)][:3]
+    ours, theirs = _apf_tables(problems)
+    np.testing.assert_array_equal(ours, theirs)
+
+
+def test_native_apf_table_equals_the_jax_table_on_real_maps():
+    """Two bundled MovingAI maps (rooms, a maze), two goals each: every cell's next cell agrees,
+    and the walkers that reach a target are many (the comparison is not all −1)."""
+    rng = np.random.default_rng(0)
+    for name in ("room-32-32-4.map", "maze-32-32-2.map"):
+        grid = jaco.maps.load(jaco.maps.bundled(name))
+        cells = rng.permutation(np.argwhere(grid.free))[:2]
+        ours, theirs = _apf_tables([make_problem(grid, tuple(c), tuple(c)) for c in cells])
+        np.testing.assert_array_equal(ours, theirs)
+        assert (ours >= 0).sum() > 100
 
 
 def test_detour_rows_of_a_problem_are_what_the_walk_test_builds():

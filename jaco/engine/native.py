@@ -23,7 +23,7 @@ from ..errors import JacoError
 
 CHOICES = ("auto", "native", "jax")
 _TARGETS = {"jaco_walk": "JacoWalk", "jaco_backtrack": "JacoBacktrack", "jaco_deposit": "JacoDeposit",
-            "jaco_uniforms": "JacoUniforms", "jaco_power": "JacoPower"}
+            "jaco_uniforms": "JacoUniforms", "jaco_power": "JacoPower", "jaco_apf_next": "JacoApfNext"}
 _state: dict = {}
 
 
@@ -131,6 +131,17 @@ def deposit(tau, targets, amounts):
     call = jax.ffi.ffi_call("jaco_deposit", jax.ShapeDtypeStruct(tau.shape, jnp.float32), vmap_method="broadcast_all",
                             input_output_aliases={0: 0})
     return call(tau, flat, per)
+
+
+def apf_next(free, nbr, goal, offsets):
+    """The kernel's table of the improved APF's next cells; same result as
+    :func:`jaco.potential.apf_next`'s JAX form (``free (N,)``, ``nbr (N, 8)``, -1 where not
+    allowed)."""
+    from ..moves import MOVES
+
+    _load()
+    call = jax.ffi.ffi_call("jaco_apf_next", jax.ShapeDtypeStruct(free.shape, jnp.int32), vmap_method="broadcast_all")
+    return call(free, nbr, goal, offsets, jnp.asarray(MOVES, jnp.int32))
 
 
 def power(x, a):
