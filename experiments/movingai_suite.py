@@ -71,7 +71,8 @@ def parse_args(argv=None):
                     help="planners: registered names and composition names (default: all registered + the compositions; "
                     "none after the flag: only the selected one)")
     ap.add_argument("--larger-planners", nargs="*", default=None,
-                    help="planners also run at the larger budget (default: the best three at the fixed budget)")
+                    help="planners also run at the larger budget (default: the best three at the fixed budget; "
+                    "none after the flag: no larger budget)")
     ap.add_argument("--scenarios", type=int, default=None, help="scenarios per map")
     ap.add_argument("--seeds", type=int, default=None, help="seeds per scenario")
     ap.add_argument("--update", action="store_true",
@@ -188,7 +189,7 @@ def run_suite(cfg, args, checkpoint=lambda rows: None):
 def larger_set(args, rows, map_name, cfg) -> set:
     """Planners that also run at the larger budget on this map: ``--larger-planners``, or the three
     with the best median gap at the fixed budget on this map (failures counting as infinite)."""
-    if args.larger_planners:
+    if args.larger_planners is not None:
         return set(args.larger_planners)
     mine = [r for r in rows if r["map"] == map_name.removesuffix(".map") and r["budget"] == "fixed"]
     by = {}
