@@ -8,10 +8,13 @@ For each bundled MovingAI map (``jaco.maps.BUNDLED``: the MovingAI grid and MAPF
 to 512×512) the suite takes ``--scenarios`` scenarios spread over the scenario file's range of
 optimal lengths (from a short one to the longest, i.e. over its buckets) and runs every planner —
 the registered ones and a set of compositions of their components (``jaco.compose``) — on all of
-them with ``--seeds`` seeds, at the fixed budget (50 ants × 100 iterations) and, for the planners
-named by ``--larger-planners``, at a larger one. Each (map, planner, budget) is one batched
-``jaco.sweep`` over the queries × seeds. It records per run: success, length, the gap to the
-scenario's optimum; per batch: the time per query.
+them with ``--seeds`` seeds, at the fixed budget (50 ants × 100 iterations) and, for each map's
+best three at the fixed budget (or the planners named by ``--larger-planners``), at a larger one
+(100 × 300). Each (map, planner, budget) is one batched ``jaco.sweep`` over the queries × seeds.
+It records per run: success, length, the gap to the scenario's optimum; per batch: the time per
+query. ``--update`` runs the suite in parts: the CSV keeps the other planners' rows, the best
+three are ranked over the kept and the new rows together, and a kept planner pushed out of a
+map's best three loses its larger-budget rows there, so the parts add up to one full run.
 
 Outputs (into ``--out``, default ``docs/``): ``results.md``'s ``movingai_suite`` section (success
 rate and gap median/quartiles per map and planner, by length bucket, time per query, the best
@@ -44,6 +47,7 @@ COMPOSITIONS = (
     dict(construct="backtrack", heuristic="iaaco", rule="iaca"),
     dict(construct="backtrack", heuristic="distance", rule="iaca"),
     dict(construct="backtrack", heuristic="chaos", rule="iaca"),
+    dict(construct="backtrack", heuristic="apf", rule="iaca"),
     dict(construct="backtrack", heuristic="iaca", rule="mmas"),
     dict(construct="backtrack", heuristic="iaca", rule="acs"),
     dict(construct="double", heuristic="iaaco", rule="acs"),
@@ -143,8 +147,10 @@ def short(name: str) -> str:
     return "+".join(keep)
 
 
-def run_suite(cfg, args, checkpoint=lambda rows: None):
-    """The suite's rows; ``checkpoint(rows)`` after each map, so a long run keeps what it finished."""
+def run_suite(cfg, args, checkpoint=lambda rows: None, earlier=()):
+    """The suite's rows; ``checkpoint(rows)`` after each map, so a long run keeps what it finished.
+    ``earlier``: rows of an earlier run kept beside these (``--update``), ranked with them when the
+    best three at the fixed budget are chosen for the larger one."""
     import jaco
 
     # smallest map first: a long run that is cut short still reports every smaller map
@@ -155,6 +161,9 @@ def run_suite(cfg, args, checkpoint=lambda rows: None):
     if not args.no_select:
         plist.append(select(jaco, cfg, args))
     k, n_seeds = args.scenarios or cfg["scenarios"], args.seeds or cfg["seeds"]
+    labels = {p[0] for p in plist}
+    redone = lambda r: r["planner"] in labels or (r["planner"].startswith("selected") and not args.no_select)  # noqa: E731
+    others = [r for r in earlier if not redone(r)]
     rows = []
     for m in map_names:
         grid = jaco.maps.load(jaco.maps.bundled(m))
@@ -167,7 +176,7 @@ def run_suite(cfg, args, checkpoint=lambda rows: None):
             steplimit = int(min(grid.free.sum(), round(args.steplimit_scale * 4 * (grid.height + grid.width))))
         for budget, (ants, iters) in budgets:
             for label, v, fixed in plist:
-                if budget == "larger" and label not in larger_set(args, rows, m, cfg):
+                if budget == "larger" and label not in larger_set(args, others + rows, m, cfg):
                     continue
                 t0 = time.perf_counter()
                 tab = jaco.sweep(grid, starts, goals, v, params={k: [x] for k, x in fixed.items()}, seeds=n_seeds,
@@ -187,14 +196,20 @@ def run_suite(cfg, args, checkpoint=lambda rows: None):
 
 
 def larger_set(args, rows, map_name, cfg) -> set:
-    """Planners that also run at the larger budget on this map: ``--larger-planners``, or the three
-    with the best median gap at the fixed budget on this map (failures counting as infinite)."""
+    """Planners that also run at the larger budget on this map: ``--larger-planners``, or
+    :func:`best_three` of ``rows``."""
     if args.larger_planners is not None:
         return set(args.larger_planners)
-    mine = [r for r in rows if r["map"] == map_name.removesuffix(".map") and r["budget"] == "fixed"]
+    return best_three(rows, map_name.removesuffix(".map"))
+
+
+def best_three(rows, map_name: str) -> set:
+    """The three planners with the best median gap at the fixed budget on this map (failures
+    counting as infinite; ties to the higher success rate)."""
     by = {}
-    for r in mine:
-        by.setdefault(r["planner"], []).append(r["gap"])
+    for r in rows:
+        if r["map"] == map_name and r["budget"] == "fixed":
+            by.setdefault(r["planner"], []).append(r["gap"])
     ranked = sorted(by, key=lambda p: (np.median(by[p]), -np.mean(np.isfinite(by[p]))))
     return set(ranked[:3])
 
@@ -285,7 +300,11 @@ def main(argv=None):
             again = set(zip(df["map"], df.planner, df.budget))
             redo = kept.apply(lambda r: (r["map"], r.planner, r.budget) in again or (
                 r.planner.startswith("selected") and df.planner.str.startswith("selected").any()), axis=1)
-            df = pd.concat([kept[~redo.astype(bool)], df], ignore_index=True)
+            old = kept[~redo.astype(bool)]
+            if args.larger_planners is None:  # the larger budget stays with each map's best three
+                best = {m: best_three(pd.concat([old, df]).to_dict("records"), m) for m in set(old["map"])}
+                old = old[[r.budget != "larger" or r.planner in best[r.map] for r in old.itertuples()]]
+            df = pd.concat([old, df], ignore_index=True)
         out.mkdir(parents=True, exist_ok=True)
         write_text(csv, df.to_csv(index=False, lineterminator="\n"))
         figure(df, out / "figures" / "movingai_suite_gap.png")
@@ -294,7 +313,8 @@ def main(argv=None):
                       intro="# Results\n")
         return text
 
-    print(write(run_suite(cfg, args, checkpoint=write)))
+    earlier = kept.to_dict("records") if kept is not None else ()
+    print(write(run_suite(cfg, args, checkpoint=write, earlier=earlier)))
     print(f"wrote {out / 'results.md'}, {out / 'figures' / 'movingai_suite_gap.png'}, {csv}")
     return 0
 
