@@ -205,13 +205,20 @@ def larger_set(args, rows, map_name, cfg) -> set:
 
 def best_three(rows, map_name: str) -> set:
     """The three planners with the best median gap at the fixed budget on this map (failures
-    counting as infinite; ties to the higher success rate)."""
+    counting as infinite); ties (small maps are often solved optimally by many) to the higher
+    success rate, the lower mean gap of the successful runs, then the name, so that the choice
+    does not depend on the order of the rows."""
     by = {}
     for r in rows:
         if r["map"] == map_name and r["budget"] == "fixed":
             by.setdefault(r["planner"], []).append(r["gap"])
-    ranked = sorted(by, key=lambda p: (np.median(by[p]), -np.mean(np.isfinite(by[p]))))
-    return set(ranked[:3])
+
+    def rank(p):
+        g = np.asarray(by[p], float)
+        ok = np.isfinite(g)
+        return float(np.median(g)), -float(ok.mean()), float(g[ok].mean()) if ok.any() else np.inf, p
+
+    return set(sorted(by, key=rank)[:3])
 
 
 def quartiles(g):

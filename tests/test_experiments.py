@@ -125,3 +125,8 @@ def test_movingai_suite_smoke(tmp_path):
     text = (tmp_path / "results.md").read_text()
     assert "<!-- movingai_suite:start -->" in text and "Fixed budget" in text
     assert (tmp_path / "figures" / "movingai_suite_gap.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # the parts add up to one run: on every map the larger budget holds exactly the best three at
+    # the fixed budget, ranked over both parts' rows
+    rows = df.to_dict("records")
+    for m, part in df.groupby("map"):
+        assert set(part[part.budget == "larger"].planner) == movingai_suite.best_three(rows, m)
