@@ -312,10 +312,8 @@ def apf_next(problem) -> jax.Array:
     :func:`jax_apf_next` (which defines it) walker for walker, on the threads of XLA's pool."""
     from .engine import native
 
-    if native.active_walk() == "native":
-        args = (problem.clearance > 0, problem.nbr, problem.goal, problem.offsets)
-        return jax.lax.platform_dependent(*args, cpu=native.apf_next, default=lambda *a: jax_apf_next(problem))
-    return jax_apf_next(problem)
+    return native.dispatch(native.apf_next, lambda *a: jax_apf_next(problem),
+                           problem.clearance > 0, problem.nbr, problem.goal, problem.offsets)
 
 
 def jax_apf_next(problem) -> jax.Array:

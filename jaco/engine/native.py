@@ -79,6 +79,14 @@ def active_walk() -> str:
     return choice
 
 
+def dispatch(native_fn, jax_fn, *args):
+    """``native_fn(*args)`` where the program runs on CPU with the native walk active, else
+    ``jax_fn(*args)``: the one switch between a kernel and the JAX code that it equals."""
+    if active_walk() == "native":
+        return jax.lax.platform_dependent(*args, cpu=native_fn, default=jax_fn)
+    return jax_fn(*args)
+
+
 def walk(weights, words, start, goal, q0, offsets, *, n_ants: int, steplimit: int, exploit: bool):
     """The kernel's walk; same arguments and results as :func:`jaco.engine.walk.jax_walk`."""
     _load()

@@ -98,9 +98,7 @@ def deposit(tau, targets, amounts):
     def xla(tau, targets, amounts):
         return tau.at[targets.ravel()].add(jnp.broadcast_to(amounts, targets.shape).ravel(), mode="drop")
 
-    if native.active_walk() == "native":
-        return jax.lax.platform_dependent(tau, targets, amounts, cpu=native.deposit, default=xla)
-    return xla(tau, targets, amounts)
+    return native.dispatch(native.deposit, xla, tau, targets, amounts)
 
 
 def _on_path(tau, targets):

@@ -18,6 +18,7 @@ the roulette's sums added in the same order, so the same moves bit for bit.
 
 from __future__ import annotations
 
+import functools
 from typing import NamedTuple
 
 import jax
@@ -100,13 +101,7 @@ def walk(problem, weights, key, q0, *, n_ants: int, steplimit: int, exploit: boo
     """
     args = (weights, key_words(key), problem.start, problem.goal, jnp.asarray(q0, jnp.float32), problem.offsets)
     kw = dict(n_ants=n_ants, steplimit=steplimit, exploit=bool(exploit))
-    if native.active_walk() == "native":
-        walks = jax.lax.platform_dependent(
-            *args, cpu=lambda *a: native.walk(*a, **kw), default=lambda *a: jax_walk(*a, **kw)
-        )
-    else:
-        walks = jax_walk(*args, **kw)
-    return _tours(*walks)
+    return _tours(*native.dispatch(functools.partial(native.walk, **kw), functools.partial(jax_walk, **kw), *args))
 
 
 def jax_walk(weights, words, start, goal, q0, offsets, *, n_ants: int, steplimit: int, exploit: bool):

@@ -53,6 +53,7 @@ IACA):
 
 from __future__ import annotations
 
+import functools
 from typing import NamedTuple
 
 import jax
@@ -205,11 +206,8 @@ def backtrack_walk(
         params.q0, params.alpha, params.beta, trail.lo, trail.hi, params.rho_local, params.q)])
     args = (trail.tau, rows, factors, words, problem.start, problem.goal, scalars, problem.offsets)
     kw = dict(n_ants=n_ants, steplimit=steplimit, exploit=bool(exploit), table=table)
-    if native.active_walk() == "native":
-        return Backtracked(*jax.lax.platform_dependent(
-            *args, cpu=lambda *a: native.backtrack_walk(*a, **kw), default=lambda *a: jax_backtrack_walk(*a, **kw)
-        ))
-    return Backtracked(*jax_backtrack_walk(*args, **kw))
+    return Backtracked(*native.dispatch(functools.partial(native.backtrack_walk, **kw),
+                                        functools.partial(jax_backtrack_walk, **kw), *args))
 
 
 def jax_backtrack_walk(
