@@ -17,8 +17,8 @@ three are ranked over the kept and the new rows together, and a kept planner pus
 map's best three loses its larger-budget rows there, so the parts add up to one full run.
 
 Outputs (into ``--out``, default ``docs/``): ``results.md``'s ``movingai_suite`` section (success
-rate and gap median/quartiles per map and planner, by length bucket, time per query, the best
-planner per map), ``figures/movingai_suite_gap.png`` (median gap against optimal length, one line
+rate and gap median/quartiles per map and planner, then per planner by the scenario's rank in its
+map's length range (the MovingAI buckets), time per query), ``figures/movingai_suite_gap.png`` (median gap against optimal length, one line
 per planner) and ``movingai_suite.csv`` (every run). Nothing here asserts a time or a gap.
 """
 
@@ -87,6 +87,8 @@ def parse_args(argv=None):
                     "reported as a budget of its own")
     ap.add_argument("--skip", nargs="*", default=(), help="registered planners to leave out")
     ap.add_argument("--no-select", action="store_true", help="leave out the planner selected on other maps")
+    ap.add_argument("--report", action="store_true",
+                    help="run nothing: write results.md's section and the figure again from the CSV in --out")
     args = ap.parse_args(argv)
     args.out = output_dir(args.out, args.smoke)
     return args
@@ -260,8 +262,27 @@ def report(df, command: str, fig_rel: str) -> str:
         lines += [table(head, body), ""]
         tq = part.groupby(["map", "planner"]).seconds_per_query.first().groupby("map").max()
         lines += ["Slowest planner's time per query (s, batched): " + ", ".join(f"{m} {tq[m]:.1f}" for m in maps), ""]
+    lines += by_length(df[df.budget == "fixed"])
     lines += [f"![median gap against optimal length]({fig_rel})", ""]
     return "\n".join(lines)
+
+
+def by_length(part) -> list:
+    """Lines of a table: each planner at the fixed budget over all maps, by the scenario's rank
+    among its map's scenarios (shortest … longest), with the MovingAI buckets those scenarios
+    come from."""
+    ranks = sorted(set(part["query"]))
+    head = ["planner"]
+    for q in ranks:
+        b = part[part["query"] == q].bucket
+        head.append(f"{'shortest' if q == ranks[0] else 'longest' if q == ranks[-1] else f'query {q + 1}'} "
+                    f"(buckets {b.min()}–{b.max()})")
+    body = [[p] + [f"{quartiles(g[g['query'] == q].gap)}; {100 * g[g['query'] == q].success.mean():.0f}%" for q in ranks]
+            for p, g in part.groupby("planner", sort=False)]
+    return ["#### Fixed budget, all maps, by scenario length", "",
+            "Each map's scenarios ranked by optimal length (a map's scenarios come from its scenario file's "
+            "buckets: bucket k holds optimal lengths in [4k, 4k + 4)); median gap in % [quartiles]; success.", "",
+            table(head, body), ""]
 
 
 def figure(df, path: Path):
@@ -298,7 +319,20 @@ def main(argv=None):
     shown = sys.argv[1:] if argv is None else list(argv)
     command = " ".join(["python experiments/movingai_suite.py", *shown])
     csv = out / "movingai_suite.csv"
-    kept = pd.read_csv(csv) if args.update and csv.exists() else None
+    kept = pd.read_csv(csv) if (args.update or args.report) and csv.exists() else None
+
+    def publish(df, footer=""):
+        """The figure and results.md's section from the table ``df``."""
+        figure(df, out / "figures" / "movingai_suite_gap.png")
+        text = report(df, "`; `".join(dict.fromkeys(df.command)), "figures/movingai_suite_gap.png")
+        write_section(out / "results.md", SECTION, text + footer + "\n", intro="# Results\n")
+        return text
+
+    if args.report:
+        if kept is None:
+            raise SystemExit(f"--report: no {csv} to report")
+        print(publish(kept))
+        return 0
 
     def write(rows):
         df = pd.DataFrame(rows).assign(command=command)
@@ -314,11 +348,7 @@ def main(argv=None):
             df = pd.concat([old, df], ignore_index=True)
         out.mkdir(parents=True, exist_ok=True)
         write_text(csv, df.to_csv(index=False, lineterminator="\n"))
-        figure(df, out / "figures" / "movingai_suite_gap.png")
-        text = report(df, "`; `".join(dict.fromkeys(df.command)), "figures/movingai_suite_gap.png")
-        write_section(out / "results.md", SECTION, text + f"\nTime of the last run: {time.perf_counter() - t0:.0f} s.\n",
-                      intro="# Results\n")
-        return text
+        return publish(df, f"\nTime of the last run: {time.perf_counter() - t0:.0f} s.")
 
     earlier = kept.to_dict("records") if kept is not None else ()
     print(write(run_suite(cfg, args, checkpoint=write, earlier=earlier)))

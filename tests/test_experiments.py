@@ -127,6 +127,12 @@ def test_movingai_suite_smoke(tmp_path):
     assert (tmp_path / "figures" / "movingai_suite_gap.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # the parts add up to one run: on every map the larger budget holds exactly the best three at
     # the fixed budget, ranked over both parts' rows
+    # --report rewrites the section from the CSV alone, the table by scenario length included
+    (tmp_path / "results.md").write_text("# Results\n")
+    assert movingai_suite.main(["--report", "--out", str(tmp_path)]) == 0
+    text = (tmp_path / "results.md").read_text()
+    assert "by scenario length" in text and "| acs |" in text
+    assert pd.read_csv(tmp_path / "movingai_suite.csv").equals(df)
     rows = df.to_dict("records")
     for m, part in df.groupby("map"):
         assert set(part[part.budget == "larger"].planner) == movingai_suite.best_three(rows, m)
