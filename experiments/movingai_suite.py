@@ -87,6 +87,9 @@ def parse_args(argv=None):
                     "reported as a budget of its own")
     ap.add_argument("--skip", nargs="*", default=(), help="registered planners to leave out")
     ap.add_argument("--no-select", action="store_true", help="leave out the planner selected on other maps")
+    ap.add_argument("--select-maps", nargs="+", default=None, metavar="MAP",
+                    help="choose the selected planner on these maps instead (default: arena, den312d, room-32-32-4, "
+                    "maze-32-32-2); its label names them, and it sits beside the default selection in the table")
     ap.add_argument("--report", action="store_true",
                     help="run nothing: write results.md's section and the figure again from the CSV in --out")
     args = ap.parse_args(argv)
@@ -112,14 +115,25 @@ def planners(jaco, names):
     return [(short(v.name), v, {}) for v in vs]
 
 
+def select_maps(cfg, args) -> tuple:
+    return tuple(args.select_maps or cfg["select"])
+
+
+def selected_prefix(cfg, args) -> str:
+    """How the selected planner's label starts: ``selected:``, or ``selected on MAPS:`` when it was
+    chosen on other maps than the default ones."""
+    maps = select_maps(cfg, args)
+    return "selected:" if maps == tuple(cfg["select"]) else f"selected on {', '.join(m.removesuffix('.map') for m in maps)}:"
+
+
 def select(jaco, cfg, args):
     """The composition and β, γ (the latter where it has one) with the lowest median gap over
-    the selection maps (``SELECT_MAPS``; failures count as infinite; ties broken by success, then
-    mean gap), as ``(label, variant,
-    params)``: one sweep per composition and map over ``SELECT_AXES``."""
+    the selection maps (``SELECT_MAPS`` or ``--select-maps``; failures count as infinite; ties
+    broken by success, then mean gap), as ``(label, variant, params)``: one sweep per composition
+    and map over ``SELECT_AXES``."""
     candidates = [jaco.compose(**kw) for kw in COMPOSITIONS] if not args.smoke else [jaco.compose(construct="backtrack", rule="iaca")]
     gaps: dict = {}
-    for m in cfg["select"]:
+    for m in select_maps(cfg, args):
         grid = jaco.maps.load(jaco.maps.bundled(m))
         scen = scenarios(jaco, m, cfg["select_scenarios"])
         n_ants, n_iters = cfg["budget"]
@@ -135,8 +149,8 @@ def select(jaco, cfg, args):
     (name, fixed), gap = min(gaps.items(), key=lambda kv: (float(np.median(kv[1])), -np.isfinite(kv[1]).mean(),
                                                           float(np.mean(np.asarray(kv[1])[np.isfinite(kv[1])] if np.isfinite(kv[1]).any() else np.inf))))
     v = jaco.planners.registry.get_variant(name)
-    label = "selected: " + short(name) + " (" + ", ".join(f"{k}={x:g}" for k, x in fixed) + ")"
-    print(f"selected on {', '.join(cfg['select'])}: {label}, median gap {100 * float(np.median(gap)):.1f} %", flush=True)
+    label = selected_prefix(cfg, args) + " " + short(name) + " (" + ", ".join(f"{k}={x:g}" for k, x in fixed) + ")"
+    print(f"{label}, median gap {100 * float(np.median(gap)):.1f} % on its maps", flush=True)
     return label, v, dict(fixed)
 
 
@@ -164,7 +178,8 @@ def run_suite(cfg, args, checkpoint=lambda rows: None, earlier=()):
         plist.append(select(jaco, cfg, args))
     k, n_seeds = args.scenarios or cfg["scenarios"], args.seeds or cfg["seeds"]
     labels = {p[0] for p in plist}
-    redone = lambda r: r["planner"] in labels or (r["planner"].startswith("selected") and not args.no_select)  # noqa: E731
+    prefix = selected_prefix(cfg, args)
+    redone = lambda r: r["planner"] in labels or (r["planner"].startswith(prefix) and not args.no_select)  # noqa: E731
     others = [r for r in earlier if not redone(r)]
     rows = []
     for m in map_names:
@@ -338,9 +353,11 @@ def main(argv=None):
         df = pd.DataFrame(rows).assign(command=command)
         if kept is not None:  # the other planners' rows of an earlier run
             # a (map, planner) run again replaces its old rows; a new selection replaces the old one's
+            # on the same maps
             again = set(zip(df["map"], df.planner, df.budget))
+            prefix = selected_prefix(cfg, args)
             redo = kept.apply(lambda r: (r["map"], r.planner, r.budget) in again or (
-                r.planner.startswith("selected") and df.planner.str.startswith("selected").any()), axis=1)
+                r.planner.startswith(prefix) and df.planner.str.startswith(prefix).any()), axis=1)
             old = kept[~redo.astype(bool)]
             if args.larger_planners is None:  # the larger budget stays with each map's best three
                 best = {m: best_three(pd.concat([old, df]).to_dict("records"), m) for m in set(old["map"])}

@@ -127,6 +127,11 @@ def test_movingai_suite_smoke(tmp_path):
     assert (tmp_path / "figures" / "movingai_suite_gap.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # the parts add up to one run: on every map the larger budget holds exactly the best three at
     # the fixed budget, ranked over both parts' rows
+    # a selection on other maps sits beside the default one, which it does not replace
+    assert movingai_suite.main(["--smoke", "--out", str(tmp_path), "--update", "--planners",
+                                "--select-maps", "room-32-32-4.map"]) == 0
+    df = pd.read_csv(tmp_path / "movingai_suite.csv")
+    assert {p.split(":")[0] for p in df.planner if p.startswith("selected")} == {"selected", "selected on room-32-32-4"}
     # --report rewrites the section from the CSV alone, the table by scenario length included
     (tmp_path / "results.md").write_text("# Results\n")
     assert movingai_suite.main(["--report", "--out", str(tmp_path)]) == 0
