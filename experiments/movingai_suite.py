@@ -93,6 +93,18 @@ def parse_args(argv=None):
     ap.add_argument("--report", action="store_true",
                     help="run nothing: write results.md's section and the figure again from the CSV in --out")
     args = ap.parse_args(argv)
+    import jaco
+
+    # names checked before any run: one line, not a traceback after minutes of work
+    maps = sorted(n for n in jaco.maps.BUNDLED if n.endswith(".map"))
+    for m in (args.maps or []) + (args.select_maps or []):
+        if m not in maps:
+            ap.error(f"unknown MovingAI map {m!r}; bundled: {', '.join(maps)}")
+    for n in (args.planners or []) + list(args.skip):
+        try:
+            jaco.planners.registry.get_variant(n)
+        except jaco.JacoError as e:
+            ap.error(str(e))
     args.out = output_dir(args.out, args.smoke)
     return args
 

@@ -141,3 +141,21 @@ def test_movingai_suite_smoke(tmp_path):
     rows = df.to_dict("records")
     for m, part in df.groupby("map"):
         assert set(part[part.budget == "larger"].planner) == movingai_suite.best_three(rows, m)
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--select-maps", "nosuch.map"], "unknown MovingAI map 'nosuch.map'"),
+    (["--maps", "map.yaml"], "unknown MovingAI map 'map.yaml'"),  # a ROS map: no scenario file
+    (["--planners", "iaca", "nosuch"], "unknown variant 'nosuch'"),
+    (["--skip", "nosuch"], "unknown variant 'nosuch'"),
+])
+def test_movingai_suite_refuses_unknown_names_before_running(argv, message, tmp_path, capsys):
+    sys.path.insert(0, str(ROOT / "experiments"))
+    try:
+        import movingai_suite
+    finally:
+        sys.path.remove(str(ROOT / "experiments"))
+    with pytest.raises(SystemExit) as e:
+        movingai_suite.main(["--smoke", "--out", str(tmp_path), *argv])
+    assert e.value.code == 2 and message in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())  # nothing written
