@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import textwrap
 import sys
 import time
 from pathlib import Path
@@ -319,17 +320,20 @@ def figure(df, path: Path):
     import matplotlib.pyplot as plt
 
     part = df[df.budget == "fixed"]
-    fig, ax = plt.subplots(figsize=(9, 5.5))
-    for p, g in part.groupby("planner", sort=False):
+    fig, ax = plt.subplots(figsize=(12, 6))
+    colours = plt.get_cmap("tab20")(np.linspace(0, 1, 20))
+    for i, (p, g) in enumerate(part.groupby("planner", sort=False)):  # 20 colours × 2 line styles: no two planners drawn alike
         pts = g.groupby("optimal").gap.median().sort_index()
         y = np.where(np.isfinite(pts.values), 100 * pts.values, np.nan)
-        ax.plot(pts.index, y, marker="o", ms=3, lw=1, label=p)
+        ax.plot(pts.index, y, marker="o", ms=3, lw=1, color=colours[i % 20], ls="-" if i < 20 else "--",
+                label=textwrap.fill(p, 48))
     ax.set_xscale("log")
     ax.set_yscale("symlog", linthresh=1)
+    ax.set_ylim(bottom=0)  # a gap is never negative
     ax.set_xlabel("optimal length of the scenario (cells)")
     ax.set_ylabel("median gap over seeds (%); gaps of failed runs left out")
     ax.set_title("Gap to the optimum on the MovingAI maps, 50 ants × 100 iterations")
-    ax.legend(fontsize=6, ncol=2)
+    ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0)
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=110, format="png")
