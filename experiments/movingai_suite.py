@@ -18,16 +18,16 @@ map's best three loses its larger-budget rows there, so the parts add up to one 
 
 Outputs (into ``--out``, default ``docs/``): ``results.md``'s ``movingai_suite`` section (success
 rate and gap median/quartiles per map and planner, then per planner by the scenario's rank in its
-map's length range (the MovingAI buckets), time per query), ``figures/movingai_suite_gap.png`` (median gap against optimal length, one line
-per planner) and ``movingai_suite.csv`` (every run). Nothing here asserts a time or a gap.
+map's length range (the MovingAI buckets), time per query), ``figures/movingai_suite_gap.png``
+(median gap against optimal length, one line per planner) and ``movingai_suite.csv`` (every run). Nothing here asserts a time or a gap.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
-import textwrap
 import sys
+import textwrap
 import time
 from pathlib import Path
 
@@ -159,8 +159,7 @@ def select(jaco, cfg, args):
                 gaps.setdefault((v.name, tuple(zip(axes, key))), []).extend(g.gap.tolist())
     # lowest median gap; ties (small maps are often solved optimally in most runs) go to the higher
     # success rate, then the lower mean gap of the successful runs
-    (name, fixed), gap = min(gaps.items(), key=lambda kv: (float(np.median(kv[1])), -np.isfinite(kv[1]).mean(),
-                                                          float(np.mean(np.asarray(kv[1])[np.isfinite(kv[1])] if np.isfinite(kv[1]).any() else np.inf))))
+    (name, fixed), gap = min(gaps.items(), key=lambda kv: gap_rank(kv[1]))
     v = jaco.planners.registry.get_variant(name)
     label = selected_prefix(cfg, args) + " " + short(name) + " (" + ", ".join(f"{k}={x:g}" for k, x in fixed) + ")"
     print(f"{label}, median gap {100 * float(np.median(gap)):.1f} % on its maps", flush=True)
@@ -243,12 +242,15 @@ def best_three(rows, map_name: str) -> set:
         if r["map"] == map_name and r["budget"] == "fixed":
             by.setdefault(r["planner"], []).append(r["gap"])
 
-    def rank(p):
-        g = np.asarray(by[p], float)
-        ok = np.isfinite(g)
-        return float(np.median(g)), -float(ok.mean()), float(g[ok].mean()) if ok.any() else np.inf, p
+    return set(sorted(by, key=lambda p: (*gap_rank(by[p]), p))[:3])
 
-    return set(sorted(by, key=rank)[:3])
+
+def gap_rank(gaps) -> tuple:
+    """Sort key of a planner's gaps (failures infinite): the median, then the higher success rate,
+    then the lower mean gap of the successful runs."""
+    g = np.asarray(gaps, float)
+    ok = np.isfinite(g)
+    return float(np.median(g)), -float(ok.mean()), float(g[ok].mean()) if ok.any() else np.inf
 
 
 def quartiles(g):
