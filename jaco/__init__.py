@@ -42,6 +42,9 @@ _LAZY = {
     # tuning with optax (the module is jaco.research.tuning: jaco.tune is the function)
     "tune": "research.tuning",
     "TuneResult": "research.tuning",
+    # adaptive batched search with Optuna / evosax samplers (pip install 'jaco[search]')
+    "search": "research.search",
+    "load_study": "research.search",
 }
 _SUBMODULES = {
     "api", "apf", "cli", "engine", "exact", "maps", "metrics", "moves", "outputs", "planners", "plot", "potential",

@@ -23,7 +23,8 @@ from .outputs import atomic_path, check_output
 
 __all__ = [
     "plot_map", "plot_paths", "plot_pheromone", "plot_convergence", "plot_sweep_heatmap", "plot_sweep_box",
-    "animate_pheromone", "save_gif", "save",
+    "animate_pheromone", "save_gif", "save", "plot_search_history", "plot_param_importance", "plot_search_contour",
+    "plot_pareto",
 ]
 
 _MAP_CMAP = ListedColormap(["#2b2b2b", "#f4f4f0"])  # 0 = blocked (dark), 1 = free (light)
@@ -377,6 +378,166 @@ def plot_sweep_box(table, by, value: str = "length", *, ax=None, title=None, opt
     ax.set_ylabel(value)
     ax.tick_params(axis="x", labelrotation=45 if len(groups) > 6 else 0, labelsize="small")
     ax.set_title(title if title is not None else f"{value} across seeds")
+    return fig
+
+
+# -- searches (jaco.search) ---------------------------------------------------------------------
+def _studies(studies) -> dict:
+    """A :class:`jaco.research.search.Study`, a list of them or a dict label -> study."""
+    from .research.search import Study
+
+    if isinstance(studies, Study):
+        studies = {studies.info["sampler"]: studies}
+    elif isinstance(studies, (list, tuple)):
+        studies = {f"{s.info['sampler']} ({s.study.study_name})" if sum(t.info["sampler"] == s.info["sampler"] for t in studies) > 1
+                   else s.info["sampler"]: s for s in studies}
+    if not isinstance(studies, dict) or not studies or not all(isinstance(s, Study) for s in studies.values()):
+        raise ParamError("expected a jaco search Study, a list of Studies or a dict label -> Study")
+    return studies
+
+
+def _objective_axis(ax, name: str, axis: str = "y") -> bool:
+    """Label an objective's axis; gaps and success rates are fractions shown as %."""
+    percent = name in ("gap", "success")
+    label = {"gap": "gap to the optimum (%)", "success": "success rate (%)", "length": "path length",
+             "turns": "turns", "budget": "ants × iterations"}.get(name, name)
+    (ax.set_ylabel if axis == "y" else ax.set_xlabel)(label)
+    return percent
+
+
+def plot_search_history(studies, *, x: str = "trials", ax=None, title=None, log: bool = False) -> Figure:
+    """The anytime curve of one or several searches: the best objective so far (a step line) against
+    finished ``trials``, ant-``iterations`` spent (fair across multi-fidelity searches) or wall
+    ``time`` (seconds since the first trial started); one line per study (e.g. per sampler), with a
+    single study's trial values as points behind it. ``studies``: a Study, a list, or a dict label ->
+    Study. The y axis of a gap or success rate is in %."""
+    studies = _studies(studies)
+    columns = {"trials": None, "iterations": "iterations", "time": "end_s"}
+    if x not in columns:
+        raise ParamError(f"x must be one of {', '.join(columns)}, got {x!r}")
+    fig, ax = _figure_axes(ax, figsize=(7.0, 4.2))
+    names = {tuple(s.objectives) for s in studies.values()}
+    if len(names) != 1 or len(next(iter(names))) != 1:
+        raise ParamError("plot_search_history: the studies must share one objective (several: plot_pareto)")
+    name = next(iter(names))[0]
+    scale = 100.0 if _objective_axis(ax, name) else 1.0
+    for label, study in studies.items():
+        h = study.history()
+        xs = np.arange(1, len(h) + 1) if columns[x] is None else h[columns[x]].to_numpy(float)
+        line, = ax.step(xs, scale * h["best"].to_numpy(float), where="post", label=label, linewidth=1.8)
+        if len(studies) == 1:
+            done = h["state"].eq("COMPLETE").to_numpy()
+            ax.scatter(xs[done], scale * h["value"].to_numpy(float)[done], s=10, alpha=0.35, color=line.get_color(),
+                       label="trials")
+    if log:
+        ax.set_yscale("log")
+    ax.set_xlabel({"trials": "finished trials", "iterations": "ant-iterations spent",
+                   "time": "wall time (s)"}[x])
+    ax.set_title(title if title is not None else f"best {name} so far")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small", borderaxespad=0.0)
+    fig.tight_layout()
+    return fig
+
+
+def plot_param_importance(study, *, ax=None, title=None) -> Figure:
+    """How much each searched parameter matters to the objective (Optuna's PED-ANOVA, Watanabe et al.
+    2023: how differently a parameter is distributed in the best trials than in all, over the finished
+    trials; parameters that only some planners use are left
+    out when the planner is searched)."""
+    import optuna
+
+    study = next(iter(_studies(study).values()))
+    if len(study.objectives) > 1:
+        raise ParamError("plot_param_importance: one objective only")
+    from .research.search import _quiet
+
+    finished = [t for t in study.study.trials if t.state.name == "COMPLETE"]
+    if len(finished) < 2:
+        raise ParamError("plot_param_importance needs at least two finished trials")
+    with _quiet():
+        imp = optuna.importance.get_param_importances(
+            study.study, evaluator=optuna.importance.PedAnovaImportanceEvaluator())
+    fig, ax = _figure_axes(ax, figsize=(6.0, 0.5 * len(imp) + 1.5))
+    names = list(imp)[::-1]
+    ax.barh(names, [imp[n] for n in names], color="#4c72b0")
+    for i, n in enumerate(names):
+        ax.text(imp[n], i, f" {imp[n]:.2f}", va="center", fontsize="small")
+    ax.set_xlim(0, 1.1 * max(imp.values()) if imp else 1)
+    ax.set_xlabel(f"importance for {study.objectives[0]} (PED-ANOVA)")
+    ax.set_title(title if title is not None else "parameter importance")
+    fig.tight_layout()
+    return fig
+
+
+def plot_search_contour(study, x: str, y: str, *, ax=None, title=None) -> Figure:
+    """The objective over two searched parameters: every finished trial as a point coloured by
+    its value, over a contour interpolated between them (log axes for log ranges); the best trial
+    is starred."""
+    import matplotlib.tri as mtri
+
+    study = next(iter(_studies(study).values()))
+    if len(study.objectives) > 1:
+        raise ParamError("plot_search_contour: one objective only")
+    name = study.objectives[0]
+    table = study.trials
+    table = table[table["state"] == "COMPLETE"]
+    for c in (x, y):
+        if c not in table.columns or c == "variant":
+            raise ParamError(f"{c!r} is not a searched number of this study (columns: {', '.join(map(str, table.columns))})")
+    table = table.dropna(subset=[x, y, name])
+    if len(table) < 2:
+        raise ParamError("plot_search_contour needs at least two finished trials with both parameters")
+    fig, ax = _figure_axes(ax, figsize=(6.2, 4.8))
+    scale = 100.0 if name in ("gap", "success") else 1.0
+    logs = [str(study.info["space"].get(c, "")).endswith(":log") for c in (x, y)]
+    px, py = (np.log10(table[c].to_numpy(float)) if lg else table[c].to_numpy(float) for c, lg in zip((x, y), logs))
+    v = scale * table[name].to_numpy(float)
+    norm = Normalize(np.nanmin(v), np.nanmax(v) if np.nanmax(v) > np.nanmin(v) else np.nanmin(v) + 1)
+    try:
+        tri = mtri.Triangulation(10 ** px if logs[0] else px, 10 ** py if logs[1] else py)
+        ax.tricontourf(tri, v, levels=12, cmap="viridis_r", norm=norm, alpha=0.55)
+    except (ValueError, RuntimeError):  # fewer than three distinct points: the points alone
+        pass
+    sc = ax.scatter(table[x], table[y], c=v, cmap="viridis_r", norm=norm, s=22, edgecolors="black", linewidths=0.4)
+    best = table.loc[table[name].idxmin() if OBJECTIVE_MAX.get(name) is None else table[name].idxmax()]
+    ax.scatter([best[x]], [best[y]], marker="*", s=220, c="#d62728", edgecolors="black", zorder=5, label="best")
+    from matplotlib.ticker import NullFormatter, ScalarFormatter
+
+    for lg, axis, setter in zip(logs, (ax.xaxis, ax.yaxis), (ax.set_xscale, ax.set_yscale)):
+        if lg:
+            setter("log")
+            axis.set_major_formatter(ScalarFormatter())
+            axis.set_minor_formatter(NullFormatter())
+    fig.colorbar(sc, ax=ax, label=name + (" (%)" if scale == 100.0 else ""))
+    ax.set_xlabel(x)
+    ax.set_ylabel(y)
+    ax.set_title(title if title is not None else f"{name} over {x} and {y} (★ best trial)")
+    fig.tight_layout()
+    return fig
+
+
+OBJECTIVE_MAX = {"success": True}  # objectives a search maximises (the rest are minimised)
+
+
+def plot_pareto(study, a: str, b: str, *, ax=None, title=None) -> Figure:
+    """Two objectives of a search: every finished trial, with the Pareto front (the trials no
+    other trial beats on both) joined by a line."""
+    study = next(iter(_studies(study).values()))
+    for n in (a, b):
+        if n not in study.objectives:
+            raise ParamError(f"{n!r} is not an objective of this study ({', '.join(study.objectives)})")
+    table = study.trials
+    table = table[table["state"] == "COMPLETE"]
+    front = study.best_trials.sort_values(a)
+    fig, ax = _figure_axes(ax, figsize=(6.0, 4.5))
+    sa, sb = (100.0 if n in ("gap", "success") else 1.0 for n in (a, b))
+    ax.scatter(sa * table[a], sb * table[b], s=16, alpha=0.45, color="#7f7f7f", label="trials")
+    ax.plot(sa * front[a], sb * front[b], "o-", color="#d62728", markersize=5, label="Pareto front")
+    _objective_axis(ax, a, "x")
+    _objective_axis(ax, b, "y")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small", borderaxespad=0.0)
+    ax.set_title(title if title is not None else f"{a} against {b}")
+    fig.tight_layout()
     return fig
 
 

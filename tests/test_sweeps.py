@@ -332,7 +332,7 @@ def test_sweep_progress_bar_says_compiling_then_counts_and_changes_nothing(capsy
     kw = dict(params={"beta": [1.0, 2.0]}, seeds=2, n_ants=8, n_iters=6)  # a shape of its own: compiles
     shown = jaco.sweep(GRID, *ENDS, "as", progress=True, **kw)
     err = capsys.readouterr().err
-    assert "sweep as: compiling…" in err and "1/1" in err  # one chunk: compiling, then done
+    assert "sweep as: compiling…" in err and "4/4" in err  # compiling, then the 4 runs of its one chunk
     plain = jaco.sweep(GRID, *ENDS, "as", progress=False, **kw)
     assert capsys.readouterr().err == ""
     pd.testing.assert_frame_equal(shown, plain)

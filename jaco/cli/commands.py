@@ -304,6 +304,13 @@ def cmd_rerun(args) -> int:
     """Rerun a record; exit 0 when it matched bit for bit, 1 when it did not."""
     from ..research.records import RunRecord, load_run
 
+    if args.trial is not None:  # a trial of a stored search
+        from .search import cmd_rerun_trial
+
+        return cmd_rerun_trial(args)
+    if args.study is not None:
+        raise UsageError("--study names a search study: give --trial N too")
+
     rec = load_run(args.record)
     if isinstance(rec, RunRecord):
         c, g = rec.call, rec.grid

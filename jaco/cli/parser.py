@@ -5,8 +5,9 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .args import _cell, _nonneg_int, _Parser, _pos_int, _seed, _xy
+from .args import _cell, _int_at_least, _nonneg_int, _Parser, _pos_int, _seed, _xy
 from .commands import cmd_demo, cmd_info, cmd_maps, cmd_rerun, cmd_solve, cmd_sweep, cmd_variants
+from .search import cmd_search
 
 DEMO_VARIANT = "mmas"  # on the demo map MMAS comes closer to the optimum than ACS (see --help)
 DEFAULT_ANTS = 50
@@ -123,13 +124,61 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser(
+        "search", help="adaptive batched search over planners and parameters (Optuna / evosax samplers)",
+        description="Search planners (--variant, repeatable) and parameters (--param) for the smallest mean gap to "
+        "the exact optimum: a sampler proposes a batch of trials, the batch runs as one compiled call, the "
+        "results go back to the sampler. With --storage every trial is stored as its batch finishes and the "
+        "same command again resumes (or extends, with more --trials) the study. Needs pip install 'jaco[search]'.",
+        epilog="Values: LOW:HIGH a real range, LOW:HIGH:log log-uniform, LOW:HIGH:int integers, a,b,c a list, x a "
+        "fixed value. Example: jaco search Berlin_1_256.map --scen Berlin_1_256.map.scen --index 900 --variant iaca "
+        "--variant acs --param beta=1:20:log --param rho=0.01:0.5 --trials 256 --batch 64 --seeds 4 --sampler tpe "
+        "--storage sqlite:///study.db",
+    )
+    p.add_argument("map", metavar="MAP", help="map file, named map or bundled file; see 'jaco maps'")
+    _add_query_options(p)
+    _add_run_options(p, default_variant="mmas", several=True)
+    p.add_argument("--param", action="append", metavar="NAME=RANGE",
+                   help="a search dimension (repeatable): NAME=LOW:HIGH[:log][:int], NAME=a,b,c or NAME=x; "
+                   "n_ants and n_iters may be searched too")
+    p.add_argument("--trials", type=_pos_int, default=128, metavar="N", help="finished trials to reach (default 128)")
+    p.add_argument("--batch", type=_pos_int, default=32, metavar="B",
+                   help="trials per generation, evaluated as one compiled call (default 32)")
+    p.add_argument("--seeds", type=_pos_int, default=4, metavar="S", help="seeds 0..S-1 per trial (default 4)")
+    p.add_argument("--sampler", default="tpe", metavar="NAME",
+                   help="tpe (default), cmaes, random, qmc, grid, gp, nsga2, or evosax:NAME (e.g. evosax:SNES)")
+    p.add_argument("--seed", type=_seed, default=0, metavar="S", help="the sampler's seed (default 0)")
+    p.add_argument("--objective", action="append", choices=("gap", "length", "turns", "success", "budget"),
+                   help="what to optimise (default gap; repeat for a Pareto front, e.g. --objective gap --objective turns)")
+    fid = p.add_argument_group("multi-fidelity over the iterations (--iters is the largest budget)")
+    fid.add_argument("--halving", action="store_true", help="successive halving: many trials at few iterations, "
+                     "the best 1/eta promoted to eta times more")
+    fid.add_argument("--hyperband", action="store_true", help="Hyperband: brackets of successive halving that start "
+                     "at each budget in turn")
+    fid.add_argument("--eta", type=_int_at_least(2, "an integer >= 2"), default=3, metavar="ETA",
+                     help="promotion ratio (default 3)")
+    fid.add_argument("--min-iters", type=_pos_int, default=None, metavar="N",
+                     help="smallest budget (default --iters / eta^2)")
+    p.add_argument("--storage", metavar="URL",
+                   help="sqlite:///study.db (or a .db path), journal:FILE (or a .journal path): the study lives there "
+                   "and the same command again resumes it")
+    p.add_argument("--study", metavar="NAME", help="study name in the storage (default 'jaco')")
+    p.add_argument("--top", type=_pos_int, default=10, metavar="N", help="trials in the summary table (default 10)")
+    p.add_argument("--csv", metavar="OUT", help="write the trials table (one row per trial) as CSV")
+    p.add_argument("--plot", metavar="FILE", help="write the optimisation history (best so far against trials; "
+                   "with two objectives the Pareto front) in the format its suffix names")
+    p.set_defaults(func=cmd_search)
+
+    p = sub.add_parser(
         "rerun", help="rerun a run or sweep record and check it bit for bit",
         description="Rerun a record written by 'jaco solve --record', 'jaco sweep --record', "
         "Result.save or jaco.records.save_sweep, and compare path, length and history (or the "
         "whole sweep table) bit for bit. Exit 0 when it matched, 1 when it did not; a record "
         "written by other jaco/jax versions or on another backend gets a warning line first.",
     )
-    p.add_argument("record", metavar="RECORD", help="run record .json, or a sweep's .csv or .json sidecar")
+    p.add_argument("record", metavar="RECORD", help="run record .json, or a sweep's .csv or .json sidecar, or a "
+                   "search's storage (sqlite:///study.db, a .db or .journal path) with --trial")
+    p.add_argument("--trial", type=_nonneg_int, metavar="N", help="rerun trial N of a stored search study")
+    p.add_argument("--study", metavar="NAME", help="the study's name (when the storage holds several)")
     p.set_defaults(func=cmd_rerun)
 
     p = sub.add_parser("variants", help="list the registered ACO variants",

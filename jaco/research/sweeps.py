@@ -117,8 +117,11 @@ def _devices(devices) -> list:
 _PER_CONFIG: dict = {}  # (walk, variant id, sizes, shapes) -> measured bytes per configuration and device
 
 
-def _program(variant, n_ants, n_iters, steplimit, mesh):
-    key = ("sweep", id(variant), n_ants, n_iters, steplimit, tuple(d.id for d in mesh.devices.flat))
+def _program(variant, n_ants, n_iters, steplimit, mesh, paths=False):
+    """The jitted chunk program (cached): ``(seeds, problems, params) -> (cost, length, best
+    iteration, covered[, best cells])``, each ``(queries, configurations)``; ``paths`` adds the
+    best ant's cells (for path metrics such as turns)."""
+    key = ("sweep", id(variant), n_ants, n_iters, steplimit, tuple(d.id for d in mesh.devices.flat), paths)
 
     def build():
         run = make_run(variant, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit)
@@ -126,7 +129,8 @@ def _program(variant, n_ants, n_iters, steplimit, mesh):
 
         def chunk(seeds, problems, params):
             out = batched(jax.vmap(jax.random.key)(seeds), problems, params)
-            return out.best_cost, out.best_length, out.best_iteration, out.covered
+            cells = (out.best_cells,) if paths else ()
+            return (out.best_cost, out.best_length, out.best_iteration, out.covered) + cells
 
         # Each device runs its slice on its own (no collective inside), so a device's while-loops
         # stop when its own ants do; check_vma off: the run's loop carries start replicated.
@@ -146,10 +150,11 @@ def _shapes(batch) -> tuple:
     return tuple((tuple(x.shape), str(x.dtype)) for x in jax.tree.leaves(batch))
 
 
-def _executable(variant, n_ants, n_iters, steplimit, mesh, batch, n_params: int, chunk: int, on_compile=None):
+def _executable(variant, n_ants, n_iters, steplimit, mesh, batch, n_params: int, chunk: int, on_compile=None,
+                paths=False):
     """The compiled chunk program for ``chunk`` configurations per device (cached), and whether
     it was compiled by this call (``on_compile()`` is called first when it is)."""
-    pkey, program = _program(variant, n_ants, n_iters, steplimit, mesh)
+    pkey, program = _program(variant, n_ants, n_iters, steplimit, mesh, paths)
     key = (pkey, _shapes(batch), n_params, chunk)
     new = not is_cached(key)
 
@@ -183,20 +188,22 @@ def _fit(budget: int, fixed: int, per: float, rows_per_device: int) -> int:
     return math.ceil(rows_per_device / n_chunks)
 
 
-def _plan(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, n_rows, budget, on_compile=None):
-    """Choose the chunk size under the budget from the compiled program's memory analysis.
+def _plan(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, n_rows, budget, on_compile=None, paths=False):
+    """Choose the chunk size under the budget from the compiled program's memory analysis: as
+    many of ``n_rows`` runs per chunk as fit (``n_rows`` is also the cap: a caller that wants
+    smaller chunks passes the chunk it wants).
 
     Returns ``(executable, configurations per device and chunk, info dict)``."""
     rows_per_device = math.ceil(n_rows / mesh.size)
     fixed = sum(int(np.asarray(x).nbytes) for x in jax.tree.leaves(batch))  # replicated problems
-    mkey = (native.active_walk(), id(variant), n_ants, n_iters, steplimit, _shapes(batch))
+    mkey = (native.active_walk(), id(variant), n_ants, n_iters, steplimit, _shapes(batch), paths)
     path_len = _path_len(variant, n_ants, n_iters, steplimit, batch)
     guess = bytes_per_run(batch.n_cells, n_ants, n_iters, steplimit, path_len) * batch.nbr.shape[0]
     per = _PER_CONFIG.get(mkey, guess)
     chunk = _agree(_fit(budget, fixed, per, rows_per_device))
     compiles, tried = 0, []
     while True:
-        exe, new = _executable(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, chunk, on_compile)
+        exe, new = _executable(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, chunk, on_compile, paths)
         compiles += new
         tried.append(chunk)
         used = _footprint(exe)
@@ -296,23 +303,21 @@ def _seeds(seeds) -> np.ndarray:
     return np.array(out, np.uint32)
 
 
-class _Setup(NamedTuple):
-    variant: object
+class Queries(NamedTuple):
+    """The validated queries of a sweep or search: ``(grid, start, goal)`` triples (cells as
+    tuples) and their problems (exact optimum included), built once with numpy."""
+
     queries: list
     problems: list
-    values: dict
-    config: np.ndarray
-    seeds: np.ndarray
-    mesh: Mesh
-    exe: object
-    chunk: int
-    info: dict
+
+    @property
+    def grid(self) -> Grid:
+        return self.queries[0][0]
 
 
-def _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices,
-           on_compile=None):
-    """Validate everything (before compiling), then plan the chunks and compile the program."""
-    variant = get_variant(variant)
+def prepare_queries(grid, start, goal, *, n_ants, n_iters, steplimit, connectivity) -> tuple[Queries, int]:
+    """Validate the maps, queries and sizes (before anything compiles) and build the problems;
+    returns them and the step limit (the map's default when ``steplimit`` is None)."""
     queries = _queries(grid, start, goal)
     shapes = {g.shape for g, _, _ in queries}
     if len(shapes) != 1:
@@ -321,26 +326,94 @@ def _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit
     check_sizes(n_ants, n_iters, steplimit)
     # one configuration of every query must fit: the chunks are cut under memory_budget from there
     check_run_memory(queries[0][0].n_cells, n_ants, n_iters, steplimit, runs=len(queries), what="a sweep chunk")
-    seed_list = _seeds(seeds)
+    problems = [make_problem(g, s, t, connectivity=connectivity) for g, s, t in queries]
+    return Queries([(g, tuple(int(x) for x in s), tuple(int(x) for x in t)) for g, s, t in queries], problems), steplimit
+
+
+def check_budget(memory_budget) -> int:
     if isinstance(memory_budget, bool) or not isinstance(memory_budget, (int, np.integer)) or memory_budget < 1:
         raise JacoError(f"memory_budget must be a positive number of bytes, got {memory_budget!r}")
+    return int(memory_budget)
+
+
+class Runner:
+    """One planner's compiled chunk program on fixed queries, sizes and devices: ``runner(values,
+    seeds)`` runs one row per (configuration values, seed), in chunks of :attr:`width` rows (the
+    last one padded), and returns ``(cost, length, best_iteration, covered[, best_cells])`` as
+    numpy arrays ``(queries, rows)``. Every row equals :func:`jaco.solve` with its values and seed,
+    whatever the chunk it ran in. Built by :func:`jaco.sweep` and :func:`jaco.search`."""
+
+    def __init__(self, variant, queries: Queries, *, n_ants, n_iters, steplimit, mesh, rows: int, budget: int,
+                 on_compile=None, paths: bool = False):
+        self.variant, self.queries, self.mesh, self.paths = variant, queries, mesh, paths
+        self.sizes = dict(n_ants=n_ants, n_iters=n_iters, steplimit=steplimit)
+        batch = stack(queries.problems)
+        n_params = len(variant.default_params().to_dict())
+        self.exe, self.chunk, self.info = _plan(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, rows, budget,
+                                                on_compile, paths)
+        self.width = self.chunk * mesh.size
+        self._on_cfg = NamedSharding(mesh, PartitionSpec(AXIS))
+        self._batch = jax.tree.map(lambda x: _put(x, NamedSharding(mesh, PartitionSpec())), batch)
+
+    def __call__(self, values: dict, seeds: np.ndarray, on_chunk=None) -> tuple:
+        """``values``: name -> float array (one per row; every parameter of the planner);
+        ``seeds``: uint32 (rows,). ``on_chunk(lo, hi, outputs)`` after each chunk (``outputs`` as
+        returned, for rows ``lo:hi``)."""
+        n = len(seeds)
+        outs = None
+        for lo in range(0, n, self.width):
+            hi = min(lo + self.width, n)
+            idx = np.minimum(np.arange(lo, lo + self.width), n - 1)  # pad the last chunk
+            prm = params_from({k: np.asarray(v)[idx] for k, v in values.items()}, (self.width,))
+            got = self.exe(_put(np.asarray(seeds, np.uint32)[idx], self._on_cfg), self._batch,
+                           jax.tree.map(lambda x: _put(x, self._on_cfg), prm))
+            got = [_fetch(x)[:, : hi - lo] for x in got]
+            if outs is None:
+                outs = [np.empty((x.shape[0], n) + x.shape[2:], x.dtype) for x in got]
+            for dst, src in zip(outs, got):
+                dst[:, lo:hi] = src
+            if on_chunk is not None:
+                on_chunk(lo, hi, got)
+        return tuple(outs)
+
+
+class _Setup(NamedTuple):
+    variant: object
+    queries: list
+    problems: list
+    values: dict
+    config: np.ndarray
+    seeds: np.ndarray
+    runner: Runner
+    info: dict
+
+
+def _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices,
+           on_compile=None, chunk=None):
+    """Validate everything (before compiling), then plan the chunks and compile the program."""
+    variant = get_variant(variant)
+    qs, steplimit = prepare_queries(grid, start, goal, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,
+                                    connectivity=connectivity)
+    seed_list = _seeds(seeds)
+    budget = check_budget(memory_budget)
+    if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1):
+        raise JacoError(f"chunk must be a positive number of runs (configurations x seeds), got {chunk!r}")
     values, _ = _config_table(variant, params)
-    n_rows = len(next(iter(values.values()))) * len(seed_list) * len(queries)
+    n_cfg = len(next(iter(values.values())))
+    n_rows = n_cfg * len(seed_list) * len(qs.queries)
     check_memory(n_rows * 8 * (2 * len(values) + 16), f"a table of {n_rows} runs",
                  "use fewer configurations, seeds or queries (or several sweeps)")
-    devs = _devices(devices)
-    problems = [make_problem(g, s, t, connectivity=connectivity) for g, s, t in queries]
-    queries = [(g, tuple(s), tuple(t)) for g, s, t in queries]  # valid cells now
-
-    n_cfg = len(next(iter(values.values())))
+    mesh = Mesh(np.array(_devices(devices)), (AXIS,))
     config = np.repeat(np.arange(n_cfg), len(seed_list))  # configuration-major, seeds inner
     seed_arr = np.tile(seed_list, n_cfg)
-    mesh = Mesh(np.array(devs), (AXIS,))
-    batch = stack(problems)
-    exe, chunk, info = _plan(variant, n_ants, n_iters, steplimit, mesh, batch, len(values), len(config), int(memory_budget),
-                             on_compile)
-    info = dict(runs=len(config) * len(problems), configurations=n_cfg, seeds=len(seed_list), queries=len(problems), **info)
-    return _Setup(variant, queries, problems, values, config, seed_arr, mesh, exe, chunk, info)
+    rows = len(config) if chunk is None else min(len(config), int(chunk))
+    runner = Runner(variant, qs, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, mesh=mesh, rows=rows,
+                    budget=budget, on_compile=on_compile)
+    info = dict(runs=len(config) * len(qs.problems), configurations=n_cfg, seeds=len(seed_list),
+                queries=len(qs.problems), **runner.info)
+    if chunk is not None:  # chunks: over every row, not only the capped first one
+        info["chunks"] = math.ceil(len(config) / runner.width)
+    return _Setup(variant, qs.queries, qs.problems, values, config, seed_arr, runner, info)
 
 
 def plan_sweep(
@@ -357,14 +430,21 @@ def plan_sweep(
     connectivity: int = 8,
     memory_budget: int = 2 << 30,
     devices=None,
+    chunk: int | None = None,
 ) -> dict:
     """What :func:`sweep` with the same arguments would do, without running it: compiles the chunk
     program and returns its plan (``chunk``, ``chunks``, ``chunk_per_device``, ``devices``,
     ``bytes_per_chunk`` from XLA's memory analysis, ``bytes_per_config_estimate`` and
     ``_measured``, ``compiles``...). The compiled program is cached, so the sweep reuses it."""
     return _setup(
-        grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices
+        grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices,
+        chunk=chunk,
     ).info
+
+
+#: With a store and no ``chunk``, a sweep runs in about this many chunks, so that a kill loses at
+#: most about a tenth of the work.
+STORE_CHUNKS = 10
 
 
 def sweep(
@@ -382,6 +462,8 @@ def sweep(
     memory_budget: int = 2 << 30,
     progress: bool | None = None,
     devices=None,
+    store=None,
+    chunk: int | None = None,
 ) -> pd.DataFrame:
     """Run every configuration of ``params`` × ``seeds`` × queries; one row per run.
 
@@ -393,12 +475,21 @@ def sweep(
 
     ``memory_budget``: bytes one chunk may take on each device (arguments, outputs and XLA's
     temporaries, from the compiled program's memory analysis); the configurations run in as few
-    equal chunks as fit. ``devices``: None (all devices, all processes' after
+    equal chunks as fit. ``chunk``: at most this many runs (configurations × seeds, each over
+    every query) per chunk. ``devices``: None (all devices, all processes' after
     ``jax.distributed.initialize``; or the one chosen by ``jax.default_device``), an int (the
     first n) or a list; the configuration axis is sharded over them. ``progress``: a bar on stderr
     (process 0) that says "compiling…" while the chunk program compiles, then counts the chunks
     and ends with the elapsed time; None (default) shows it on a terminal or in a notebook, True
     always, False never (:mod:`jaco.progress`).
+
+    ``store``: a file (SQLite, :mod:`jaco.research.store`) where every chunk is appended as soon
+    as it finishes. The same call again with the same store skips the finished runs, so a sweep
+    that was killed resumes where it stopped, and the final table equals an uninterrupted sweep
+    bit for bit (every run depends only on its configuration, seed and query, never on its
+    chunk). Without ``chunk``, a stored sweep runs in about :data:`STORE_CHUNKS` chunks. One
+    store holds any number of sweeps, each found by a fingerprint of its arguments; a second
+    process on the same store gets a one-line error naming the lock.
 
     Returns a tidy DataFrame: ``map, start, goal`` (when there are several queries), ``config``
     (the configuration's row in the design), the variant's parameters, ``seed`` and the results
@@ -413,42 +504,61 @@ def sweep(
     """
     if isinstance(variant, (list, tuple)) and not isinstance(variant, Variant):  # a Variant is a tuple too
         kwargs = dict(n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, connectivity=connectivity,
-                      memory_budget=memory_budget, progress=progress, devices=devices)
+                      memory_budget=memory_budget, progress=progress, devices=devices, store=store, chunk=chunk)
         return _over_variants(variant, lambda v: sweep(grid, start, goal, v, params, seeds, **kwargs), params)
     name = get_variant(variant).name
-    bar = _progress.Bar(_progress.enabled(progress) and jax.process_index() == 0, f"sweep {name}", "chunk")
+    if store is not None:
+        from .store import check_store_path
+
+        store = check_store_path(store)
+    bar = _progress.Bar(_progress.enabled(progress) and jax.process_index() == 0, f"sweep {name}", "run")
     try:
         return _sweep(bar, grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity,
-                      memory_budget, devices)
+                      memory_budget, devices, store, chunk)
     finally:
         bar.close()
 
 
-def _sweep(bar, grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices):
+def _sweep(bar, grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices,
+           store=None, chunk=None):
     """The body of :func:`sweep` for one planner, moving ``bar`` (:class:`jaco.progress.Bar`)."""
+    if store is not None and chunk is None:
+        n_runs = len(as_design(params)) * len(_seeds(seeds))
+        chunk = max(1, math.ceil(n_runs / STORE_CHUNKS))
     st = _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices,
-                on_compile=lambda: bar.status("compiling…"))
+                on_compile=lambda: bar.status("compiling…"), chunk=chunk)
     n_rows, n_q = len(st.config), len(st.problems)
-    width = st.chunk * st.mesh.size
-    on_cfg, replicated = NamedSharding(st.mesh, PartitionSpec(AXIS)), NamedSharding(st.mesh, PartitionSpec())
-    batch = jax.tree.map(lambda x: _put(x, replicated), stack(st.problems))
-    n_chunks = math.ceil(n_rows / width)
+    outs = [np.empty((n_q, n_rows), dt) for dt in (np.float32, np.float32, np.int32, np.int32)]
+    todo = np.arange(n_rows)
+    if store is not None:
+        from .store import SweepStore
 
-    cost = np.empty((n_q, n_rows), np.float32)
-    length = np.empty((n_q, n_rows), np.float32)
-    best_iter, covered = np.empty((n_q, n_rows), np.int32), np.empty((n_q, n_rows), np.int32)
-    bar.start(n_chunks, f"sweep {st.variant.name}: {n_rows * n_q} runs")
-    for c in range(n_chunks):
-        lo, hi = c * width, min((c + 1) * width, n_rows)
-        idx = np.minimum(np.arange(lo, lo + width), n_rows - 1)  # pad the last chunk
-        prm = params_from({k: v[st.config[idx]] for k, v in st.values.items()}, (width,))
-        out = st.exe(_put(st.seeds[idx], on_cfg), batch, jax.tree.map(lambda x: _put(x, on_cfg), prm))
-        for dst, src in zip((cost, length, best_iter, covered), out):
-            dst[:, lo:hi] = _fetch(src)[:, : hi - lo]
-        bar.update(c + 1)
+        with SweepStore(store) as held:  # locked until the sweep ends
+            key = held.fingerprint(st.variant, st.queries, st.values, st.config, st.seeds, n_ants=n_ants,
+                                   n_iters=n_iters, steplimit=st.runner.sizes["steplimit"], connectivity=connectivity)
+            todo = np.flatnonzero(~held.load(key, outs))
+            return _run_sweep(bar, st, outs, todo, held, key)
+    return _run_sweep(bar, st, outs, todo)
 
-    table = _tidy(st.variant, st.queries, st.problems, st.values, st.config, st.seeds, cost, length, best_iter, covered)
-    table.attrs["sweep"] = st.info
+
+def _run_sweep(bar, st, outs, todo, store=None, key=None) -> pd.DataFrame:
+    """Run the rows ``todo`` of a set-up sweep into ``outs`` (appending each chunk to ``store``)."""
+    n_q, n_rows = outs[0].shape
+    bar.start(n_rows * n_q, f"sweep {st.variant.name}: {n_rows * n_q} runs")
+    bar.update((n_rows - len(todo)) * n_q)
+
+    def finished(lo, hi, got):
+        rows = todo[lo:hi]
+        for dst, src in zip(outs, got):
+            dst[:, rows] = src
+        if store is not None:
+            store.append(key, rows, got)
+        bar.update((n_rows - len(todo) + hi) * n_q)
+
+    if len(todo):
+        st.runner({k: v[st.config[todo]] for k, v in st.values.items()}, st.seeds[todo], on_chunk=finished)
+    table = _tidy(st.variant, st.queries, st.problems, st.values, st.config, st.seeds, *outs)
+    table.attrs["sweep"] = dict(st.info, resumed_runs=int((n_rows - len(todo)) * n_q)) if store is not None else st.info
     return table
 
 

@@ -1,0 +1,139 @@
+"""``jaco search``: adaptive batched search on the command line (:func:`jaco.search`), and ``jaco
+rerun STORAGE --trial N`` for a stored trial."""
+
+from __future__ import annotations
+
+import math
+import time
+
+from .args import UsageError, _float, _split_params
+
+NO_PATH = 4  # as solve: no trial reached the goal
+
+
+def parse_dimension(name: str, value: str):
+    """``--param`` of a search: ``lo:hi`` (a real range), ``lo:hi:log``, ``lo:hi:int`` (also
+    ``lo:hi:int:log``), ``a,b,c`` (a categorical) or one number (fixed)."""
+    if ":" in value:
+        parts = [p.strip() for p in value.split(":")]
+        tags = parts[2:]
+        if len(parts) < 2 or set(tags) - {"log", "int"} or len(set(tags)) != len(tags):
+            hint = " (START:STOP:COUNT is the sweep's form)" if len(parts) == 3 and parts[2].isdigit() else ""
+            raise UsageError(f"--param {name}={value}: a search range is LOW:HIGH, LOW:HIGH:log or LOW:HIGH:int{hint}")
+        lo, hi = _float(name, parts[0]), _float(name, parts[1])
+        return (lo, hi, *tags)
+    if "," in value:
+        items = [v.strip() for v in value.split(",") if v.strip()]
+        numbers = [_float(name, v) for v in items]
+        return [int(x) if x.is_integer() and name in ("n_ants", "n_iters") else x for x in numbers]
+    x = _float(name, value)
+    return int(x) if x.is_integer() and name in ("n_ants", "n_iters") else x
+
+
+def parse_space(items) -> dict:
+    return {name: parse_dimension(name, value) for name, value in _split_params(items)}
+
+
+def _fmt(name: str, x) -> str:
+    if isinstance(x, str):
+        return x
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "-"
+    if name in ("gap", "success", "success_rate", "gap_median"):
+        return f"{100 * x:.2f}%"
+    return f"{x:.4g}"
+
+
+def cmd_search(args) -> int:
+    from .commands import _check_outputs
+    from .queries import load_map, resolve_query
+
+    space = parse_space(args.param)
+    if not space:
+        raise UsageError("jaco search needs at least one --param NAME=LOW:HIGH (or a list a,b,c) to search")
+    variants = args.variant or [args.default_variant]
+    if "variant" in space:
+        raise UsageError("name the planners with --variant (repeatable), not --param variant=...")
+    space["variant"] = variants if len(variants) > 1 else variants[0]
+    grid = load_map(args.map)
+    start, goal, scenario, label = resolve_query(grid, args)
+    _check_outputs(args, grid, figures=("--plot",), files=(("--csv", None),))
+    from ..research.search import Halving, search
+
+    fidelity = None
+    if args.halving or args.hyperband:
+        fidelity = Halving(min_iters=args.min_iters, eta=args.eta, hyperband=args.hyperband)
+    elif args.min_iters is not None or args.eta != 3:
+        raise UsageError("--min-iters and --eta belong to --halving or --hyperband")
+    objectives = args.objective or ["gap"]
+    print(
+        f"search {', '.join(variants)} on {grid.name} ({grid.height}x{grid.width}), start {tuple(start)} -> goal "
+        f"{tuple(goal)}: {args.trials} trials in batches of {args.batch}, {args.seeds} seeds, sampler {args.sampler}"
+        + (f", {'hyperband' if args.hyperband else 'successive halving'} over iterations" if fidelity else "")
+        + (f", storage {args.storage}" if args.storage else ""),
+        flush=True,
+    )
+    study = search(
+        grid, start, goal, space, trials=args.trials, batch=args.batch, seeds=args.seeds, n_ants=args.ants,
+        n_iters=args.iters, steplimit=args.steplimit, sampler=args.sampler, seed=args.seed, objective=objectives,
+        fidelity=fidelity, storage=args.storage, study_name=args.study,
+    )
+    seconds = time.perf_counter() - args.started
+    t = study.timings
+    print(f"{len(study.study.trials)} trials in the study; this command ran {t.get('generations', 0)} generations in "
+          f"{seconds:.2f} s (sampler {t.get('sampler_s', 0):.2f} s, evaluation {t.get('evaluate_s', 0):.2f} s, "
+          f"{t.get('compiles', 0)} compiled programs)")
+    if scenario is not None:
+        print(f"scenario {label}: optimal length {scenario.optimal:.4f} (from the .scen file)")
+    table = study.trials
+    if args.csv:
+        from ..outputs import write_text
+
+        print(f"wrote {write_text(args.csv, table.to_csv(index=False, lineterminator=chr(10)))}")
+    if args.plot:
+        from .. import plot
+
+        fig = plot.plot_search_history(study) if len(objectives) == 1 else plot.plot_pareto(study, *objectives[:2])
+        print(f"wrote {plot.save(fig, args.plot)}")
+    finished = table[table["state"] == "COMPLETE"]
+    shown = study.best_trials if len(objectives) > 1 else finished.sort_values(
+        [objectives[0], "number"], ascending=[objectives[0] != "success", True], kind="stable").head(args.top)
+    params = [c for c in table.columns if c in space and c != "variant"]
+    cols = ["number", "variant", *params, *objectives, "success_rate", "runs"]
+    what = "Pareto front" if len(objectives) > 1 else f"top {len(shown)} of {len(finished)} finished trials"
+    print(f"\n{what} (a failed run counts as its penalty in {', '.join(objectives)}):")
+    import pandas as pd
+
+    text = pd.DataFrame({c: shown[c].map(lambda x, c=c: _fmt(c, x)) for c in cols if c in shown})
+    print(text.to_string(index=False) if len(text) else "(none)")
+    if finished.empty or not (finished["success_rate"] > 0).any():
+        print("\nno trial reached the goal: try a backtracking planner (--variant iaca), more ants or iterations, "
+              "or a larger β or step limit")
+        return NO_PATH
+    if len(objectives) == 1:
+        best = study.best_params
+        conf = ", ".join(f"{k}={v:g}" if not isinstance(v, str) else f"{k}={v}" for k, v in best.items())
+        print(f"\nbest: trial {study.best_trial.number}: {conf}; {objectives[0]} {_fmt(objectives[0], study.best_value)}")
+    if args.storage:
+        print(f"study {study.study.study_name!r} in {args.storage}: run the same command again to resume or extend it "
+              f"(--trials); 'jaco rerun {args.storage} --study {study.study.study_name} --trial N' reruns a trial; "
+              f"'optuna-dashboard {args.storage if '://' in args.storage else 'sqlite:///' + args.storage}' shows it")
+    return 0
+
+
+def cmd_rerun_trial(args) -> int:
+    """``jaco rerun STORAGE --trial N [--study NAME]``: exit 0 when it matched, 1 when not."""
+    from ..research.search import load_study
+
+    study = load_study(args.record, args.study)
+    print(f"study    {study.study.study_name!r}: {len(study.study.trials)} trials, sampler {study.info['sampler']}")
+    t0 = time.perf_counter()
+    rerun = study.rerun(args.trial)
+    seconds = time.perf_counter() - t0
+    if rerun.matched:
+        print(f"rerun    matched the stored trial bit for bit ({rerun.what}; {seconds:.2f} s)")
+        return 0
+    print(f"rerun    did NOT match the stored trial ({len(rerun.differences)} difference(s)):")
+    for d in rerun.differences:
+        print(f"  {d}")
+    return 1

@@ -1,0 +1,922 @@
+"""Adaptive batched search (``jaco.search``): a sampler proposes a batch of trials, the batch runs
+as one compiled call, the results go back to the sampler, and every trial is stored as its batch
+finishes (docs/search.md).
+
+>>> import jaco
+>>> grid = jaco.maps.named("demo")
+>>> study = jaco.search(grid, grid.meta["start"], grid.meta["goal"], {"beta": (1.0, 8.0), "rho": (0.05, 0.5)},
+...                     trials=8, batch=4, seeds=2, n_ants=8, n_iters=10, sampler="random", progress=False)
+>>> len(study.trials), sorted(study.best_params)
+(8, ['beta', 'rho', 'variant'])
+
+**Evaluation.** A generation's trials are grouped by planner and sizes; each group runs
+trials × seeds × queries through one planner's compiled chunk program (:class:`jaco.research.sweeps.Runner`,
+the one :func:`jaco.sweep` uses), so every run equals :func:`jaco.solve` with its parameters and
+seed. Chunks hold a power of two of trials (at most ``batch``), so a study compiles at most
+log2(batch) + 1 programs per planner and size, each once, and never recompiles per generation.
+Every trial runs the same seeds (common random numbers).
+
+**Objectives** (``objective``, one name or several): ``"gap"`` (default) the mean over runs of the
+relative gap to the exact optimum; ``"length"`` the mean path length; ``"turns"`` the mean number of
+heading changes of the best path; ``"success"`` the success rate (maximised); ``"budget"`` ants ×
+iterations (with the sizes in the space: the cost of a configuration). A failed run counts as a
+*penalty*, never NaN: by default the worst value a successful run could have — the length of a
+path of ``steplimit`` diagonal steps, √2·steplimit, its gap, and ``steplimit`` turns — so a failure
+is never better than a success; ``penalty=`` sets it (a number, or a dict by objective). With
+several objectives the study's ``best_trials`` is the Pareto front.
+
+**Multi-fidelity** (``fidelity=Halving(...)``): successive halving over the iteration budget
+(Jamieson & Talwalkar 2016; Hyperband, Li et al. 2018, with ``hyperband=True``). A bracket asks
+``batch`` trials, runs them all at the smallest budget, keeps the best 1/η, runs those at η times
+the budget, and so on up to ``n_iters``; every rung is one batch. A promoted trial is *re-run* at
+the larger budget, not continued: the planners' schedules depend on the total number of
+iterations (IDACA's α, β and ρ schedules, IAACO's q0 and ρ, chaos ACO's perturbation), so the
+first 25 iterations of a 100-iteration run are not a 25-iteration run, and a continued run could
+not equal any run :func:`jaco.solve` gives. Re-running keeps every reported value reproducible by
+``jaco solve`` (and costs at most 1/(η − 1) more work). Each rung's value is reported to Optuna as
+an intermediate value (step = iterations); trials that are not promoted end PRUNED, the others
+COMPLETE with their value at ``n_iters``.
+
+**Durable.** With ``storage=`` the study lives in Optuna's storage — ``"sqlite:///study.db"``
+(or a path ending in ``.db``: SQLite), ``"journal:path"`` or a path ending in ``.journal`` (Optuna's
+journal file), any other SQLAlchemy URL, or a storage object. Every trial is written when it is
+asked (RUNNING) and again when its batch finishes (COMPLETE or PRUNED, with its seeds, per-run
+lengths and success and what reruns it). Killed at any moment, the same call again resumes: a
+trial left RUNNING is evaluated again with its stored parameters (it never finished, so nothing
+is counted twice) and the search goes on until ``trials`` trials are finished. While a search
+runs, its SQLite or journal file is locked (an exclusive flock): a second process on the same
+study gets a one-line error naming the lock. ``optuna-dashboard sqlite:///study.db`` shows it.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .. import progress as _progress
+from ..errors import JacoError
+from .samplers import EVOSAX_PREFIX, EvosaxProposer, check_sampler, optuna_sampler, require, suggest
+from .space import SIZES, VARIANT, Space, parse_space
+
+FORMAT = "jaco-search"
+FORMAT_VERSION = 1
+OBJECTIVES = {"gap": "minimize", "length": "minimize", "turns": "minimize", "success": "maximize", "budget": "minimize"}
+PENALIZED = ("gap", "length", "turns")
+ATTR = "jaco"  # the study's user attribute with everything jaco needs to rerun and resume it
+
+
+class SearchError(JacoError):
+    """A search that cannot run or resume (one line, before anything compiles)."""
+
+
+@dataclass(frozen=True)
+class Halving:
+    """Successive halving over the iteration budget (see the module): rungs at
+    ``n_iters / eta**k`` iterations down to ``min_iters`` (default ``n_iters / eta**2``, at least
+    1); each rung keeps the best ``1/eta`` of the trials (at least one). ``hyperband``: the
+    brackets cycle through the rungs they start at (Hyperband's brackets, each with ``batch``
+    trials), the first starting at the smallest budget."""
+
+    min_iters: int | None = None
+    eta: int = 3
+    hyperband: bool = False
+
+    def rungs(self, n_iters: int) -> list[int]:
+        if isinstance(self.eta, bool) or not isinstance(self.eta, (int, np.integer)) or self.eta < 2:
+            raise SearchError(f"Halving: eta must be an integer >= 2, got {self.eta!r}")
+        low = self.min_iters if self.min_iters is not None else max(1, n_iters // self.eta**2)
+        if isinstance(low, bool) or not isinstance(low, (int, np.integer)) or not 1 <= low <= n_iters:
+            raise SearchError(f"Halving: min_iters must be an integer in [1, n_iters = {n_iters}], got {low!r}")
+        rungs = [int(n_iters)]
+        while rungs[0] // self.eta >= low:
+            rungs.insert(0, rungs[0] // self.eta)
+        return rungs
+
+    def brackets(self, n_iters: int) -> list[list[int]]:
+        """The rungs of each bracket, cycled through in order."""
+        rungs = self.rungs(n_iters)
+        return [rungs[s:] for s in range(len(rungs) if self.hyperband else 1)]
+
+    def describe(self) -> dict:
+        return {"min_iters": self.min_iters, "eta": int(self.eta), "hyperband": bool(self.hyperband)}
+
+
+def _fidelity(fidelity) -> Halving | None:
+    if fidelity is None or isinstance(fidelity, Halving):
+        return fidelity
+    if fidelity in ("halving", "hyperband"):
+        return Halving(hyperband=fidelity == "hyperband")
+    raise SearchError(f"fidelity must be None, 'halving', 'hyperband' or a jaco.research.search.Halving, got {fidelity!r}")
+
+
+def _objectives(objective) -> tuple[str, ...]:
+    names = (objective,) if isinstance(objective, str) else tuple(objective) if isinstance(objective, (list, tuple)) else ()
+    if not names or not all(isinstance(n, str) for n in names):
+        raise SearchError(f"objective must be a name or a list of names ({', '.join(OBJECTIVES)}), got {objective!r}")
+    for n in names:
+        if n not in OBJECTIVES:
+            raise SearchError(f"unknown objective {n!r}; valid: {', '.join(OBJECTIVES)}")
+    if len(set(names)) != len(names):
+        raise SearchError(f"objective: {names} names one twice")
+    return names
+
+
+def _positive_int(name, v, limit=2**31 - 1) -> int:
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 1 <= v <= limit:
+        raise SearchError(f"{name} must be a positive integer, got {v!r}")
+    return int(v)
+
+
+def _penalties(penalty, objectives) -> dict:
+    """User penalties by objective (None: the default bound, per query)."""
+    out = {n: None for n in objectives if n in PENALIZED}
+    if penalty is None:
+        return out
+    given = penalty if isinstance(penalty, dict) else {n: penalty for n in out}
+    for n, v in given.items():
+        if n not in out:
+            raise SearchError(f"penalty for {n!r}: only {', '.join(out) or 'no objective'} of this search take one")
+        try:
+            x = float(v)
+        except (TypeError, ValueError):
+            raise SearchError(f"penalty for {n!r} must be a number, got {v!r}") from None
+        if not (math.isfinite(x) and x >= 0):
+            raise SearchError(f"penalty for {n!r} must be a finite number >= 0, got {v!r}")
+        out[n] = x
+    return out
+
+
+# -- storage ------------------------------------------------------------------------------------
+def _storage(storage):
+    """``(optuna storage or URL, file to lock or None, description)``."""
+    import optuna
+
+    if storage is None:
+        return optuna.storages.InMemoryStorage(), None, "memory"
+    if isinstance(storage, optuna.storages.BaseStorage):
+        return storage, None, type(storage).__name__
+    if isinstance(storage, Path):
+        storage = str(storage)
+    if not isinstance(storage, str) or not storage.strip():
+        raise SearchError(f"storage must be a URL (sqlite:///study.db), a .db or .journal path, or an Optuna storage, got {storage!r}")
+    if storage.startswith("journal:") or storage.endswith((".journal", ".log")):
+        path = Path(storage.removeprefix("journal:"))
+        return "journal", path, f"journal {path}"
+    if storage.startswith("sqlite:///"):
+        return storage, Path(storage.removeprefix("sqlite:///")), storage
+    if "://" in storage:
+        return storage, None, storage.split("://")[0]
+    return f"sqlite:///{storage}", Path(storage), f"sqlite:///{storage}"
+
+
+def _check_storage_path(path: Path | None) -> None:
+    if path is not None:
+        from ..outputs import check_output
+
+        check_output(path, "storage")
+
+
+@contextmanager
+def _opened(storage, lock_path):
+    """The storage object, with its file locked while the search runs."""
+    import optuna
+
+    lock = None
+    if lock_path is not None:
+        from .store import exclusive_lock
+
+        lock = exclusive_lock(lock_path, "study storage")
+    try:
+        if storage == "journal":
+            storage = optuna.storages.JournalStorage(
+                optuna.storages.journal.JournalFileBackend(str(lock_path),
+                                                           lock_obj=optuna.storages.journal.JournalFileOpenLock(str(lock_path))))
+        yield storage
+    finally:
+        if lock is not None:
+            lock.close()
+
+
+@contextmanager
+def _quiet():
+    """Optuna's INFO lines ("Trial 3 finished ...") and experimental-feature warnings off."""
+    import optuna
+
+    level = optuna.logging.get_verbosity()
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+            yield
+    finally:
+        optuna.logging.set_verbosity(level)
+
+
+# -- evaluating trials --------------------------------------------------------------------------
+class Job(dict):
+    """One evaluation: ``trial`` (an Optuna Trial), ``planner``, ``values`` (every parameter),
+    ``n_ants``, ``n_iters``; :meth:`Evaluator.__call__` adds ``runs`` and ``objective``."""
+
+
+def _pow2(n: int) -> int:
+    return 1 << max(0, int(n) - 1).bit_length()
+
+
+class Evaluator:
+    """Runs jobs in batches over the study's queries and seeds (see the module)."""
+
+    def __init__(self, space: Space, queries, seeds, *, steplimit, objectives, penalties, batch, budget, devices):
+        from jax.sharding import Mesh
+
+        from .sweeps import AXIS, _devices
+
+        self.space, self.queries, self.seeds = space, queries, np.asarray(seeds, np.uint32)
+        self.steplimit, self.objectives, self.batch, self.budget = steplimit, objectives, batch, budget
+        self.paths = "turns" in objectives
+        self.mesh = Mesh(np.array(_devices(devices)), (AXIS,))
+        self.runners: dict = {}
+        cell = np.array([g.cell_size for g, _, _ in queries.queries])
+        self.optimal = np.array([float(p.optimal) for p in queries.problems]) * cell
+        self.cell = cell
+        worst = math.sqrt(2.0) * steplimit * cell  # a path of steplimit diagonal steps
+        with np.errstate(divide="ignore", invalid="ignore"):
+            default = {"length": worst, "turns": np.full(len(cell), float(steplimit)),
+                       "gap": np.where(self.optimal > 0, (worst - self.optimal) / np.where(self.optimal > 0, self.optimal, 1), 0.0)}
+        self.penalty = {n: (default[n] if v is None else np.full(len(cell), v)) for n, v in penalties.items()}
+        self.compiles = 0
+
+    def _runner(self, planner, n_ants, n_iters, n_trials):
+        from .sweeps import Runner
+
+        width = min(_pow2(n_trials), _pow2(self.batch)) * len(self.seeds)
+        key = (planner, n_ants, n_iters, width)
+        if key not in self.runners:
+            def compiling():
+                self.compiles += 1
+
+            self.runners[key] = Runner(self.space.planners[planner], self.queries, n_ants=n_ants, n_iters=n_iters,
+                                       steplimit=self.steplimit, mesh=self.mesh, rows=width, budget=self.budget,
+                                       on_compile=compiling, paths=self.paths)
+        return self.runners[key]
+
+    def __call__(self, jobs: list[Job]) -> None:
+        groups: dict = {}
+        for job in jobs:
+            groups.setdefault((job["planner"], job["n_ants"], job["n_iters"]), []).append(job)
+        n_s = len(self.seeds)
+        for (planner, n_ants, n_iters), group in groups.items():
+            runner = self._runner(planner, n_ants, n_iters, len(group))
+            names = list(group[0]["values"])
+            values = {k: np.repeat([j["values"][k] for j in group], n_s) for k in names}  # trial-major, seeds inner
+            outs = runner(values, np.tile(self.seeds, len(group)))
+            for i, job in enumerate(group):
+                part = [o[:, i * n_s:(i + 1) * n_s] for o in outs]
+                job["runs"] = self._runs(part)
+                job["objective"] = self.objective(job["runs"], n_ants, n_iters)
+
+    def _runs(self, outs) -> dict:
+        """Per-run results, arrays ``(queries, seeds)``."""
+        cost, length, best_iter = outs[0], outs[1], outs[2]
+        ok = np.isfinite(cost)
+        L = np.where(ok, length.astype(np.float64) * self.cell[:, None], np.inf)
+        opt = self.optimal[:, None]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            gap = np.where(ok, np.where(opt > 0, (L - opt) / np.where(opt > 0, opt, 1), 0.0), np.inf)
+        runs = {"success": ok, "length": L, "gap": gap, "best_iteration": best_iter.astype(np.int64)}
+        if self.paths:
+            runs["turns"] = self._turns(outs[4], ok)
+        return runs
+
+    def _turns(self, cells, ok) -> np.ndarray:
+        from ..engine.result import path_cells
+        from ..metrics import turns
+
+        out = np.full(ok.shape, np.inf)
+        for q, (g, s, _) in enumerate(self.queries.queries):
+            for j in range(ok.shape[1]):
+                if ok[q, j]:
+                    out[q, j] = turns(path_cells(g, s, cells[q, j]))
+        return out
+
+    def objective(self, runs, n_ants, n_iters) -> list[float]:
+        """The trial's objective values, failures counted as their penalty."""
+        out = []
+        for name in self.objectives:
+            if name == "success":
+                out.append(float(np.mean(runs["success"])))
+            elif name == "budget":
+                out.append(float(n_ants * n_iters))
+            else:
+                v = np.where(runs["success"], runs[name], self.penalty[name][:, None])
+                out.append(float(np.mean(v)))
+        return out
+
+
+def trial_info(frozen) -> dict:
+    """What jaco stored with a trial: ``planner``, ``params`` (every parameter of the planner),
+    ``n_ants``, ``generation`` (and ``bracket``; ``member`` and ``z`` for evosax), ``runs`` (per-run
+    results by iterations) and ``n_iters`` (of its last evaluation; None before one)."""
+    a = dict(frozen.user_attrs.get("jaco_trial", {}))
+    a["runs"] = frozen.user_attrs.get("jaco_runs", {})
+    a["n_iters"] = max((int(k) for k in a["runs"]), default=None)
+    return a
+
+
+def _plain_runs(runs: dict) -> dict:
+    """Per-run arrays as JSON lists (a failed run's length and gap as None)."""
+    def conv(x):
+        if isinstance(x, (bool, np.bool_)):
+            return bool(x)
+        if isinstance(x, (int, np.integer)):
+            return int(x)
+        x = float(x)
+        return x if math.isfinite(x) else None
+
+    return {k: [[conv(x) for x in row] for row in np.asarray(v).tolist()] for k, v in runs.items()}
+
+
+# -- the search ---------------------------------------------------------------------------------
+def search(
+    grid,
+    start,
+    goal,
+    space: dict,
+    *,
+    variant=None,
+    trials: int = 128,
+    batch: int = 32,
+    seeds=4,
+    n_ants: int = 50,
+    n_iters: int = 100,
+    steplimit: int | None = None,
+    connectivity: int = 8,
+    sampler="tpe",
+    sampler_options: dict | None = None,
+    seed: int = 0,
+    objective="gap",
+    penalty=None,
+    fidelity=None,
+    storage=None,
+    study_name: str | None = None,
+    memory_budget: int = 2 << 30,
+    devices=None,
+    progress: bool | None = None,
+) -> "Study":
+    """Search ``space`` (planners, parameters, sizes: :mod:`jaco.research.space`) for the best
+    configuration on the queries ``start`` → ``goal`` (one pair or lists, as in :func:`jaco.sweep`;
+    the objective is over all queries and ``seeds``).
+
+    ``trials`` finished trials in generations of ``batch`` (each one compiled call); ``sampler``:
+    ``"tpe"``, ``"cmaes"``, ``"random"``, ``"qmc"``, ``"grid"``, ``"gp"``, ``"nsga2"``, an
+    ``"evosax:NAME"`` strategy or an Optuna sampler (:mod:`jaco.research.samplers`),
+    ``sampler_options`` passed to an evosax strategy; ``seed`` seeds the sampler; ``objective``,
+    ``penalty``, ``fidelity``, ``storage`` and ``study_name``: see the module. ``variant``: the
+    planner when ``space`` has no ``"variant"`` (default ``"mmas"``).
+
+    Returns a :class:`Study`: ``best_params`` (ready for ``jaco.solve(grid, start, goal,
+    **best_params)``), ``best_value``, ``trials`` (a DataFrame, one row per trial), ``history()``,
+    ``runs()``, ``rerun(number)``. Everything is checked before anything compiles; a study that
+    resumes must have been made by the same search (space, objective, queries, seeds, sizes,
+    sampler, fidelity), else a one-line :class:`SearchError` names what differs.
+    """
+    from ..engine.run import check_seed
+    from .sweeps import _seeds, check_budget, prepare_queries
+
+    require("optuna", "jaco.search")
+    space = parse_space(space, variant)
+    objectives = _objectives(objective)
+    trials = _positive_int("trials", trials)
+    batch = _positive_int("batch", batch)
+    seed = check_seed(seed)
+    halving = _fidelity(fidelity)
+    sampler_name = check_sampler(sampler, space, len(objectives))
+    penalties = _penalties(penalty, objectives)
+    if sampler_name == "grid":  # every combination once
+        from .samplers import grid_of
+
+        trials = min(trials, math.prod(len(v) for v in grid_of(space, trials).values()))
+    if halving is not None:
+        if "n_iters" in space.dims or "n_iters" in space.fixed:
+            raise SearchError("with a fidelity schedule the iterations are the budget: leave n_iters out of the space")
+        if len(objectives) > 1:
+            raise SearchError("multi-fidelity ranks trials by one objective: give one objective, or no fidelity")
+        if sampler_name.startswith(EVOSAX_PREFIX):
+            raise SearchError("evosax strategies need every member of a generation evaluated: no fidelity with evosax")
+        halving.rungs(n_iters if isinstance(n_iters, int) else 1)
+    sizes = {k: space.fixed.get(k, v) for k, v in (("n_ants", n_ants), ("n_iters", n_iters))}
+    largest = {k: int(max(space.dims[k].choices) if hasattr(space.dims.get(k), "choices") else space.dims[k].high)
+               if k in space.dims else sizes[k] for k in SIZES}
+    queries, steplimit = prepare_queries(grid, start, goal, n_ants=largest["n_ants"], n_iters=largest["n_iters"],
+                                         steplimit=steplimit, connectivity=connectivity)
+    seed_list = _seeds(seeds)
+    budget = check_budget(memory_budget)
+    storage_obj, lock_path, storage_text = _storage(storage)
+    _check_storage_path(lock_path)
+    if study_name is not None and (not isinstance(study_name, str) or not study_name.strip()):
+        raise SearchError(f"study_name must be a non-empty string, got {study_name!r}")
+    if storage is not None:
+        from .record_format import recordable_name
+
+        for v in space.planners.values():
+            recordable_name(v)  # a stored trial must name a planner the registry finds again
+    info = _study_info(space, objectives, penalties, queries, seed_list, sizes, steplimit, connectivity,
+                       sampler_name, seed, halving, batch)
+
+    evaluator = Evaluator(space, queries, seed_list, steplimit=steplimit, objectives=objectives, penalties=penalties,
+                          batch=batch, budget=budget, devices=devices)
+    bar = _progress.Bar(_progress.enabled(progress), f"search {sampler_name}", "trial")
+    t0 = time.perf_counter()
+    with _quiet(), _opened(storage_obj, lock_path) as store:
+        import optuna
+
+        proposer = None
+        if sampler_name.startswith(EVOSAX_PREFIX):
+            proposer = EvosaxProposer(sampler_name, space, seed=seed, batch=batch, options=sampler_options)
+            optuna_s = EvosaxProposer.queue()
+        elif isinstance(sampler, str):
+            optuna_s = optuna_sampler(sampler_name, space, seed=seed, batch=batch, trials=trials)
+        else:
+            optuna_s = sampler
+        try:
+            study = optuna.create_study(storage=store, sampler=optuna_s, study_name=study_name or "jaco",
+                                        directions=[OBJECTIVES[n] for n in objectives], load_if_exists=True)
+        except ValueError as e:  # e.g. an existing study with other directions
+            raise SearchError(f"study {study_name or 'jaco'!r} in {storage_text}: {e}") from None
+        _attach(study, info, storage_text)
+        run = _Run(study, space, evaluator, info, halving, sizes, batch, bar, proposer)
+        bar.start(trials, f"search {sampler_name}")
+        try:
+            run.until(trials)
+        finally:
+            bar.close()
+        timings = dict(run.timings, wall_s=time.perf_counter() - t0, compiles=evaluator.compiles)
+        return Study(study, timings=timings)
+
+
+def _study_info(space, objectives, penalties, queries, seeds, sizes, steplimit, connectivity, sampler, seed, halving,
+                batch) -> dict:
+    """What a study stores about its search: enough to rerun any trial, and to check that a
+    resumed study is the same search."""
+    from .record_format import map_entry, versions
+
+    maps, where = [], {}
+    for g, _, _ in queries.queries:
+        entry = map_entry(g)
+        if entry["sha256"] not in where:
+            where[entry["sha256"]] = len(maps)
+            maps.append(entry)
+    return {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "space": space.describe(),
+        "objectives": list(objectives),
+        "penalty": {k: v for k, v in penalties.items()},
+        "queries": [{"map": where[map_entry(g)["sha256"]], "start": list(s), "goal": list(t),
+                     "optimal": float(p.optimal) * g.cell_size}
+                    for (g, s, t), p in zip(queries.queries, queries.problems)],
+        "seeds": [int(s) for s in seeds],
+        "n_ants": sizes["n_ants"] if "n_ants" not in space.dims else None,
+        "n_iters": sizes["n_iters"] if "n_iters" not in space.dims else None,
+        "steplimit": int(steplimit),
+        "connectivity": int(connectivity),
+        "sampler": sampler,
+        "sampler_seed": int(seed),
+        "fidelity": None if halving is None else halving.describe(),
+        "batch": int(batch),
+        "maps": maps,
+        "versions": versions(),
+    }
+
+
+#: What must be equal for a study to resume (the rest, e.g. versions and batch, may change).
+SAME_SEARCH = ("space", "objectives", "penalty", "queries", "seeds", "n_ants", "n_iters", "steplimit", "connectivity",
+               "sampler", "sampler_seed", "fidelity")
+
+
+def _attach(study, info: dict, where: str) -> None:
+    """Store ``info`` with a new study, or check that an existing one is the same search."""
+    import json
+
+    old = study.user_attrs.get(ATTR)
+    if old is None:
+        if study.trials:
+            raise SearchError(f"study {study.study_name!r} in {where} was not made by jaco.search: use another study_name")
+        study.set_user_attr(ATTR, json.loads(json.dumps(info)))
+        return
+    now = json.loads(json.dumps(info))
+    differ = [k for k in SAME_SEARCH if old.get(k) != now.get(k)]
+    if differ:
+        raise SearchError(
+            f"study {study.study_name!r} in {where} was made by another search (it differs in: {', '.join(differ)}); "
+            "use another study_name to start a new one"
+        )
+
+
+class _Run:
+    """One call's progress through a study: finish stale trials, then generations or brackets."""
+
+    def __init__(self, study, space, evaluator, info, halving, sizes, batch, bar, proposer):
+        self.study, self.space, self.evaluate, self.info = study, space, evaluator, info
+        self.halving, self.sizes, self.batch, self.bar, self.proposer = halving, sizes, batch, bar, proposer
+        self.timings = {"sampler_s": 0.0, "evaluate_s": 0.0, "generations": 0}
+        stored = [trial_info(t).get("generation") for t in study.get_trials(deepcopy=False)]
+        self.generation = 1 + max([g for g in stored if g is not None], default=-1)
+
+    # trials and their state
+    def _trials(self, states=None):
+        return self.study.get_trials(deepcopy=False, states=states)
+
+    def _finished(self) -> int:
+        from optuna.trial import TrialState
+
+        return len(self._trials((TrialState.COMPLETE, TrialState.PRUNED)))
+
+    def _progress(self) -> None:
+        done = self._finished()
+        self.bar.update(min(done, self.bar.total or done))
+        try:
+            value = self.study.best_value if len(self.study.directions) == 1 else None
+        except ValueError:  # no complete trial yet
+            value = None
+        if value is not None:
+            name = self.info["objectives"][0]
+            self.bar.status(f"best {name} {100 * value:.2f}%" if name in ("gap", "success") else f"best {name} {value:.4g}")
+
+    def _job(self, trial, planner, params: dict, sizes: dict) -> Job:
+        """A job: every parameter of the planner (``params`` over its defaults, checked)."""
+        from ..engine.run import resolve_params
+
+        v = self.space.planners[planner]
+        params = {k: x for k, x in params.items() if k in v.params}
+        values = {k: float(np.asarray(x)) for k, x in resolve_params(v, params, where=f"planner {planner!r}").items()}
+        return Job(trial=trial, planner=planner, values=values, own={k: values[k] for k in v.params}, stored={},
+                   **{k: int(sizes[k]) for k in SIZES})
+
+    def _ask(self, n: int, extra_attrs=None) -> list[Job]:
+        t0 = time.perf_counter()
+        jobs = []
+        for i in range(n):
+            trial = self.study.ask()
+            planner, suggested = suggest(trial, self.space)
+            job = self._job(trial, planner, {**self.space.fixed, **suggested}, {**self.sizes, **suggested})
+            # one attribute, one storage write: what reruns the trial and places it in the search
+            trial.set_user_attr("jaco_trial", {"planner": planner, "params": job["own"], "n_ants": job["n_ants"],
+                                               "generation": self.generation, **(extra_attrs(i) if extra_attrs else {})})
+            jobs.append(job)
+        self.timings["sampler_s"] += time.perf_counter() - t0
+        return jobs
+
+    def _stale(self, frozen) -> Job:
+        """A trial left RUNNING by an earlier process, to be evaluated again."""
+        from optuna.trial import Trial
+
+        a = trial_info(frozen)
+        sizes = {"n_ants": a["n_ants"], "n_iters": frozen.params.get("n_iters", self.sizes["n_iters"])}
+        job = self._job(Trial(self.study, frozen._trial_id), a["planner"], a["params"], sizes)
+        job["stored"] = dict(a["runs"])
+        return job
+
+    def _evaluate(self, jobs, n_iters=None) -> None:
+        if n_iters is not None:
+            for j in jobs:
+                j["n_iters"] = int(n_iters)
+        t0 = time.perf_counter()
+        self.evaluate(jobs)
+        self.timings["evaluate_s"] += time.perf_counter() - t0
+        for j in jobs:
+            j["stored"][str(j["n_iters"])] = _plain_runs(j["runs"])
+            j["trial"].set_user_attr("jaco_runs", j["stored"])  # by iterations: a promoted trial has one per rung
+
+    def _tell(self, jobs, state=None) -> None:
+        from optuna.trial import TrialState
+
+        t0 = time.perf_counter()
+        for j in jobs:
+            if state is TrialState.PRUNED:
+                self.study.tell(j["trial"], state=TrialState.PRUNED)
+            else:
+                self.study.tell(j["trial"], j["objective"])
+        self.timings["sampler_s"] += time.perf_counter() - t0
+
+    # the loop
+    def until(self, trials: int) -> None:
+        self._resume_stale()
+        self._progress()
+        if self.proposer is not None:
+            return self._evosax(trials)
+        bracket = len({trial_info(t).get("bracket") for t in self._trials()} - {None})
+        while self._finished() < trials:
+            n = min(self.batch, trials - self._finished())
+            if self.halving is None:
+                jobs = self._ask(n)
+                self._evaluate(jobs)
+                self._tell(jobs)
+            else:
+                brackets = self.halving.brackets(self.sizes["n_iters"])
+                rungs = brackets[bracket % len(brackets)]
+                jobs = self._ask(n, lambda i: {"bracket": bracket})
+                self._bracket(jobs, rungs)
+                bracket += 1
+            self.timings["generations"] += 1
+            self.generation += 1
+            self._progress()
+
+    def _resume_stale(self) -> None:
+        """Finish what an earlier, killed process left RUNNING (this process holds the lock)."""
+        from optuna.trial import TrialState
+
+        stale = []
+        for t in self._trials((TrialState.RUNNING,)):
+            if "jaco_trial" in t.user_attrs:
+                stale.append(t)
+            else:  # killed between Optuna's ask and the storing of its parameters: never evaluated
+                self.study.tell(t.number, state=TrialState.FAIL)
+        if not stale or self.proposer is not None:
+            return
+        if self.halving is None:
+            jobs = [self._stale(t) for t in stale]
+            self._evaluate(jobs)
+            self._tell(jobs)
+            return
+        brackets = self.halving.brackets(self.sizes["n_iters"])
+        by_bracket: dict = {}
+        for t in stale:
+            by_bracket.setdefault(trial_info(t)["bracket"], []).append(t)
+        for b, members in sorted(by_bracket.items()):
+            everyone = [t for t in self._trials() if trial_info(t).get("bracket") == b]
+            jobs = [self._stale(t) for t in everyone]
+            self._bracket(jobs, brackets[b % len(brackets)], resumed=True)
+
+    def _bracket(self, jobs, rungs, resumed=False) -> None:
+        """Successive halving of ``jobs`` over ``rungs`` (iterations); values already stored for a
+        rung (a resumed bracket) are used, not evaluated again."""
+        from optuna.trial import TrialState
+
+        sign = 1.0 if self.study.directions[0].name == "MINIMIZE" else -1.0
+        alive = list(jobs)
+        for k, budget in enumerate(rungs):
+            stored = {j["trial"].number: self.study._storage.get_trial(j["trial"]._trial_id) for j in alive}
+            todo = [j for j in alive if budget not in stored[j["trial"].number].intermediate_values]
+            self._evaluate(todo, budget)
+            for j in todo:
+                j["trial"].report(j["objective"][0], budget)
+            for j in alive:
+                if j not in todo:
+                    j["objective"] = [stored[j["trial"].number].intermediate_values[budget]]
+            if k == len(rungs) - 1:
+                self._tell([j for j in alive if stored[j["trial"].number].state == TrialState.RUNNING])
+                return
+            ranked = sorted(alive, key=lambda j: (sign * j["objective"][0], j["trial"].number))
+            keep = max(1, len(alive) // self.halving.eta)
+            dropped = [j for j in ranked[keep:] if stored[j["trial"].number].state == TrialState.RUNNING]
+            self._tell(dropped, TrialState.PRUNED)
+            alive = ranked[:keep]
+
+    def _evosax(self, trials: int) -> None:
+        """Generations of an evosax strategy, replaying the finished ones of a resumed study."""
+        from optuna.trial import TrialState
+
+        sign = 1.0 if self.study.directions[0].name == "MINIMIZE" else -1.0
+        by_gen: dict = {}
+        for t in self._trials((TrialState.COMPLETE, TrialState.RUNNING)):
+            a = trial_info(t)
+            if "member" in a:
+                by_gen.setdefault(a["generation"], {})[a["member"]] = t
+        generation = 0
+        while generation * self.batch < trials:
+            self.generation = generation
+            z = self.proposer.ask(generation)
+            members = by_gen.get(generation, {})
+            fitness = np.full(len(z), np.nan, np.float32)
+            jobs = []
+            for m, t in sorted(members.items()):
+                if not (0 <= m < len(z) and np.array_equal(np.asarray(trial_info(t)["z"], np.float32), z[m])):
+                    raise SearchError(f"study {self.study.study_name!r}: generation {generation} does not replay its "
+                                      "stored proposals (another strategy, batch or seed?)")
+                if t.state == TrialState.COMPLETE:
+                    fitness[m] = sign * t.values[0]
+                else:  # left RUNNING by a killed process: evaluate it now
+                    jobs.append(Job(self._stale(t), member=m))
+            missing = [m for m in range(len(z)) if m not in members]
+            proposals = self.proposer.values(z)
+            self.study.sampler.pending = [proposals[m] for m in missing]
+            new = self._ask(len(missing), lambda i: {"member": missing[i], "z": [float(x) for x in z[missing[i]]]})
+            jobs += [Job(j, member=m) for j, m in zip(new, missing)]
+            self._evaluate(jobs)
+            self._tell(jobs)
+            for j in jobs:
+                fitness[j["member"]] = sign * j["objective"][0]
+            self.proposer.tell(generation, z, fitness)
+            generation += 1
+            self._progress()
+            self.timings["generations"] += 1
+
+
+# -- the result ---------------------------------------------------------------------------------
+class Study:
+    """A search's trials and what was found; ``study`` is the Optuna study (``optuna.Study``,
+    for Optuna's own plots and tools). Made by :func:`jaco.search` or :func:`load_study`."""
+
+    def __init__(self, study, timings: dict | None = None):
+        self.study = study
+        self.info = study.user_attrs.get(ATTR)
+        if self.info is None or self.info.get("format") != FORMAT:
+            raise SearchError(f"study {study.study_name!r} was not made by jaco.search")
+        self.timings = dict(timings or {})
+
+    def __repr__(self) -> str:
+        return (f"Study({self.study.study_name!r}: {len(self.study.trials)} trials, sampler {self.info['sampler']}, "
+                f"objectives {', '.join(self.info['objectives'])})")
+
+    @property
+    def objectives(self) -> list[str]:
+        return list(self.info["objectives"])
+
+    def _params(self, frozen) -> dict:
+        """A trial's planner, its searched values and the fixed values of the space that apply."""
+        a = trial_info(frozen)
+        used = set(a["params"]) | set(SIZES)
+        fixed = {k: v for k, v in self.info["space"].items() if isinstance(v, (int, float)) and k in used}
+        return {VARIANT: a["planner"], **fixed, **{k: v for k, v in frozen.params.items() if k != VARIANT}}
+
+    @property
+    def best_trial(self):
+        """The best finished trial (one objective), an ``optuna.trial.FrozenTrial``."""
+        if len(self.objectives) > 1:
+            raise SearchError("a study with several objectives has a Pareto front: use best_trials")
+        return self.study.best_trial
+
+    @property
+    def best_params(self) -> dict:
+        """The best trial's planner (``variant``), searched and fixed parameters and searched
+        sizes: ``jaco.solve(grid, start, goal, **study.best_params)`` runs it."""
+        return self._params(self.best_trial)
+
+    @property
+    def best_value(self) -> float:
+        return float(self.best_trial.value)
+
+    @property
+    def best_trials(self) -> pd.DataFrame:
+        """The Pareto front (several objectives; one objective: the best trial), as rows of
+        :attr:`trials`."""
+        numbers = [t.number for t in self.study.best_trials]
+        table = self.trials
+        return table[table["number"].isin(numbers)].reset_index(drop=True)
+
+    @property
+    def trials(self) -> pd.DataFrame:
+        """One row per trial: ``number, state, generation, variant``, the searched parameters, the
+        objective value(s) (a column per objective, the penalty counted for failed runs),
+        ``success_rate``, ``gap_median`` and ``length_mean`` over the successful runs,
+        ``n_ants, n_iters`` (of its last evaluation), ``runs``, ``iterations`` (ant-iterations
+        spent on it, all rungs), ``start_s`` and ``end_s`` (seconds since the study's first trial
+        started)."""
+        frozen = self.study.get_trials(deepcopy=False)
+        starts = [t.datetime_start for t in frozen if t.datetime_start is not None]
+        t0 = min(starts) if starts else None
+        rows = []
+        for t in frozen:
+            a = trial_info(t)
+            row = {"number": t.number, "state": t.state.name, "generation": a.get("generation"),
+                   VARIANT: a.get("planner")}
+            row.update({k: v for k, v in t.params.items() if k != VARIANT})
+            values = t.values if t.values is not None else (
+                [t.intermediate_values[max(t.intermediate_values)]] if t.intermediate_values else [math.nan])
+            for name, v in zip(self.objectives, values):
+                row[name] = v
+            runs = a["runs"]
+            last = runs.get(str(a.get("n_iters"))) if runs else None
+            if last is not None:
+                ok = np.asarray(last["success"], bool)
+                gaps = np.asarray([[x if x is not None else np.nan for x in r] for r in last["gap"]], float)
+                lengths = np.asarray([[x if x is not None else np.nan for x in r] for r in last["length"]], float)
+                row["success_rate"] = float(ok.mean())
+                row["gap_median"] = float(np.median(gaps[ok])) if ok.any() else math.nan
+                row["length_mean"] = float(np.mean(lengths[ok])) if ok.any() else math.nan
+                row["runs"] = int(ok.size)
+                row["iterations"] = int(a.get("n_ants", 0)) * ok.size * sum(int(k) for k in runs)
+            row["n_ants"], row["n_iters"] = a.get("n_ants"), a.get("n_iters")
+            row["start_s"] = (t.datetime_start - t0).total_seconds() if t.datetime_start and t0 else math.nan
+            row["end_s"] = (t.datetime_complete - t0).total_seconds() if t.datetime_complete and t0 else math.nan
+            rows.append(row)
+        return pd.DataFrame(rows)
+
+    def history(self) -> pd.DataFrame:
+        """The anytime curve (one objective): finished trials in the order they finished, with the
+        ``value``, the ``best`` so far (never worse than before), ``iterations`` spent so far and
+        ``end_s``."""
+        if len(self.objectives) > 1:
+            raise SearchError("history() follows one objective; this study has several")
+        table = self.trials
+        table = table[table["state"].isin(["COMPLETE", "PRUNED"])].sort_values(["end_s", "number"], kind="stable")
+        name = self.objectives[0]
+        sign = 1.0 if OBJECTIVES[name] == "minimize" else -1.0
+        complete = table["state"].eq("COMPLETE")
+        best = (sign * table[name].where(complete)).cummin() * sign
+        out = pd.DataFrame({"number": table["number"].to_numpy(), "value": table[name].to_numpy(),
+                            "best": best.to_numpy(), "iterations": table["iterations"].cumsum().to_numpy(),
+                            "end_s": table["end_s"].to_numpy(), "state": table["state"].to_numpy()})
+        return out.reset_index(drop=True)
+
+    def runs(self, number: int | None = None) -> pd.DataFrame:
+        """Every stored run (of one trial, or of all), one row per (trial, iterations, query,
+        seed): ``success, length, gap, best_iteration`` (and ``turns``)."""
+        rows = []
+        for t in self.study.get_trials(deepcopy=False):
+            if number is not None and t.number != number:
+                continue
+            for n_iters, runs in trial_info(t)["runs"].items():
+                for q, query in enumerate(self.info["queries"]):
+                    for j, s in enumerate(self.info["seeds"]):
+                        row = {"number": t.number, VARIANT: trial_info(t)["planner"], "n_iters": int(n_iters),
+                               "query": q, "start": tuple(query["start"]), "goal": tuple(query["goal"]), "seed": s}
+                        for k, v in runs.items():
+                            x = v[q][j]
+                            row[k] = math.inf if x is None else x
+                        rows.append(row)
+        return pd.DataFrame(rows)
+
+    def record(self, number: int) -> "TrialRecord":
+        """What reruns trial ``number`` (:class:`TrialRecord`)."""
+        matches = [t for t in self.study.get_trials(deepcopy=False) if t.number == number]
+        if not matches:
+            raise SearchError(f"study {self.study.study_name!r} has no trial {number}")
+        t = matches[0]
+        if not trial_info(t)["runs"]:
+            raise SearchError(f"trial {number} of study {self.study.study_name!r} has no stored runs ({t.state.name})")
+        return TrialRecord(self.info, t)
+
+    def rerun(self, number: int):
+        """Rerun trial ``number`` at every budget it was evaluated at and compare each run's
+        success, length and best iteration bit for bit (a :class:`jaco.research.records.Rerun`)."""
+        return self.record(number).rerun()
+
+
+class TrialRecord:
+    """A stored trial as a record: its planner, parameters, sizes, seeds and queries (maps
+    embedded in the study), and its per-run results to compare a rerun with."""
+
+    def __init__(self, info: dict, frozen):
+        self.info, self.trial = info, frozen
+
+    def rerun(self):
+        from .record_format import grid_from_entry, version_warnings
+        from .records import Rerun
+        from .sweeps import sweep
+        from .designs import table
+
+        info, a = self.info, trial_info(self.trial)
+        built = [grid_from_entry(e, f"study {self.trial.number}") for e in info["maps"]]
+        notes = version_warnings(info.get("versions", {}), 2) + [n for _, ns in built for n in ns]
+        grids = [built[q["map"]][0] for q in info["queries"]]
+        starts = [tuple(q["start"]) for q in info["queries"]]
+        goals = [tuple(q["goal"]) for q in info["queries"]]
+        diffs, n_runs = [], 0
+        for n_iters, runs in sorted(a["runs"].items(), key=lambda kv: int(kv[0])):
+            new = sweep(grids, starts, goals, a["planner"], table({k: [v] for k, v in a["params"].items()}),
+                        info["seeds"], n_ants=int(a["n_ants"]), n_iters=int(n_iters), steplimit=info["steplimit"],
+                        connectivity=info["connectivity"], progress=False)
+            n_q, n_s = len(info["queries"]), len(info["seeds"])
+            got = {"success": new["success"].to_numpy().reshape(n_q, n_s),
+                   "length": new["length"].to_numpy().reshape(n_q, n_s),
+                   "best_iteration": new["best_iteration"].to_numpy().reshape(n_q, n_s)}
+            for k, v in got.items():
+                old = np.asarray([[math.inf if x is None else x for x in r] for r in runs[k]], np.float64)
+                same = np.array_equal(old, np.asarray(v, np.float64))
+                if not same:
+                    diffs.append(f"{n_iters} iterations, {k}: {int(np.sum(old != np.asarray(v, np.float64)))} of {old.size} runs differ")
+            n_runs += n_q * n_s
+        what = f"trial {self.trial.number}: {n_runs} runs of {a['planner']}"
+        return Rerun(not diffs, diffs, notes, None, what)
+
+
+def load_study(storage, study_name: str | None = None) -> Study:
+    """A stored study (no search runs): ``storage`` as in :func:`search`; ``study_name`` may be
+    left out when the storage holds one study."""
+    optuna = require("optuna", "jaco.load_study")
+    storage_obj, path, text = _storage(storage)
+    if path is not None and not path.is_file():
+        raise SearchError(f"no study storage at {str(path)!r}")
+    if storage_obj == "journal":
+        storage_obj = optuna.storages.JournalStorage(optuna.storages.journal.JournalFileBackend(
+            str(path), lock_obj=optuna.storages.journal.JournalFileOpenLock(str(path))))
+    with _quiet():
+        try:
+            names = [s.study_name for s in optuna.get_all_study_summaries(storage_obj, include_best_trial=False)]
+        except Exception as e:  # noqa: BLE001 - any storage failure is the user's file
+            raise SearchError(f"cannot read the studies of {text}: {' '.join(str(e).split())[:200]}") from None
+        if study_name is None:
+            if len(names) != 1:
+                raise SearchError(f"{text} holds {len(names)} studies ({', '.join(names)}): name one with study_name")
+            study_name = names[0]
+        if study_name not in names:
+            raise SearchError(f"{text} has no study {study_name!r}; it has: {', '.join(names) or 'none'}")
+        return Study(optuna.load_study(study_name=study_name, storage=storage_obj))

@@ -1,0 +1,396 @@
+"""jaco.search: spaces, samplers, multi-fidelity, durable studies that resume after SIGKILL."""
+
+import json
+import math
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import textwrap
+import time
+
+import numpy as np
+import pytest
+
+import jaco
+from jaco.research import search as S
+from jaco.research.space import Categorical, Float, Int, SpaceError, parse_space
+
+optuna = pytest.importorskip("optuna")
+
+GRID = jaco.Grid.from_rows([
+    "..........",
+    "..####....",
+    "......#...",
+    ".##...#.#.",
+    "......#...",
+    "...####...",
+    "..........",
+])
+ENDS = ((6, 0), (0, 9))
+SMALL = dict(seeds=2, n_ants=6, n_iters=8, progress=False)
+SPACE = {"beta": (0.5, 12.0, "log"), "rho": (0.05, 0.6)}
+
+
+def _no_compile(monkeypatch):
+    """Any attempt to compile a sweep program fails the test (bad input must stop before)."""
+    def boom(*a, **k):
+        raise AssertionError("compiled before the error")
+
+    monkeypatch.setattr(jaco.research.sweeps, "_plan", boom)
+
+
+# -- the space ---------------------------------------------------------------------------------
+def test_space_forms_and_conditional_parameters():
+    sp = parse_space({"variant": ["iaca", "acs"], "beta": (1.0, 20.0, "log"), "q0": [0.5, 0.9], "n_ants": [10, 20],
+                      "xi": (0.0, 0.5), "alpha": 1.5})
+    assert list(sp.planners) == ["iaca", "acs"]
+    assert sp.dims["beta"] == Float(1.0, 20.0, True) and sp.dims["q0"] == Categorical((0.5, 0.9))
+    assert sp.dims["n_ants"] == Categorical((10, 20)) and sp.fixed == {"alpha": 1.5}
+    assert sp.uses("acs", "xi") and not sp.uses("iaca", "xi")  # ACS's local update only
+    assert sp.conditional()
+    assert parse_space({"w": (2, 12, "int")}, "ras").dims["w"] == Int(2, 12)
+
+
+@pytest.mark.parametrize("space, variant, match", [
+    ({"beta": (5.0, 5.0)}, None, "empty range"),
+    ({"beta": (3.0, 1.0)}, None, "empty range"),
+    ({"rho": (0.0, 0.5, "log")}, None, "log range needs low > 0"),
+    ({"bta": (1.0, 2.0)}, None, "unknown parameter 'bta'"),
+    ({"q0": (0.5, 0.9)}, "mmas", "not used by planner 'mmas'"),
+    ({"variant": ["acs", "nope"], "beta": (1.0, 2.0)}, None, "unknown variant 'nope'"),
+    ({"beta": (1.0, 40.0)}, None, "out of range"),
+    ({"n_ants": (1.0, 5.0)}, None, "a size is an integer"),
+    ({"variant": [], "beta": (1.0, 2.0)}, None, "empty list of planners"),
+    ({"alpha": 1.0}, None, "nothing to search"),
+    ({"tau_min": (0.1, 30.0)}, "iaca", "tau_min < tau_max"),
+    ({"beta": (1.0, 2.0, "cubic")}, None, "optional 'log'"),
+])
+def test_a_bad_space_is_one_line_before_anything_compiles(monkeypatch, space, variant, match):
+    _no_compile(monkeypatch)
+    with pytest.raises(jaco.JacoError, match=match) as e:
+        jaco.search(GRID, *ENDS, space, variant=variant, trials=4, batch=2, **SMALL)
+    assert "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(sampler="annealing"), "unknown sampler"),
+    (dict(sampler="evosax:NoSuchES"), "unknown evosax strategy"),
+    (dict(sampler="cmaes", objective=["gap", "turns"]), "one objective"),
+    (dict(objective="speed"), "unknown objective"),
+    (dict(trials=0), "trials must be a positive integer"),
+    (dict(fidelity="halving", objective=["gap", "turns"]), "one objective"),
+    (dict(penalty={"success": 1.0}), "only gap"),
+    (dict(storage=12), "storage must be"),
+])
+def test_bad_search_arguments_are_one_line_before_anything_compiles(monkeypatch, kwargs, match):
+    _no_compile(monkeypatch)
+    with pytest.raises(jaco.JacoError, match=match):
+        jaco.search(GRID, *ENDS, SPACE, variant="acs", **{**dict(trials=4, batch=2, **SMALL), **kwargs})
+
+
+def test_evosax_needs_real_ranges_of_one_planner(monkeypatch):
+    _no_compile(monkeypatch)
+    with pytest.raises(SpaceError, match="'variant' is the planner"):
+        jaco.search(GRID, *ENDS, {"variant": ["acs", "mmas"], "beta": (1.0, 8.0)}, sampler="evosax:SNES", **SMALL)
+    with pytest.raises(SpaceError, match="'n_ants' is not a"):
+        jaco.search(GRID, *ENDS, {"beta": (1.0, 8.0), "n_ants": [4, 8]}, variant="acs", sampler="evosax:SNES", **SMALL)
+
+
+# -- the search ------------------------------------------------------------------------------
+def test_every_trial_equals_solve_with_its_parameters_and_seeds():
+    study = jaco.search(GRID, *ENDS, {"variant": ["acs", "mmas"], **SPACE}, trials=6, batch=3, sampler="random", **SMALL)
+    table = study.trials
+    assert len(table) == 6 and set(table["state"]) == {"COMPLETE"} and set(table["generation"]) == {0, 1}
+    for number in (0, 4):
+        frozen = study.study.trials[number]
+        runs = study.runs(number)
+        for seed in (0, 1):
+            r = jaco.solve(GRID, *ENDS, seed=seed, n_ants=6, n_iters=8, progress=False, **study._params(frozen))
+            row = runs[runs["seed"] == seed].iloc[0]
+            assert bool(row["success"]) == r.success and row["length"] == r.length and row["gap"] == r.gap
+        assert table.loc[number, "gap"] == pytest.approx(np.mean(runs["gap"]))  # every run succeeded here
+
+
+def test_best_so_far_never_worsens_and_best_params_solve():
+    study = jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=12, batch=4, sampler="tpe", seed=3, **SMALL)
+    h = study.history()
+    assert len(h) == 12 and (np.diff(h["best"]) <= 0).all()
+    assert h["best"].iloc[-1] == study.best_value == h["value"].min()
+    assert set(study.best_params) == {"variant", "beta", "rho"}
+
+
+def test_a_seeded_sampler_proposes_the_same_trials_and_another_seed_others():
+    def params(seed):
+        st = jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=8, batch=4, sampler="tpe", seed=seed, **SMALL)
+        return st.trials[["beta", "rho"]].to_numpy()
+
+    a, b, c = params(7), params(7), params(8)
+    assert np.array_equal(a, b) and not np.array_equal(a, c)
+
+
+def test_tpe_batches_are_not_one_point_repeated():
+    study = jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=24, batch=12, sampler="tpe", **SMALL)
+    second = study.trials[study.trials["generation"] == 1]
+    assert second["beta"].nunique() == 12  # the constant liar spreads a batch
+
+
+def test_a_failed_run_counts_as_the_documented_penalty_never_nan():
+    # steplimit 3 cannot reach a goal 9 columns away: every run fails
+    study = jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=2, batch=2, steplimit=3, sampler="random",
+                        objective=["gap", "length", "turns", "success"], **SMALL)
+    t = study.trials
+    optimal = jaco.exact.shortest_path(GRID, *ENDS)[0]
+    worst = math.sqrt(2) * 3
+    assert (t["success"] == 0).all() and (t["success_rate"] == 0).all()
+    assert np.allclose(t["length"], worst) and np.allclose(t["gap"], worst / optimal - 1) and np.allclose(t["turns"], 3)
+    given = jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=2, batch=2, steplimit=3, sampler="random",
+                        penalty=2.5, **SMALL)
+    assert (given.trials["gap"] == 2.5).all()
+
+
+def test_sizes_in_the_space_and_a_pareto_front_over_gap_and_budget():
+    study = jaco.search(GRID, *ENDS, {"beta": (1.0, 8.0), "n_ants": [3, 6]}, variant="acs", trials=8, batch=4,
+                        sampler="nsga2", objective=["gap", "budget"], seeds=2, n_iters=8, progress=False)
+    t = study.trials
+    assert set(t["n_ants"]) <= {3, 6} and (t["budget"] == t["n_ants"] * 8).all()
+    front = study.best_trials
+    for _, row in front.iterrows():  # no trial is better on both objectives
+        better = (t["gap"] <= row["gap"]) & (t["budget"] <= row["budget"]) & ((t["gap"] < row["gap"]) | (t["budget"] < row["budget"]))
+        assert not better.any()
+
+
+def test_turns_objective_counts_heading_changes_of_the_best_path():
+    study = jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=2, batch=2, sampler="random", objective="turns",
+                        **SMALL)
+    frozen = study.study.trials[0]
+    turns = [jaco.solve(GRID, *ENDS, seed=s, n_ants=6, n_iters=8, progress=False, **study._params(frozen)).metrics()["turns"]
+             for s in (0, 1)]
+    assert study.trials.loc[0, "turns"] == np.mean(turns)
+
+
+def test_repeated_generations_and_searches_never_recompile():
+    jaco.engine.run.clear_compiled()
+    kw = dict(variant="acs", batch=4, sampler="random", **SMALL)
+    first = jaco.search(GRID, *ENDS, SPACE, trials=12, **kw)  # 3 generations of 4: one program
+    assert first.timings["compiles"] == 1 and first.timings["generations"] == 3
+    again = jaco.search(GRID, *ENDS, SPACE, trials=6, **kw)  # 4 + 2 trials: chunks of 4 and 2 (powers of two)
+    assert again.timings["compiles"] == 1
+    third = jaco.search(GRID, *ENDS, SPACE, trials=6, seed=5, **kw)
+    assert third.timings["compiles"] == 0
+
+
+# -- multi-fidelity ------------------------------------------------------------------------------
+def test_halving_rungs_promote_the_best_third_and_rerun_at_the_larger_budget():
+    assert S.Halving(eta=3).rungs(27) == [3, 9, 27]
+    assert S.Halving(min_iters=2, eta=2).rungs(8) == [2, 4, 8]
+    assert S.Halving(eta=3, hyperband=True).brackets(9) == [[1, 3, 9], [3, 9], [9]]
+    study = jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=9, batch=9, sampler="random", fidelity="halving",
+                        seeds=2, n_ants=6, n_iters=9, progress=False)
+    t = study.trials
+    assert list(t["state"].value_counts().sort_index()) == [1, 8]  # COMPLETE 1, PRUNED 8
+    at1 = {tr.number: tr.intermediate_values[1] for tr in study.study.trials}
+    best3 = sorted(at1, key=lambda n: (at1[n], n))[:3]
+    assert set(t[t["n_iters"] >= 3]["number"]) == set(best3)
+    winner = t[t["state"] == "COMPLETE"].iloc[0]
+    assert winner["n_iters"] == 9 and winner["iterations"] == 6 * 2 * (1 + 3 + 9)
+    # a promoted trial was re-run: its value at 3 iterations is a plain 3-iteration solve
+    frozen = study.study.trials[int(winner["number"])]
+    r = [jaco.solve(GRID, *ENDS, seed=s, n_ants=6, n_iters=3, progress=False, **study._params(frozen)) for s in (0, 1)]
+    assert frozen.intermediate_values[3] == pytest.approx(np.mean([x.gap for x in r]), abs=0)
+    assert study.rerun(int(winner["number"])).matched
+
+
+# -- evosax ---------------------------------------------------------------------------------------
+def test_evosax_strategy_searches_and_replays_after_an_interruption(tmp_path, monkeypatch):
+    pytest.importorskip("evosax")
+    kw = dict(variant="acs", trials=12, batch=4, sampler="evosax:SNES", **SMALL)
+    whole = jaco.search(GRID, *ENDS, SPACE, **kw).trials[["beta", "rho", "gap"]]
+    assert whole["beta"].between(0.5, 12.0).all() and whole["rho"].between(0.05, 0.6).all()
+    db = f"sqlite:///{tmp_path / 'es.db'}"
+    calls = []
+    real = S.Evaluator.__call__
+
+    def dies_in_generation_2(self, jobs):
+        calls.append(len(jobs))
+        if len(calls) == 2:
+            real(self, jobs[:2])
+            raise KeyboardInterrupt
+        return real(self, jobs)
+
+    monkeypatch.setattr(S.Evaluator, "__call__", dies_in_generation_2)
+    with pytest.raises(KeyboardInterrupt):
+        jaco.search(GRID, *ENDS, SPACE, storage=db, **kw)
+    monkeypatch.setattr(S.Evaluator, "__call__", real)
+    resumed = jaco.search(GRID, *ENDS, SPACE, storage=db, **kw)
+    t = resumed.trials
+    assert len(t) == 12 and set(t["state"]) == {"COMPLETE"}
+    assert np.array_equal(t[["beta", "rho", "gap"]].to_numpy(), whole.to_numpy())  # the same search, bit for bit
+
+
+def test_tune_estimator_is_evosax_open_es_gradient():
+    """jaco.tune hand-writes OpenES's estimator (antithetic pairs, centered ranks): same gradient."""
+    pytest.importorskip("evosax")
+    import jax
+    import jax.numpy as jnp
+    from evosax.core.fitness_shaping import centered_rank_fitness_shaping_fn
+
+    from jaco.research.tuning import es_gradient
+
+    e = jax.random.normal(jax.random.key(0), (4, 3))
+    eps = jnp.concatenate([e, -e])
+    f = jnp.array([3.0, 1.0, 4.0, 1.5, 5.0, 9.0, 2.0, 6.0])
+    sigma = 0.5
+    ours = es_gradient(eps, f, sigma)
+    shaped = centered_rank_fitness_shaping_fn(eps, f, None, None)
+    theirs = jnp.dot(shaped, eps) / (8 * sigma)  # evosax Open_ES._tell: (population - mean) / std is eps
+    np.testing.assert_allclose(np.asarray(ours), np.asarray(theirs), rtol=1e-6)
+
+
+# -- durable studies -------------------------------------------------------------------------------
+def test_interrupted_batch_resumes_without_loss_or_double_evaluation(tmp_path, monkeypatch):
+    db = f"sqlite:///{tmp_path / 's.db'}"
+    kw = dict(variant="acs", trials=8, batch=4, sampler="tpe", storage=db, study_name="t", **SMALL)
+    real = S.Evaluator.__call__
+    state = {"n": 0}
+
+    def interrupted(self, jobs):
+        state["n"] += 1
+        if state["n"] == 2:
+            raise KeyboardInterrupt  # Ctrl-C while the second batch runs
+        return real(self, jobs)
+
+    monkeypatch.setattr(S.Evaluator, "__call__", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        jaco.search(GRID, *ENDS, SPACE, **kw)
+    before = {t.number: (t.state.name, t.values, t.datetime_complete) for t in jaco.load_study(db).study.trials}
+    assert sorted(s for s, _, _ in before.values()) == ["COMPLETE"] * 4 + ["RUNNING"] * 4
+    monkeypatch.setattr(S.Evaluator, "__call__", real)
+    seen = []
+    monkeypatch.setattr(S.Evaluator, "__call__", lambda self, jobs: (seen.extend(j["trial"].number for j in jobs), real(self, jobs))[1])
+    study = jaco.search(GRID, *ENDS, SPACE, **kw)
+    assert sorted(seen) == [n for n, (s, _, _) in before.items() if s == "RUNNING"]  # the stale ones, once
+    after = {t.number: (t.state.name, t.values, t.datetime_complete) for t in study.study.trials}
+    assert len(after) == 8 and {s for s, _, _ in after.values()} == {"COMPLETE"}
+    for n, old in before.items():
+        if old[0] == "COMPLETE":
+            assert after[n] == old  # a finished trial is never evaluated again
+
+
+def test_a_resumed_study_must_be_the_same_search(tmp_path):
+    db = str(tmp_path / "s.db")
+    jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=2, batch=2, sampler="random", storage=db, **SMALL)
+    with pytest.raises(S.SearchError, match="differs in: space"):
+        jaco.search(GRID, *ENDS, {"beta": (1.0, 3.0)}, variant="acs", trials=2, batch=2, sampler="random", storage=db,
+                    **SMALL)
+    more = jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=4, batch=2, sampler="random", storage=db, **SMALL)
+    assert len(more.trials) == 4  # more trials extend the study
+
+
+def test_a_stored_trial_reruns_to_its_stored_value(tmp_path):
+    db = str(tmp_path / "s.journal")
+    jaco.search(GRID, *ENDS, {"variant": ["acs", "iaca"], **SPACE}, trials=4, batch=4, sampler="random", storage=db, **SMALL)
+    study = jaco.load_study(db)
+    for number in range(4):
+        rec = study.rerun(number)
+        assert rec.matched, rec.differences
+    for number in range(4):  # the stored value is the mean of the stored runs
+        runs = study.runs(number)
+        if runs["success"].all():
+            assert study.trials.loc[number, "gap"] == np.mean(runs["gap"])
+    # a stored run that differs from its rerun is reported
+    trial = study.study.trials[1]  # a copy: changing it changes nothing stored
+    key = next(iter(trial.user_attrs["jaco_runs"]))
+    trial.user_attrs["jaco_runs"][key]["length"][0][0] = 1.0
+    rerun = S.TrialRecord(study.info, trial).rerun()
+    assert not rerun.matched and "length: 1 of 2 runs differ" in rerun.differences[0]
+
+
+def test_a_second_process_on_a_locked_study_gets_one_line(tmp_path):
+    from jaco.research.store import StoreError, exclusive_lock
+
+    db = tmp_path / "s.db"
+    held = exclusive_lock(db, "test")
+    try:
+        with pytest.raises(StoreError, match="in use by another process") as e:
+            jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=2, batch=2, storage=str(db), **SMALL)
+        assert "\n" not in str(e.value)
+    finally:
+        held.close()
+
+
+KILLED = textwrap.dedent("""
+    import sys, jaco
+    grid = jaco.Grid.from_rows({rows!r})
+    jaco.search(grid, {start}, {goal}, {space!r}, variant="acs", trials=60, batch=4, seeds=2, n_ants=6, n_iters=40,
+                sampler="tpe", storage=sys.argv[1], progress=False)
+""")
+
+
+def test_resume_after_sigkill_loses_nothing_and_duplicates_nothing(tmp_path):
+    db = tmp_path / "k.db"
+    script = KILLED.format(rows=GRID.to_rows(), start=ENDS[0], goal=ENDS[1], space=SPACE)
+    proc = subprocess.Popen([sys.executable, "-c", script, str(db)], cwd=tmp_path)
+    deadline = time.time() + 120
+    done = 0
+    while time.time() < deadline and proc.poll() is None:
+        time.sleep(0.2)
+        try:
+            with sqlite3.connect(db, timeout=0.1) as con:
+                done = con.execute("SELECT COUNT(*) FROM trials WHERE state = 'COMPLETE'").fetchone()[0]
+        except sqlite3.Error:
+            continue
+        if done >= 8:
+            break
+    assert proc.poll() is None, "the search ended before it could be killed"
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    killed = {t.number: (t.state.name, t.values) for t in jaco.load_study(str(db)).study.trials}
+    assert 8 <= sum(s == "COMPLETE" for s, _ in killed.values()) < 60
+    study = jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=60, batch=4, seeds=2, n_ants=6, n_iters=40,
+                        sampler="tpe", storage=str(db), progress=False)
+    trials = study.study.trials
+    assert [t.number for t in trials] == list(range(len(trials)))
+    assert sum(t.state.name == "COMPLETE" for t in trials) == 60
+    # nothing stays RUNNING; a trial killed before its parameters were stored is FAIL (never evaluated)
+    assert all(t.state.name == "COMPLETE" or (t.state.name == "FAIL" and "jaco_trial" not in t.user_attrs) for t in trials)
+    for n, (s, v) in killed.items():
+        if s == "COMPLETE":
+            assert trials[n].values == v  # kept, not evaluated again
+    assert all(study.rerun(n).matched for n in (0, len(trials) - 1))
+
+
+# -- the command line ---------------------------------------------------------------------------------
+def test_cli_search_resumes_prints_the_best_and_reruns_a_trial(tmp_path, capsys):
+    from jaco.cli import main
+
+    db = str(tmp_path / "cli.db")
+    args = ["search", "demo", "--variant", "acs", "--param", "beta=1:10:log", "--param", "rho=0.05:0.5", "--trials", "4",
+            "--batch", "2", "--seeds", "2", "--ants", "6", "--iters", "8", "--sampler", "random", "--storage", db,
+            "--csv", str(tmp_path / "t.csv"), "--plot", str(tmp_path / "h.png")]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert "best: trial" in out and "optuna-dashboard sqlite:///" in out and (tmp_path / "h.png").stat().st_size > 0
+    table = __import__("pandas").read_csv(tmp_path / "t.csv")
+    assert len(table) == 4 and table["gap"].notna().all()
+    assert main(args[:args.index("--trials") + 1] + ["6"] + args[args.index("--trials") + 2:]) == 0
+    assert "6 trials in the study" in capsys.readouterr().out
+    assert main(["rerun", db, "--trial", "5"]) == 0
+    assert "matched the stored trial bit for bit" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("param, match", [
+    ("beta=1:20:5", "sweep's form"),
+    ("beta=3:3", "empty range"),
+    ("rho=0:0.5:log", "log range needs low > 0"),
+    ("q0=0.5:0.9", "not used by planner 'mmas'"),
+    ("bogus=1:2", "unknown parameter 'bogus'"),
+])
+def test_cli_bad_space_is_one_line_and_exit_2(param, match, capsys, monkeypatch):
+    from jaco.cli import main
+
+    _no_compile(monkeypatch)
+    assert main(["search", "demo", "--param", param, "--trials", "2"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("jaco: error:") and match in err and "\n" not in err
