@@ -14,7 +14,7 @@ def python_blocks() -> list[str]:
 
 @pytest.mark.slow
 def test_readme_python_example_runs_and_prints(tmp_path, monkeypatch, capsys):
-    (code,) = python_blocks()
+    code = python_blocks()[0]
     monkeypatch.chdir(tmp_path)
     exec(compile(code, "README.md", "exec"), {"__name__": "__main__"})
     out = capsys.readouterr().out.splitlines()
@@ -26,3 +26,16 @@ def test_readme_python_example_runs_and_prints(tmp_path, monkeypatch, capsys):
     assert out[-3].startswith("via ((10, 5), (20, 20)): length ")
     assert "'beta':" in out[-1]
     assert {p.name for p in tmp_path.iterdir()} == {"paths.png", "heatmap.png", "run.json"}
+
+
+@pytest.mark.slow
+def test_readme_search_example_runs_stores_and_resumes(tmp_path, monkeypatch, capsys):
+    code = python_blocks()[1]
+    assert "jaco.search(" in code
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code, "README.md", "exec"), {"__name__": "__main__"})
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("{'variant': ") and out[0].endswith("%")
+    assert {p.name for p in tmp_path.iterdir()} == {"study.db"}
+    exec(compile(code, "README.md", "exec"), {"__name__": "__main__"})  # the same call again: resumed, done
+    assert capsys.readouterr().out.splitlines()[0] == out[0]

@@ -227,7 +227,7 @@ def cmd_sweep(args) -> int:
         raise UsageError(f"--record writes the table as CSV plus a .json sidecar: give a name ending in .csv, got {args.record!r}")
     grid = load_map(args.map)
     start, goal, scenario, label = resolve_query(grid, args)
-    _check_outputs(args, grid, files=(("--csv", None), ("--record", (".csv",))))
+    _check_outputs(args, grid, files=(("--csv", None), ("--record", (".csv",)), ("--store", None)))
     from ..planners.registry import get_variant
     from ..research.sweeps import summarize, sweep
 
@@ -244,9 +244,14 @@ def cmd_sweep(args) -> int:
     table = sweep(
         grid, start, goal, variant, axes, args.seeds,
         n_ants=args.ants, n_iters=args.iters, steplimit=args.steplimit,  # progress: a bar on a terminal
+        store=args.store, chunk=args.chunk,
     )
     seconds = time.perf_counter() - args.started
     print(f"{len(table)} runs in {seconds:.2f} s (since the command started: imports, JIT compilation and the runs)")
+    if args.store:
+        plans = table.attrs["sweep"].values() if len(variants) > 1 else [table.attrs["sweep"]]
+        resumed = sum(p.get("resumed_runs", 0) for p in plans)
+        print(f"store {args.store}: {resumed} runs were already stored, {len(table) - resumed} ran now")
     if scenario is not None:
         print(f"scenario {label}: optimal length {scenario.optimal:.4f} (from the .scen file)")
     if args.csv:
@@ -303,13 +308,6 @@ def _summary_table(shown, swept) -> str:
 def cmd_rerun(args) -> int:
     """Rerun a record; exit 0 when it matched bit for bit, 1 when it did not."""
     from ..research.records import RunRecord, load_run
-
-    if args.trial is not None:  # a trial of a stored search
-        from .search import cmd_rerun_trial
-
-        return cmd_rerun_trial(args)
-    if args.study is not None:
-        raise UsageError("--study names a search study: give --trial N too")
 
     rec = load_run(args.record)
     if isinstance(rec, RunRecord):

@@ -6,8 +6,8 @@ import argparse
 import sys
 
 from .args import _cell, _int_at_least, _nonneg_int, _Parser, _pos_int, _seed, _xy
-from .commands import cmd_demo, cmd_info, cmd_maps, cmd_rerun, cmd_solve, cmd_sweep, cmd_variants
-from .search import cmd_search
+from .commands import cmd_demo, cmd_info, cmd_maps, cmd_solve, cmd_sweep, cmd_variants
+from .search import cmd_rerun, cmd_search
 
 DEMO_VARIANT = "mmas"  # on the demo map MMAS comes closer to the optimum than ACS (see --help)
 DEFAULT_ANTS = 50
@@ -118,6 +118,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seeds", type=_pos_int, default=4, metavar="N",
                    help="seeds 0..N-1 per configuration (default 4)")
     p.add_argument("--csv", metavar="OUT", help="write the tidy table (one row per run) as CSV")
+    p.add_argument("--store", metavar="FILE.db",
+                   help="append every finished chunk to this SQLite store: the same command again skips the "
+                   "finished runs (a killed sweep resumes), and the table equals an uninterrupted sweep")
+    p.add_argument("--chunk", type=_pos_int, default=None, metavar="N",
+                   help="at most N runs (configurations x seeds) per compiled call (default: as many as fit; "
+                   "with --store about a tenth of the sweep)")
     p.add_argument("--record", metavar="OUT.csv",
                    help="write the table as CSV plus a JSON sidecar (OUT.json: arguments, maps, "
                    "versions) that 'jaco rerun' reproduces")

@@ -121,9 +121,16 @@ def cmd_search(args) -> int:
     return 0
 
 
-def cmd_rerun_trial(args) -> int:
-    """``jaco rerun STORAGE --trial N [--study NAME]``: exit 0 when it matched, 1 when not."""
+def cmd_rerun(args) -> int:
+    """``jaco rerun``: a run or sweep record (:func:`jaco.cli.commands.cmd_rerun`), or with
+    ``--trial N [--study NAME]`` a trial of a stored search; exit 0 when it matched, 1 when not."""
     from ..research.search import load_study
+    from .commands import cmd_rerun as rerun_record
+
+    if args.trial is None:
+        if args.study is not None:
+            raise UsageError("--study names a search study: give --trial N too")
+        return rerun_record(args)
 
     study = load_study(args.record, args.study)
     print(f"study    {study.study.study_name!r}: {len(study.study.trials)} trials, sampler {study.info['sampler']}")

@@ -39,9 +39,12 @@ def require(module: str, what: str):
     """Import ``module`` or raise a one-line JacoError naming the extra that installs it."""
     if find_spec(module) is None:
         raise JacoError(f"{what} needs the package {module!r}: {EXTRA}")
+    import warnings
     from importlib import import_module
 
-    return import_module(module)
+    with warnings.catch_warnings():  # e.g. tqdm's "IProgress not found" when Optuna loads in a notebook
+        warnings.simplefilter("ignore")
+        return import_module(module)
 
 
 def check_sampler(sampler, space: Space, n_objectives: int) -> str:
@@ -118,7 +121,9 @@ def optuna_sampler(name: str, space: Space, *, seed: int, batch: int, trials: in
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
         if name == "tpe":
-            return s.TPESampler(seed=seed, multivariate=True, group=space.conditional(), constant_liar=True)
+            # TPE models once n_startup_trials are told: with small batches, from the second batch on
+            return s.TPESampler(seed=seed, multivariate=True, group=space.conditional(), constant_liar=True,
+                                n_startup_trials=min(10, batch))
         if name == "cmaes":
             beside = s.TPESampler(seed=seed, multivariate=True, constant_liar=True)
             return s.CmaEsSampler(seed=seed, popsize=batch, n_startup_trials=0, independent_sampler=beside,

@@ -820,7 +820,7 @@ class Study:
         name = self.objectives[0]
         sign = 1.0 if OBJECTIVES[name] == "minimize" else -1.0
         complete = table["state"].eq("COMPLETE")
-        best = (sign * table[name].where(complete)).cummin() * sign
+        best = (sign * table[name].where(complete)).cummin().ffill() * sign  # a pruned trial keeps the best
         out = pd.DataFrame({"number": table["number"].to_numpy(), "value": table[name].to_numpy(),
                             "best": best.to_numpy(), "iterations": table["iterations"].cumsum().to_numpy(),
                             "end_s": table["end_s"].to_numpy(), "state": table["state"].to_numpy()})
