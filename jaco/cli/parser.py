@@ -94,6 +94,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", metavar="OUT", help="write the result and its path metrics as JSON")
     p.add_argument("--plot", metavar="FILE", help="write a figure of the map, the ACO path and the exact path "
                    "in the format its suffix names (.png, .svg, .pdf ...)")
+    p.add_argument("--plot-format", metavar="FMT",
+                   help="the figure format (png, svg, pdf ...) when --plot's name has none: '-' (standard output), "
+                   "a device or a FIFO")
     p.add_argument("--path-csv", metavar="OUT",
                    help="write the path as CSV: row,col and, on a ROS map, x,y in metres (cell centres)")
     p.add_argument("--record", metavar="OUT",
