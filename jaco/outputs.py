@@ -112,7 +112,7 @@ def target(path, what: str = "output") -> Target:
             raise _fail(what, given, f"folder {str(folder)!r} is a dangling symbolic link")
         if not folder.is_dir():
             raise _fail(what, given, f"{str(folder)!r} is not a folder")
-        _check_folder(what, given, os.path.realpath(folder), creates=True)
+        _check_folder(what, repr(str(given)), os.path.realpath(folder))
         return Target("file", given)
     folder, name, linked = os.path.realpath(parent), given.name, False
     for _ in range(_LINK_HOPS):
@@ -144,13 +144,13 @@ def target(path, what: str = "output") -> Target:
         if linked and not os.path.isdir(folder):
             raise OutputError(f"{what} {shown}: a dangling symbolic link whose target's folder does not exist")
         if mode is None or not _system(folder):
-            _check_folder(what, shown, folder, creates=mode is None, quoted=True)
+            _check_folder(what, shown, folder)
             return Target("file", Path(full))
     return Target("stream", Path(full))
 
 
-def _check_folder(what, path, folder: str, *, creates: bool, quoted: bool = False) -> None:
-    shown = path if quoted else repr(str(path))
+def _check_folder(what: str, shown: str, folder: str) -> None:
+    """The folder a file is written in (renamed into, created in) is writable and not the system's."""
     if _system(folder):
         raise OutputError(f"{what} {shown}: jaco never creates, renames or removes anything in {folder!r} "
                           "(only an existing device, FIFO or file there is written, in place)")

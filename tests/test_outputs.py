@@ -302,6 +302,60 @@ def test_sweep_csv_to_standard_output(capsys, tmp_path):
     assert out == (tmp_path / "t.csv").read_text() and "best: mmas" in err
 
 
+def test_cli_outputs_onto_links_fifos_and_descriptors(capsys, tmp_path):
+    """One solve and one sweep (the runs of the tests above) write every output through a link, a
+    FIFO or a descriptor: the same bytes as into plain files, every link and FIFO left as it was."""
+    solve = ["solve", "demo", "--ants", "4", "--iters", "3"]
+    sweep = ["sweep", "demo", "--ants", "4", "--iters", "3", "--param", "beta=2,4", "--seeds", "2"]
+    plain = tmp_path / "plain"
+    assert main([*solve, "--json", str(plain / "r.json"), "--path-csv", str(plain / "p.csv")]) == 0
+    assert main([*sweep, "--csv", str(plain / "t.csv"), "--record", str(plain / "s.csv")]) == 0
+    capsys.readouterr()
+    real, links = tmp_path / "real", tmp_path / "links"
+    real.mkdir()
+    links.mkdir()
+    os.mkfifo(links / "r.json")
+    (links / "p.csv").symlink_to(Path("..") / "real" / "p.csv")  # dangling: created
+    (links / "t.csv").symlink_to(real / "t.csv")
+    (real / "t.csv").write_text("old")
+    (links / "s.csv").symlink_to("t2.csv")
+    (links / "t2.csv").symlink_to(real / "s.csv")  # a chain
+    r, w = os.pipe()
+    got: list = []
+    readers = [read_all(links / "r.json", got), read_all(r, got)]
+    try:
+        assert main([*solve, "--json", str(links / "r.json"), "--path-csv", str(links / "p.csv"),
+                     "--record", f"/dev/fd/{w}"]) == 0
+    finally:
+        os.close(w)
+    assert main([*sweep, "--csv", str(links / "t.csv"), "--record", str(links / "s.csv")]) == 0
+    for t in readers:
+        t.join(10)
+    json_text, record_text = sorted(got, key=lambda b: b'"format"' in b)
+    assert json_text == (plain / "r.json").read_bytes() and json.loads(record_text)["kind"] == "run"
+    assert (real / "p.csv").read_bytes() == (plain / "p.csv").read_bytes()
+    assert (real / "t.csv").read_bytes() == (plain / "t.csv").read_bytes()
+    assert (real / "s.csv").read_bytes() == (plain / "s.csv").read_bytes()
+    assert stat.S_ISFIFO(os.lstat(links / "r.json").st_mode)
+    assert sorted(p.name for p in links.iterdir() if not p.is_symlink()) == ["r.json", "s.json"]  # the sidecar
+    assert sorted(p.name for p in real.iterdir()) == ["p.csv", "s.csv", "t.csv"]
+    assert f"wrote /dev/fd/{w}\n" in capsys.readouterr().out  # no "rerun it with" a descriptor
+
+
+def test_experiment_reports_through_a_link(tmp_path):
+    sys.path.insert(0, str(ROOT / "experiments"))
+    try:
+        import report
+    finally:
+        sys.path.remove(str(ROOT / "experiments"))
+    (tmp_path / "docs").mkdir()
+    (tmp_path / "docs" / "results.md").write_text("# Results\n\nkept\n")
+    (tmp_path / "results.md").symlink_to(Path("docs") / "results.md")
+    report.write_section(tmp_path / "results.md", "x", "new section")
+    assert (tmp_path / "results.md").is_symlink()
+    assert (tmp_path / "docs" / "results.md").read_text() == "# Results\n\nkept\n\n<!-- x:start -->\nnew section\n<!-- x:end -->\n"
+
+
 def test_plot_to_standard_output_needs_a_format(capsysbinary, tmp_path):
     code = main(["solve", "demo", "--ants", "4", "--iters", "3", "--plot", "-"])
     out, err = capsysbinary.readouterr()

@@ -267,7 +267,8 @@ def cmd_solve(args) -> int:
         frame = "world" if grid.resolution is not None else "cells"
         print(f"wrote {result.save_path(args.path_csv, frame=frame, format='csv')}")
     if args.record:
-        print(f"wrote {result.save(args.record)} (rerun it with 'jaco rerun {args.record}')")
+        rerun = "" if is_stream(args.record) else f" (rerun it with 'jaco rerun {args.record}')"
+        print(f"wrote {result.save(args.record)}{rerun}")
     return 0 if result.success else NO_PATH
 
 

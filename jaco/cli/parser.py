@@ -91,7 +91,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=_seed, default=0, metavar="S", help="random seed (default 0)")
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="set a hyperparameter (repeatable), e.g. --param alpha=1.5 --param rho=0.2")
-    p.add_argument("--json", metavar="OUT", help="write the result and its path metrics as JSON")
+    p.add_argument("--json", metavar="OUT", help="write the result and its path metrics as JSON ('-': standard "
+                   "output, the summary then goes to stderr)")
     p.add_argument("--plot", metavar="FILE", help="write a figure of the map, the ACO path and the exact path "
                    "in the format its suffix names (.png, .svg, .pdf ...)")
     p.add_argument("--plot-format", metavar="FMT",
@@ -119,7 +120,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a sweep axis (repeatable): NAME=a:b:n, NAME=a,b,c or NAME=x")
     p.add_argument("--seeds", type=_pos_int, default=4, metavar="N",
                    help="seeds 0..N-1 per configuration (default 4)")
-    p.add_argument("--csv", metavar="OUT", help="write the tidy table (one row per run) as CSV")
+    p.add_argument("--csv", metavar="OUT", help="write the tidy table (one row per run) as CSV ('-': standard "
+                   "output, the summary then goes to stderr)")
     p.add_argument("--record", metavar="OUT.csv",
                    help="write the table as CSV plus a JSON sidecar (OUT.json: arguments, maps, "
                    "versions) that 'jaco rerun' reproduces")
