@@ -198,7 +198,8 @@ def _same_target(a, b) -> bool:
 
 def check_output(path, what: str, *, suffixes=None, inputs=(), format=None, how="format=") -> Path:
     """``path`` as a :class:`~pathlib.Path` once it is known to be writable (:func:`target`): a
-    suffix in ``suffixes`` (when given; lower-case, with the dot) unless ``format`` names one, and
+    suffix in ``suffixes`` (when given; lower-case, with the dot) unless ``format`` names one (and
+    the suffix, if it is one of ``suffixes``, agrees), and
     not one of ``inputs`` (files the run reads). A path written in place (``-``, a device, a FIFO)
     has no suffix: where ``suffixes`` offers several formats it needs ``format`` (``how`` says how
     to give it). Raises :class:`OutputError`."""
@@ -209,6 +210,9 @@ def check_output(path, what: str, *, suffixes=None, inputs=(), format=None, how=
             if "." + str(format).lower() not in suffixes:
                 raise OutputError(f"{what}: unsupported format {format!r}; use one of "
                                   f"{', '.join(s[1:] for s in sorted(suffixes))}")
+            if path.suffix.lower() in suffixes and path.suffix.lower() != "." + str(format).lower():
+                raise OutputError(f"{what} {str(path)!r} names the format {path.suffix!r}, but the format given "
+                                  f"is {format!r}: one file, one format")
         elif path.suffix.lower() not in suffixes and not (t.kind != "file" and not path.suffix and len(suffixes) == 1):
             if not path.suffix and t.kind != "file":
                 raise OutputError(f"{what} {str(path)!r} has no suffix to name the format: give it with {how} "

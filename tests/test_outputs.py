@@ -369,6 +369,14 @@ def test_plot_to_standard_output_needs_a_format(capsysbinary, tmp_path):
     code = main(["demo", "--ants", "4", "--iters", "3", "--out", "-"])
     out, err = capsysbinary.readouterr()
     assert code == 2 and b"jaco solve demo --plot - --plot-format png" in err
+    for argv, needle in ((["--plot", tmp_path / "p.png", "--plot-format", "svg"], "names the format '.png', but the "
+                          "format given is 'svg'"), (["--plot", "-", "--plot-format", "xyz"], "unsupported format 'xyz'")):
+        code = main(["solve", "demo", "--ants", "4", "--iters", "3", *map(str, argv)])
+        out, err = capsysbinary.readouterr()
+        assert code == 2 and out == b"" and needle in err.decode(), err
+    assert not (tmp_path / "p.png").exists()
+    plot.save(plot.plot_map(GRID), tmp_path / "p.data", format="svg")  # a name of no figure format: the format given
+    assert (tmp_path / "p.data").read_text().startswith("<?xml")
 
 
 def test_cli_write_failure_says_the_run_finished(capsys, device, tmp_path):
