@@ -11,6 +11,8 @@ Axes are in cell coordinates: column on x, row on y with row 0 at the top (``ims
 
 from __future__ import annotations
 
+import io
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +21,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from .errors import ParamError, ProblemError
-from .outputs import atomic_path, check_output
+from .outputs import check_output, write_bytes
 
 __all__ = [
     "plot_map", "plot_paths", "plot_pheromone", "plot_convergence", "plot_sweep_heatmap", "plot_sweep_box",
@@ -588,9 +590,10 @@ def save_gif(animation, path, fps: int = 8) -> Path:
     from matplotlib.animation import PillowWriter
 
     path = check_output(path, "animation", suffixes=(".gif",))
-    with atomic_path(path) as tmp:
-        animation.save(tmp, writer=PillowWriter(fps=fps))
-    return path
+    with tempfile.TemporaryDirectory(prefix="jaco-") as folder:  # Pillow's writer takes a file name only
+        drawn = Path(folder) / "animation.gif"
+        animation.save(drawn, writer=PillowWriter(fps=fps))
+        return write_bytes(path, drawn.read_bytes(), "animation")
 
 
 # -- output ------------------------------------------------------------------------------------
@@ -601,15 +604,18 @@ def figure_suffixes() -> tuple[str, ...]:
     return tuple(sorted("." + s for s in FigureCanvasBase.get_supported_filetypes()))
 
 
-def check_figure_path(path, what: str = "figure", inputs=()) -> Path:
-    """:func:`jaco.outputs.check_output` for a figure: a suffix matplotlib can write."""
-    return check_output(path, what, suffixes=figure_suffixes(), inputs=inputs)
+def check_figure_path(path, what: str = "figure", inputs=(), format=None, how="format=") -> Path:
+    """:func:`jaco.outputs.check_output` for a figure: a suffix matplotlib can write, or ``format``
+    (``"png"``, ``"svg"`` ...) naming one."""
+    return check_output(path, what, suffixes=figure_suffixes(), inputs=inputs, format=format, how=how)
 
 
-def save(fig, path) -> Path:
+def save(fig, path, format: str | None = None) -> Path:
     """Write ``fig`` in the format its suffix names (``.png`` at dpi 120, ``.svg``, ``.pdf``, ...;
-    tight bounding box), atomically, creating parent folders; returns the path."""
-    path = check_figure_path(path)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=120, bbox_inches="tight", format=path.suffix[1:].lower())
-    return path
+    tight bounding box), or in ``format`` when given (needed for ``-``, a device or a FIFO, whose
+    names have no suffix); atomically to a file, creating parent folders (see
+    :mod:`jaco.outputs`); returns the path."""
+    path = check_figure_path(path, format=format)
+    data = io.BytesIO()  # drawn in memory first: a drawing error never touches the output
+    fig.savefig(data, dpi=120, bbox_inches="tight", format=(format or path.suffix[1:]).lower())
+    return write_bytes(path, data.getvalue(), "figure")

@@ -9,6 +9,7 @@ import json
 import math
 import os
 import resource
+import stat
 import struct
 import tempfile
 import warnings
@@ -46,7 +47,16 @@ def outcome(call):
 
 
 def snapshot(folder: Path) -> dict:
-    return {p.name: p.read_bytes() for p in sorted(folder.iterdir()) if p.is_file()}
+    """Every entry: a file's bytes, a link's target, a node's type and device number."""
+    out = {}
+    for p in sorted(folder.iterdir()):
+        if p.is_symlink():
+            out[p.name] = ("link", os.readlink(p))
+        elif p.is_file():
+            out[p.name] = p.read_bytes()
+        elif not p.is_dir():
+            out[p.name] = ("node", stat.S_IFMT(p.lstat().st_mode), p.lstat().st_rdev)
+    return out
 
 
 @pytest.fixture(scope="module")
@@ -129,6 +139,25 @@ def test_ros_yaml_and_pgm_pairs(fields, pgm):
         grid = outcome(lambda: maps.load(Path(d) / "m.yaml"))
         if grid is not None:
             assert grid.resolution > 0 and len(grid.origin) == 3
+
+
+@FAST
+@given(magic=st.sampled_from([b"P2", b"P3"]), w=st.integers(1, 4), h=st.integers(1, 4), extra=st.integers(-4, 4),
+       maxval=st.sampled_from([1, 100, 255, 65535]), comment=st.booleans())
+def test_plain_pgm_value_counts(magic, w, h, extra, maxval, comment):
+    """A plain (ascii) PGM/PPM loads only with exactly width x height (x 3) values; any other count is
+    a MapFormatError naming the count found and expected, whatever the maxval (Pillow or not)."""
+    n = w * h * (3 if magic == b"P3" else 1)
+    k = max(0, n + extra)
+    body = b" ".join(b"%d" % (i % (maxval + 1)) for i in range(k)) + (b"\n# a comment 1 2 3\n" if comment else b"\n")
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "m.pgm"
+        path.write_bytes(magic + b"\n%d %d\n%d\n" % (w, h, maxval) + body)
+        if k == n:
+            assert maps.load(path).shape == (h, w)
+        else:
+            with pytest.raises(jaco.MapFormatError, match=rf"m\.pgm: .*PGM pixel .*: {w}x{h} needs {n} values.*, found {k}$"):
+                maps.load(path)
 
 
 @FAST
@@ -287,8 +316,19 @@ def test_records_with_any_field_changed(result, which, value):
 
 
 # -- output paths --------------------------------------------------------------------------------
+def private_null(folder: Path):
+    """A character device like /dev/null in ``folder`` (root only), or None."""
+    try:
+        os.mknod(folder / "null", 0o666 | stat.S_IFCHR, os.makedev(1, 3))
+        os.close(os.open(folder / "null", os.O_WRONLY))
+        return folder / "null"
+    except OSError:
+        return None
+
+
 @FAST
-@given(kind=st.sampled_from(["dir", "existing", "missing", "under-file", "suffix", "empty"]),
+@given(kind=st.sampled_from(["dir", "existing", "missing", "under-file", "suffix", "empty", "link", "link-chain",
+                             "dangling", "dangling-nowhere", "link-to-dir", "link-loop", "device", "new-in-dev", "stdout"]),
        writer=st.sampled_from(["record", "path-csv", "path-json", "figure", "text-map", "sweep-record"]))
 def test_output_paths(result, kind, writer):
     from jaco import plot
@@ -300,8 +340,21 @@ def test_output_paths(result, kind, writer):
         (d / "existing" / "").mkdir()
         (d / "file").write_text("keep")
         (d / f"old{suffix}").write_text("keep")
+        (d / f"link{suffix}").symlink_to(f"old{suffix}")
+        (d / f"chain{suffix}").symlink_to(d / f"link{suffix}")
+        (d / f"dangling{suffix}").symlink_to(f"new{suffix}")
+        (d / f"nowhere{suffix}").symlink_to(f"gone/new{suffix}")
+        (d / f"to-dir{suffix}").symlink_to("existing")
+        (d / f"loop{suffix}").symlink_to(f"loop{suffix}")
+        null = private_null(d) if kind == "device" else None
+        if kind == "device" and null is None:
+            return  # not root: no private device
         target = {"dir": d / "existing", "existing": d / f"old{suffix}", "missing": d / "a" / "b" / f"x{suffix}",
-                  "under-file": d / "file" / f"x{suffix}", "suffix": d / "x.weird", "empty": ""}[kind]
+                  "under-file": d / "file" / f"x{suffix}", "suffix": d / "x.weird", "empty": "",
+                  "link": d / f"link{suffix}", "link-chain": d / f"chain{suffix}", "dangling": d / f"dangling{suffix}",
+                  "dangling-nowhere": d / f"nowhere{suffix}", "link-to-dir": d / f"to-dir{suffix}",
+                  "link-loop": d / f"loop{suffix}", "device": null, "new-in-dev": f"/dev/jaco-new{suffix}",
+                  "stdout": "-"}[kind]
         before = snapshot(d)
         write = {
             "record": lambda: result.save(target),
@@ -316,11 +369,20 @@ def test_output_paths(result, kind, writer):
         written = outcome(write)
         after = snapshot(d)
         assert not [n for n in after if ".tmp" in n], after  # no temporary file left behind
+        assert not os.path.lexists(f"/dev/jaco-new{suffix}")  # nothing is ever created in /dev
+        links = {k: v for k, v in before.items() if isinstance(v, tuple)}
+        assert {k: after.get(k) for k in links} == links  # links stay links, devices devices
+        # a record takes any name; a device's has no suffix: only the writers of one format write there
+        assert (written is not None) == (kind in ("existing", "missing", "link", "link-chain", "dangling") or (
+            kind == "suffix" and writer == "record") or (kind in ("device", "stdout") and writer in ("record", "text-map")))
         if written is None:
             assert after == before
+        elif kind in ("device", "stdout"):
+            assert after == before  # written in place: nothing beside it
         else:
             assert Path(written).is_file() and Path(written).stat().st_size > 0
-            new = {Path(written).name, Path(target).name}  # a sweep record: the table and its sidecar
+            real = Path(os.path.realpath(target))  # a link's target is what changed
+            new = {Path(written).name, Path(target).name, real.name}  # a sweep record: the table and its sidecar
             assert {k: v for k, v in after.items() if k in before and k not in new} == {
                 k: v for k, v in before.items() if k not in new}
 
@@ -427,7 +489,7 @@ def test_a_write_that_fails_midway_keeps_the_old_file_and_leaves_no_partial_one(
     soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
     resource.setrlimit(resource.RLIMIT_FSIZE, (1024, hard))  # as `ulimit -f 1`
     try:
-        with pytest.raises(OSError):
+        with pytest.raises(jaco.OutputError, match=r"record '.*run\.json': cannot write: File too large$"):
             result.save(old)
     finally:
         resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))

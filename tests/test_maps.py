@@ -497,12 +497,18 @@ def test_ros_yaml_missing_keys_and_bad_yaml(tmp_path):
     [
         (b"P7\n3 2\n255\n" + bytes(6), r"m\.pgm: bad PGM magic number b'P7'"),
         (b"GIF89a", r"bad PGM magic number"),
-        # maxval 255: Pillow reads the pixels, and says what is wrong
+        # binary, maxval 255: Pillow reads the pixels, and says what is wrong
         (b"P5\n3 2\n255\n" + bytes(5), r"m\.pgm: cannot read image \(image file is truncated"),
-        (b"P2\n3 2\n255\n1 2 3 4 5\n", r"m\.pgm: cannot read image \(not enough image data\)"),
-        (b"P2\n2 1\n255\n1 z\n", r"m\.pgm: cannot read image \(invalid literal for int\(\) with base 10: b'z'\)"),
-        (b"P2\n2 1\n255\n1 300\n", r"m\.pgm: cannot read image \(Channel value too large"),
-        # other maxvals: read here
+        # plain (ascii) files and other maxvals: read here, every value counted
+        (b"P2\n3 2\n255\n1 2 3 4 5\n", r"m\.pgm: truncated PGM pixel data: 3x2 needs 6 values, found 5$"),
+        (b"P2\n3 2\n255\n1 2 3 4 5 6 7\n", r"m\.pgm: extra PGM pixel values: 3x2 needs 6 values, found 7$"),
+        (b"P2\n3 2\n255\n1 2 3\n4 5 6\n\n7 # after the last row\n", r"extra PGM pixel values: 3x2 needs 6 values, found 7$"),
+        (b"P2\n3 2\n100\n1 2 3 4 5 6 7 8\n", r"extra PGM pixel values: 3x2 needs 6 values, found 8$"),
+        (b"P3\n1 2\n255\n1 2 3 4 5\n", r"truncated PGM pixel data: 1x2 needs 6 values \(3 per pixel\), found 5$"),
+        (b"P3\n1 1\n255\n1 2 3 4\n", r"extra PGM pixel values: 1x1 needs 3 values \(3 per pixel\), found 4$"),
+        (b"P2\n2 1\n255\n1 z\n", r"pixel value b'z' is not an integer"),
+        (b"P2\n2 1\n255\n1 300\n", r"above maxval 255"),
+        (b"P2\n2 1\n255\n1 -1\n", r"pixel value b'-1' is not an integer in 0\.\.maxval"),
         (b"P5\n3 2\n100\n" + bytes(5), r"truncated PGM pixel data: 3x2 needs 6 bytes, found 5"),
         (b"P2\n3 2\n100\n1 2 3 4 5\n", r"truncated PGM pixel data: 3x2 needs 6 values, found 5"),
         (b"P2\n2 1\n100\n1 z\n", r"pixel value b'z' is not an integer"),

@@ -329,7 +329,7 @@ def test_without_a_compiler_the_package_builds_and_walks_in_jax(tmp_path):
     for name in ("pyproject.toml", "setup.py", "README.md"):
         shutil.copy2(ROOT / name, src / name)
     shutil.copytree(ROOT / "jaco", src / "jaco", ignore=shutil.ignore_patterns("__pycache__", "*.so"))
-    env = dict(os.environ, CC="/bin/false", CXX="/bin/false")
+    env = dict(os.environ, CC="/bin/false", CXX="/bin/false", JACO_CACHE_DIR=str(tmp_path / "cache"))
     proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(src)],
                           env=env, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
@@ -346,6 +346,46 @@ def test_without_a_compiler_the_package_builds_and_walks_in_jax(tmp_path):
                          cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr[-3000:]
     assert "walk: jax (the native walk was not built at install time" in run.stdout
+
+
+@pytest.mark.slow
+def test_the_kernel_is_built_once_for_the_same_sources_compiler_and_jaxlib(tmp_path):
+    """setup.py keeps the built kernel in JACO_CACHE_DIR: a second build of the same sources copies
+    it without running the compiler; a changed source runs the compiler again."""
+    import shutil
+    import zipfile
+
+    src = tmp_path / "src"
+    src.mkdir()
+    for name in ("pyproject.toml", "setup.py", "README.md"):
+        shutil.copy2(ROOT / name, src / name)
+    shutil.copytree(ROOT / "jaco", src / "jaco", ignore=shutil.ignore_patterns("__pycache__", "*.so"))
+    cache = tmp_path / "cache"
+    env = dict(os.environ, JACO_CACHE_DIR=str(cache))
+
+    def build(name):
+        """``pip wheel`` of the sources (as ``pip install`` builds): its output, kernel and object files."""
+        shutil.rmtree(src / "build", ignore_errors=True)  # setuptools would reuse an earlier build's objects
+        proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-v", "-w", str(tmp_path / name),
+                               str(src)], env=env, capture_output=True, text=True, timeout=900)
+        assert proc.returncode == 0, proc.stderr[-3000:]
+        (wheel,) = (tmp_path / name).glob("jaco-*.whl")
+        with zipfile.ZipFile(wheel) as z:
+            kernels = [z.read(n) for n in z.namelist() if n.endswith(".so")]
+        return proc.stdout + proc.stderr, kernels, list((src / "build").rglob("*.o"))
+
+    first, kernels, objects = build("first")
+    (kept,) = cache.rglob("_walk*.so")
+    assert "jaco: kept the native walk for later installs" in first and objects
+    assert kernels == [kept.read_bytes()]
+    second, kernels, objects = build("second")
+    assert "jaco: reusing the native walk built before" in second
+    assert not objects and kernels == [kept.read_bytes()]  # copied: nothing compiled
+    with open(src / "jaco" / "engine" / "walk.cc", "a") as f:
+        f.write("\n#error a changed source is compiled again\n")
+    third, kernels, objects = build("third")
+    assert "reusing" not in third and "a changed source is compiled again" in third
+    assert not kernels and list(cache.rglob("_walk*.so")) == [kept]  # the optional kernel failed: no new entry
 
 
 @pytest.mark.slow

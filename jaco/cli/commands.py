@@ -3,8 +3,11 @@ how a run is reported. Heavy modules are imported inside the functions."""
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import json
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -103,7 +106,7 @@ def _report(grid, result, exact_length, seconds, scenario=None, scen_label=None)
         print(textwrap.fill(text, 100, initial_indent=f"{'hint':<{w}} ", subsequent_indent=" " * (w + 1)))
 
 
-def _plot(grid, result, exact_path, exact_length, out) -> Path:
+def _plot(grid, result, exact_path, exact_length, out, format=None) -> Path:
     from .. import plot
 
     aco = f"{result.variant} ({result.length:.2f})" if result.success else result.variant
@@ -115,7 +118,7 @@ def _plot(grid, result, exact_path, exact_length, out) -> Path:
         goal=result.goal,
         title=f"{grid.name}: {result.variant} vs exact optimum",
     )
-    return plot.save(fig, out)
+    return plot.save(fig, out, format)
 
 
 def _run_and_report(grid, start, goal, args, params, *, scenario=None, scen_label=None):
@@ -129,6 +132,7 @@ def _run_and_report(grid, start, goal, args, params, *, scenario=None, scen_labe
         steplimit=getattr(args, "steplimit", None), waypoints=via, **params,
     )
     seconds = time.perf_counter() - args.started  # main's clock: from start-up
+    args.finished = True  # from here a failed write says that the run itself finished
     if via:
         from ..waypoints import exact_trip
 
@@ -169,12 +173,54 @@ def _check_outputs(args, grid=None, figures=(), files=()) -> None:
     for flag in figures:
         value = getattr(args, flag.lstrip("-").replace("-", "_"))
         if value is not None:
-            named[flag] = check_figure_path(value, flag, inputs=inputs)
+            how = "--plot-format" if flag == "--plot" else "jaco solve demo --plot - --plot-format png"
+            named[flag] = check_figure_path(value, flag, inputs=inputs, format=getattr(args, "plot_format", None),
+                                            how=how)
     if args.command == "sweep" and "--record" in named:  # the sweep record's JSON sidecar
         named["--record sidecar"] = check_output(named["--record"].with_suffix(".json"), "--record sidecar", inputs=inputs)
     check_distinct(named)
 
 
+def _outputs(*flags):
+    """A command's output handling (its output flags named): when one writes to standard output
+    (``-``, ``/dev/stdout``) the human summary goes to stderr, so stdout holds only the data; an
+    output that fails to be written after the run says that the run itself finished."""
+
+    def wrap(cmd):
+        @functools.wraps(cmd)
+        def run(args):
+            from ..errors import OutputError
+            from ..outputs import is_stdout, standard_output
+
+            with contextlib.ExitStack() as stack:
+                if any(is_stdout(v) for v in (getattr(args, f.lstrip("-").replace("-", "_")) for f in flags) if v):
+                    stack.enter_context(standard_output(sys.stdout))
+                    stack.enter_context(contextlib.redirect_stdout(sys.stderr))
+                try:
+                    return cmd(args)
+                except OutputError as e:
+                    if isinstance(e.__cause__, BrokenPipeError) and sys.stdout is sys.__stdout__:
+                        _quiet_stdout()
+                    if not getattr(args, "finished", False):
+                        raise
+                    raise OutputError(f"{e}; the run itself finished (its summary above is complete), "
+                                      "but this output and any after it were not written") from e
+
+        return run
+
+    return wrap
+
+
+def _quiet_stdout() -> None:
+    """After standard output's reader went away: send what Python still holds for it to
+    /dev/null, so that exiting does not print a second error about the closed pipe."""
+    with contextlib.suppress(OSError, ValueError):
+        null = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(null, sys.stdout.fileno())
+        os.close(null)
+
+
+@_outputs("--out")
 def cmd_demo(args) -> int:
     from .. import maps
 
@@ -186,9 +232,12 @@ def cmd_demo(args) -> int:
     return 0 if result.success else NO_PATH
 
 
+@_outputs("--json", "--plot", "--path-csv", "--record")
 def cmd_solve(args) -> int:
+    from ..outputs import is_stream
+
     params = parse_params(args.param)
-    if args.path_csv and Path(args.path_csv).suffix.lower() != ".csv":
+    if args.path_csv and Path(args.path_csv).suffix.lower() != ".csv" and not is_stream(args.path_csv):
         raise UsageError(f"--path-csv writes CSV: give a file name ending in .csv, got {args.path_csv!r}")
     grid = load_map(args.map)
     start, goal, scenario, label = resolve_query(grid, args)
@@ -210,17 +259,20 @@ def cmd_solve(args) -> int:
             doc["world"] = _world_doc(grid, result)
         from ..outputs import write_text
 
-        path = write_text(args.json, _dumps(_json_safe(doc)) + "\n")
+        path = write_text(args.json, _dumps(_json_safe(doc)) + "\n", "--json")
         print(f"wrote {path}")
     if args.plot:
-        print(f"wrote {_plot(grid, result, exact_path, exact_length, args.plot)}")
+        print(f"wrote {_plot(grid, result, exact_path, exact_length, args.plot, args.plot_format)}")
     if args.path_csv:
-        print(f"wrote {result.save_path(args.path_csv, frame='world' if grid.resolution is not None else 'cells')}")
+        frame = "world" if grid.resolution is not None else "cells"
+        print(f"wrote {result.save_path(args.path_csv, frame=frame, format='csv')}")
     if args.record:
-        print(f"wrote {result.save(args.record)} (rerun it with 'jaco rerun {args.record}')")
+        rerun = "" if is_stream(args.record) else f" (rerun it with 'jaco rerun {args.record}')"
+        print(f"wrote {result.save(args.record)}{rerun}")
     return 0 if result.success else NO_PATH
 
 
+@_outputs("--csv", "--record")
 def cmd_sweep(args) -> int:
     axes = parse_sweep_params(args.param)
     if args.record and Path(args.record).suffix.lower() != ".csv":
@@ -247,6 +299,7 @@ def cmd_sweep(args) -> int:
         store=args.store, chunk=args.chunk,
     )
     seconds = time.perf_counter() - args.started
+    args.finished = True
     print(f"{len(table)} runs in {seconds:.2f} s (since the command started: imports, JIT compilation and the runs)")
     if args.store:
         plans = table.attrs["sweep"].values() if len(variants) > 1 else [table.attrs["sweep"]]
@@ -257,7 +310,7 @@ def cmd_sweep(args) -> int:
     if args.csv:
         from ..outputs import write_text
 
-        path = write_text(args.csv, table.to_csv(index=False, lineterminator="\n"))
+        path = write_text(args.csv, table.to_csv(index=False, lineterminator="\n"), "--csv")
         print(f"wrote {path}")
     if args.record:
         from ..research.records import save_sweep

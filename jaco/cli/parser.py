@@ -92,9 +92,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=_seed, default=0, metavar="S", help="random seed (default 0)")
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="set a hyperparameter (repeatable), e.g. --param alpha=1.5 --param rho=0.2")
-    p.add_argument("--json", metavar="OUT", help="write the result and its path metrics as JSON")
+    p.add_argument("--json", metavar="OUT", help="write the result and its path metrics as JSON ('-': standard "
+                   "output, the summary then goes to stderr)")
     p.add_argument("--plot", metavar="FILE", help="write a figure of the map, the ACO path and the exact path "
                    "in the format its suffix names (.png, .svg, .pdf ...)")
+    p.add_argument("--plot-format", metavar="FMT",
+                   help="the figure format (png, svg, pdf ...) when --plot's name has none: '-' (standard output), "
+                   "a device or a FIFO")
     p.add_argument("--path-csv", metavar="OUT",
                    help="write the path as CSV: row,col and, on a ROS map, x,y in metres (cell centres)")
     p.add_argument("--record", metavar="OUT",
@@ -117,7 +121,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a sweep axis (repeatable): NAME=a:b:n, NAME=a,b,c or NAME=x")
     p.add_argument("--seeds", type=_pos_int, default=4, metavar="N",
                    help="seeds 0..N-1 per configuration (default 4)")
-    p.add_argument("--csv", metavar="OUT", help="write the tidy table (one row per run) as CSV")
+    p.add_argument("--csv", metavar="OUT", help="write the tidy table (one row per run) as CSV ('-': standard "
+                   "output, the summary then goes to stderr)")
     p.add_argument("--store", metavar="FILE.db",
                    help="append every finished chunk to this SQLite store: the same command again skips the "
                    "finished runs (a killed sweep resumes), and the table equals an uninterrupted sweep")
@@ -172,6 +177,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--csv", metavar="OUT", help="write the trials table (one row per trial) as CSV")
     p.add_argument("--plot", metavar="FILE", help="write the optimisation history (best so far against trials; "
                    "with two objectives the Pareto front) in the format its suffix names")
+    p.add_argument("--plot-format", metavar="FMT",
+                   help="the --plot format (png, svg, pdf ...) when FILE has no suffix: '-', a device or a pipe")
     p.set_defaults(func=cmd_search)
 
     p = sub.add_parser(

@@ -44,6 +44,13 @@ def _fmt(name: str, x) -> str:
     return f"{x:.4g}"
 
 
+def _outputs(*flags):
+    from .commands import _outputs as outputs
+
+    return outputs(*flags)
+
+
+@_outputs("--csv", "--plot")
 def cmd_search(args) -> int:
     from .commands import _check_outputs
     from .queries import load_map, resolve_query
@@ -78,6 +85,7 @@ def cmd_search(args) -> int:
         n_iters=args.iters, steplimit=args.steplimit, sampler=args.sampler, seed=args.seed, objective=objectives,
         fidelity=fidelity, storage=args.storage, study_name=args.study,
     )
+    args.finished = True  # from here a failed write says that the search itself finished
     seconds = time.perf_counter() - args.started
     t = study.timings
     print(f"{len(study.study.trials)} trials in the study; this command ran {t.get('generations', 0)} generations in "
@@ -94,7 +102,7 @@ def cmd_search(args) -> int:
         from .. import plot
 
         fig = plot.plot_search_history(study) if len(objectives) == 1 else plot.plot_pareto(study, *objectives[:2])
-        print(f"wrote {plot.save(fig, args.plot)}")
+        print(f"wrote {plot.save(fig, args.plot, format=args.plot_format)}")
     finished = table[table["state"] == "COMPLETE"]
     shown = study.best_trials if len(objectives) > 1 else finished.sort_values(
         [objectives[0], "number"], ascending=[objectives[0] != "success", True], kind="stable").head(args.top)

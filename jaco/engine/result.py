@@ -112,13 +112,14 @@ class Result:
             raise JacoError("this Result has no grid: world coordinates need the map")
         return self.grid.cell_to_world(np.asarray(self.path, np.int64).reshape(-1, 2))
 
-    def save_path(self, path, frame: str | None = None):
+    def save_path(self, path, frame: str | None = None, format: str | None = None):
         """Write the path as ``.csv`` (columns ``row,col`` and, in the world frame, ``x,y``
         in metres) or ``.json``; ``frame`` is ``"world"`` or ``"cells"`` (default: world when the
-        map has a resolution). Returns the path written."""
+        map has a resolution); ``format`` (``"csv"``/``"json"``) overrides the suffix (``-`` or
+        a device has none). Returns the path written."""
         from ..research.record_format import save_path
 
-        return save_path(self, path, frame)
+        return save_path(self, path, frame, format)
 
 
 def failure_hint(result: Result, *, cli: bool = False) -> str:

@@ -4,8 +4,9 @@ A pixel is free when its brightness over the format's largest value (``maxval``)
 threshold. Pillow decodes every format; for PGM/PPM it keeps the samples as the file has them when
 ``maxval`` is 255, or 65535 in a grey map, but stretches any other ``maxval`` to the full 8 or 16
 bits (with rounding: a value 50 of ``maxval`` 100 becomes 128 of 255, brighter than half) and cuts
-16-bit colour to 8 bits. Only for those files :func:`read_pnm` reads the raster itself, so that
-``value / maxval`` is exactly the file's.
+16-bit colour to 8 bits. For those files, and for every plain (ascii, P2/P3) file, whose values
+Pillow does not count, :func:`read_pnm` reads the raster itself, so that ``value / maxval`` is
+exactly the file's and a file with more or fewer values than its size is refused.
 """
 
 from __future__ import annotations
@@ -111,19 +112,14 @@ def _pnm_raster(data: bytes, fname: str) -> np.ndarray:
     else:
         body = re.sub(rb"#[^\n]*", b" ", data[pos:])
         tokens = body.split()
-        if len(tokens) < n:
-            raise MapFormatError(
-                f"{fname}: truncated PGM pixel data: {w}x{h} needs {n} values, found {len(tokens)}"
-            )
-        if len(tokens) > n:
-            raise MapFormatError(
-                f"{fname}: PGM has {len(tokens)} pixel values, {w}x{h} needs {n}"
-            )
-        try:
-            values = np.array([int(t) for t in tokens], dtype=np.int64)
-        except ValueError:
-            bad = next(t for t in tokens if not t.isdigit())
-            raise MapFormatError(f"{fname}: PGM pixel value {bad!r} is not an integer") from None
+        if len(tokens) != n:  # a plain (ascii) file holds exactly one image
+            what = "truncated PGM pixel data" if len(tokens) < n else "extra PGM pixel values"
+            per_pixel = " (3 per pixel)" if channels > 1 else ""
+            raise MapFormatError(f"{fname}: {what}: {w}x{h} needs {n} values{per_pixel}, found {len(tokens)}")
+        bad = next((t for t in tokens if not t.isdigit()), None)  # "-1", "+5", "1.5" are not samples
+        if bad is not None:
+            raise MapFormatError(f"{fname}: PGM pixel value {bad!r} is not an integer in 0..maxval")
+        values = np.array([int(t) for t in tokens], dtype=np.int64)
     if (values > maxval).any() or (values < 0).any():
         raise MapFormatError(f"{fname}: PGM pixel value above maxval {maxval}")
     return values.reshape(shape)
@@ -132,15 +128,17 @@ def _pnm_raster(data: bytes, fname: str) -> np.ndarray:
 def read_pnm(path) -> tuple[np.ndarray, int]:
     """Read a PGM/PPM file (P2/P5 grey, P3/P6 colour): ``(values (H, W[, 3]) int64, maxval)``.
 
-    The values are the file's samples, ``0..maxval``. Pillow decodes files whose samples it keeps
-    as they are (``maxval`` 255, or 65535 in a grey map); the others are read by
-    :func:`_pnm_raster` (see the module docstring). Raises :class:`MapFormatError` on a bad magic
-    number, a bad header, or pixel data that cannot be read.
+    The values are the file's samples, ``0..maxval``. Pillow decodes binary files whose samples
+    it keeps as they are (``maxval`` 255, or 65535 in a grey map); the others, and every plain
+    (ascii) file, are read by :func:`_pnm_raster` (see the module docstring). Raises
+    :class:`MapFormatError` on a bad magic number, a bad header, or pixel data that cannot be
+    read, e.g. a plain file with more or fewer values than width x height (x 3).
     """
     path = Path(path)
     data = path.read_bytes()
     magic, _, _, maxval, _ = _pnm_header(data, path.name)
-    if maxval == 255 or (maxval == 65535 and _PNM_CHANNELS[magic] == 1):
+    # Pillow decodes a plain (ascii) file without counting its values: extra ones pass silently
+    if magic in (b"P5", b"P6") and (maxval == 255 or (maxval == 65535 and _PNM_CHANNELS[magic] == 1)):
         values, _ = _pillow(path)
         return values.astype(np.int64), maxval
     return _pnm_raster(data, path.name), maxval

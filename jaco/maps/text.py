@@ -27,7 +27,7 @@ def load_text(path: Path, *, cell_size: float = 1.0) -> Grid:
 def save_text(grid: Grid, path) -> Path:
     """Write ``grid`` as a text map (``.`` free, ``@`` blocked); :func:`load` reads it back."""
     path = check_output(path, "text map", suffixes=(".txt",))
-    return write_text(path, "\n".join(grid.to_rows()) + "\n")
+    return write_text(path, "\n".join(grid.to_rows()) + "\n", "text map")
 
 
 def load_npy(path: Path, *, cell_size: float = 1.0) -> Grid:

@@ -251,11 +251,15 @@ def _dumps(x, indent: int = 0) -> str:
     return json.dumps(x, allow_nan=False)
 
 
-def _write_json(doc: dict, path: Path, what: str = "record") -> Path:
-    path = check_output(path, what)
+def _json_text(doc: dict) -> str:
     text = _dumps(doc) + "\n"
     json.loads(text)  # never write a file that does not read back
-    return write_text(path, text)
+    return text
+
+
+def _write_json(doc: dict, path: Path, what: str = "record") -> Path:
+    path = check_output(path, what)
+    return write_text(path, _json_text(doc), what)
 
 
 def _header(kind: str) -> dict:
@@ -356,8 +360,9 @@ def _metres(v) -> float:
     return round(float(v), 9)
 
 
-def save_path(result, path, frame: str | None = None) -> Path:
-    """Write ``result``'s path as CSV or JSON (by the suffix of ``path``).
+def save_path(result, path, frame: str | None = None, format: str | None = None) -> Path:
+    """Write ``result``'s path as CSV or JSON: ``format`` ``"csv"`` or ``"json"``, by default the
+    suffix of ``path`` (``-``, a device or a FIFO has none: give ``format``).
 
     ``frame="world"``: columns ``row,col,x,y``, x and y in metres at the cell centres, from the
     map's ``resolution`` and ``origin`` (:meth:`jaco.Grid.cell_to_world`; row 0 is the top of the
@@ -367,7 +372,7 @@ def save_path(result, path, frame: str | None = None) -> Path:
     frame ``length_m`` (the length in metres: cell units × resolution). Coordinates are rounded
     to 1e-9 m.
     """
-    path = check_output(path, "path file", suffixes=(".csv", ".json"))
+    path = check_output(path, "path file", suffixes=(".csv", ".json"), format=format)
     grid = result.grid
     if grid is None:
         raise RecordError("this Result has no grid: cannot write its path")
@@ -379,7 +384,7 @@ def save_path(result, path, frame: str | None = None) -> Path:
         raise ProblemError(
             f"map {grid.name!r} has no resolution/origin: world coordinates need a ROS map (use frame='cells')"
         )
-    suffix = path.suffix.lower()
+    suffix = "." + format.lower() if format is not None else path.suffix.lower()
     cells = np.asarray(result.path, np.int64).reshape(-1, 2)
     xy = grid.cell_to_world(cells) if frame == "world" else None
     if suffix == ".csv":
@@ -389,7 +394,7 @@ def save_path(result, path, frame: str | None = None) -> Path:
             if xy is not None:
                 row += f",{_metres(xy[i, 0])!r},{_metres(xy[i, 1])!r}"
             lines.append(row)
-        return write_text(path, "\n".join(lines) + "\n")
+        return write_text(path, "\n".join(lines) + "\n", "path file")
     doc = {
         "map": grid.name,
         "frame": frame,

@@ -40,7 +40,7 @@ import numpy as np
 from ..engine.result import Result, gap
 from ..engine.variant import Variant
 from ..grid import Grid
-from ..outputs import as_path, atomic_path, check_output, write_text
+from ..outputs import as_path, atomic_paths, check_output, write_text
 from .record_format import (
     CHECKED_VERSIONS,
     EMBED_ROWS_MAX,
@@ -50,9 +50,9 @@ from .record_format import (
     RecordWarning,
     _cells,
     _header,
+    _json_text,
     _uncells,
     _unnum,
-    _write_json,
     check_record,
     grid_from_entry,
     map_entry,
@@ -318,10 +318,12 @@ def save_sweep(table, path, *args, **kwargs) -> Path:
     doc["call"] = call
     doc["table"] = {"file": path.name, "rows": len(table), "columns": list(map(str, table.columns)),
                     "sha256": hashlib.sha256(text.encode()).hexdigest()}
-    # both files complete before either replaces an old one: the sidecar, then the table
-    with atomic_path(path) as table_tmp:
+    # both files complete before either replaces an old one; renamed together (sidecar, then
+    # table) under a lock, so two processes saving one record never leave a mixed pair
+    sidecar = _sidecar(path)
+    with atomic_paths([sidecar, path], "sweep record") as (sidecar_tmp, table_tmp):
+        write_text(sidecar_tmp, _json_text(doc))
         write_text(table_tmp, text)
-        sidecar = _write_json(doc, _sidecar(path), "sweep record sidecar")
     return sidecar
 
 

@@ -178,9 +178,9 @@ def _storage(storage):
 
 def _check_storage_path(path: Path | None) -> None:
     if path is not None:
-        from ..outputs import check_output
+        from .store import check_store_path
 
-        check_output(path, "storage")
+        check_store_path(path, "storage")
 
 
 @contextmanager

@@ -41,10 +41,16 @@ class StoreError(JacoError):
     """A sweep store that cannot be used: locked by another process, or not a jaco store."""
 
 
-def check_store_path(path) -> Path:
+def check_store_path(path, what: str = "store") -> Path:
     """``path`` checked like every output (not a folder, its folder writable) before anything
-    runs; the file itself is created when the sweep starts."""
-    return check_output(path, "store")
+    runs, and a database file (not standard output, a device or a FIFO); the file itself is
+    created when the work starts."""
+    from ..outputs import target
+
+    path = check_output(path, what)
+    if target(path, what).kind != "file":
+        raise StoreError(f"{what} {str(path)!r}: a database is a file; not standard output, a device or a pipe")
+    return path
 
 
 def _sha(x: np.ndarray) -> str:
