@@ -13,7 +13,11 @@ to a whole population of runs); ``jaco.solve`` compiles a reporting run only whe
 
 from __future__ import annotations
 
+import concurrent.futures
+import contextlib
+import logging
 import sys
+import threading
 import time
 
 REPORTS = 25  # a compiled loop reports at most this often per run (every ceil(n / REPORTS) steps)
@@ -92,11 +96,78 @@ class Bar:
 _LISTENER: list = [None]
 
 
+class Interrupted(Exception):
+    """Raised inside a compiled loop's report when the user interrupted the call: XLA then ends
+    the computation at once (:func:`run_interruptibly`)."""
+
+
+_STOP = threading.Event()
+
+
 def report(done) -> None:
-    """Host side of :func:`jax.debug.callback` in a compiled loop: ``done`` steps are finished."""
+    """Host side of :func:`jax.debug.callback` in a compiled loop: ``done`` steps are finished.
+    After an interrupt it raises :class:`Interrupted`, which ends the computation."""
+    if _STOP.is_set():
+        raise Interrupted("interrupted")
     bar = _LISTENER[0]
     if bar is not None:
         bar.update(int(done))
+
+
+class _QuietInterrupts(logging.Filter):
+    """JAX logs a failed debug callback with its traceback; an interrupt is no failure."""
+
+    def filter(self, record) -> bool:
+        exc = record.exc_info[1] if record.exc_info else None
+        return not isinstance(exc, Interrupted)
+
+
+logging.getLogger("jax._src.debugging").addFilter(_QuietInterrupts())
+logging.getLogger("jax._src.callback").addFilter(_QuietInterrupts())
+_WORKER = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="jaco-compute")
+
+
+def run_interruptibly(fn, *args, **kwargs):
+    """``fn(*args, **kwargs)`` (compiling or running a compiled program, fetching its results) in a
+    worker thread while the main thread waits in short steps, so that Ctrl-C (SIGINT) or SIGTERM is
+    seen at once: only the main thread runs Python's signal handlers, and it would not run them
+    while blocked inside XLA. On an interrupt, every compiled loop that reports its steps (a sweep
+    chunk, a search batch, a tuning loop, a solve with a bar) raises :class:`Interrupted` at its
+    next report, which ends the computation; the interrupt is then re-raised. Work that does not
+    report (a compile, a solve without a bar) finishes in the background, its result unused.
+    Called from any other thread, it just calls ``fn``."""
+    if threading.current_thread() is not threading.main_thread():
+        return fn(*args, **kwargs)
+    future = _WORKER.submit(fn, *args, **kwargs)
+    try:
+        while True:
+            try:
+                return future.result(timeout=0.05)
+            except concurrent.futures.TimeoutError:
+                continue
+    except BaseException:  # KeyboardInterrupt, the CLI's SIGTERM exception
+        if not future.done():
+            _STOP.set()
+            future.add_done_callback(lambda _: _STOP.clear())  # until the interrupted work has ended
+            with contextlib.suppress(BaseException):
+                future.result(timeout=1.0)  # a reporting loop ends at its next report
+        raise
+
+
+class reporting:
+    """``with reporting(update):`` the compiled loops' reports call ``update(done)`` (and nothing
+    is closed after): the chunks of a sweep count their iterations into one bar."""
+
+    def __init__(self, update):
+        self.update = update
+
+    def __enter__(self):
+        _LISTENER[0] = self
+        return self
+
+    def __exit__(self, *exc):
+        _LISTENER[0] = None
+        return False
 
 
 class listening:

@@ -40,6 +40,7 @@ from .engine.variant import Variant
 from .errors import ProblemError
 from .exact import distance_field, shortest_path
 from .grid import Grid
+from .progress import run_interruptibly
 
 
 def check_waypoints(grid: Grid, start, goal, waypoints, *, connectivity: int = 8) -> list[tuple[int, int]]:
@@ -96,7 +97,7 @@ def run_legs(
     legs = list(zip(points[:-1], points[1:]))
     problems = [make_problem(grid, a, b, connectivity=connectivity) for a, b in legs]
     run = compiled_legs(variant, n_ants, n_iters, steplimit, keep_pheromone)
-    out = jax.device_get(run(leg_keys(seed, len(legs)), stack(problems), params_from(values)))
+    out = run_interruptibly(lambda: jax.device_get(run(leg_keys(seed, len(legs)), stack(problems), params_from(values))))
     return [
         to_result(
             jax.tree.map(lambda x, i=i: x[i], out),

@@ -22,16 +22,40 @@ _IMPORTED = [time.perf_counter()]  # before jax and the rest are imported: the r
 from .args import UsageError, _one_line  # noqa: E402
 from .parser import _join_negative_xy, build_parser  # noqa: E402
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "entry", "build_parser"]
 
-#: Exit codes: 2 a user error (a :class:`~jaco.errors.JacoError` or a bad argument), 3 a bug.
-USER_ERROR, INTERNAL_ERROR = 2, 3
+#: Exit codes: 2 a user error (a :class:`~jaco.errors.JacoError` or a bad argument), 3 a bug,
+#: 128 + the signal when interrupted (SIGINT: 130, SIGTERM: 143).
+USER_ERROR, INTERNAL_ERROR, INTERRUPTED, TERMINATED = 2, 3, 130, 143
+
+
+class Terminated(BaseException):
+    """SIGTERM, raised in the main thread like Ctrl-C's KeyboardInterrupt, so that the same
+    clean-up runs: temporary files removed, nothing half-written, finished chunks and trials kept."""
+
+
+def _terminate(signum, frame):
+    raise Terminated()
 
 
 def main(argv=None) -> int:
     """Entry point of the ``jaco`` console script; returns the exit code."""
+    import signal
+    import threading
+
     from ..errors import JacoError
 
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _terminate)
+    try:
+        return _main(argv, JacoError)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _main(argv, JacoError) -> int:
     argv = _join_negative_xy(argv)
     debug = "--debug" in argv[: argv.index("--") if "--" in argv else None]
     try:
@@ -55,7 +79,10 @@ def main(argv=None) -> int:
         return USER_ERROR
     except KeyboardInterrupt:
         print("jaco: interrupted", file=sys.stderr)
-        return 130
+        return INTERRUPTED
+    except Terminated:
+        print("jaco: terminated", file=sys.stderr)
+        return TERMINATED
     except Exception as e:  # a bug: one line and exit code 3, the traceback only with --debug
         if debug:
             import traceback
@@ -68,3 +95,20 @@ def main(argv=None) -> int:
                 file=sys.stderr,
             )
         return INTERNAL_ERROR
+
+
+def entry() -> None:
+    """The console script: :func:`main`, then exit. After an interrupt the process ends at once
+    (``os._exit``): work that cannot be stopped from Python (a compile, a run without reports)
+    would otherwise keep it alive until it finished. Output was flushed and files closed first."""
+    import os
+
+    code = main()
+    if code in (INTERRUPTED, TERMINATED):
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):
+                pass
+        os._exit(code)
+    sys.exit(code)

@@ -1,7 +1,5 @@
 """``python -m jaco.cli``: the ``jaco`` command."""
 
-import sys
+from . import entry
 
-from . import main
-
-sys.exit(main())
+entry()

@@ -73,8 +73,10 @@ def make_run(variant, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromo
     ``keep_pheromone``: False (none), True (the final pheromone ``(M,)``) or ``"history"`` (the
     pheromone after every iteration, ``(n_iters, M)``, e.g. for :func:`jaco.plot.animate_pheromone`).
     ``report``: hand the number of finished iterations to :func:`jaco.progress.report` every
-    :func:`jaco.progress.every` iterations (a host callback that reads nothing back; for an
-    unbatched run, since under vmap each run of a batch would report).
+    :func:`jaco.progress.every` iterations, or with ``"every"`` after each iteration (a host
+    callback that reads nothing back; under vmap the iteration is the same for every run of the
+    batch, so the batch reports once). A report is also where an interrupted call ends
+    (:func:`jaco.progress.run_interruptibly`).
     """
     if not isinstance(variant, Variant):
         raise JacoError(f"make_run takes a Variant, got {variant!r} (by name: jaco.make_run or jaco.VARIANTS[name])")
@@ -124,7 +126,9 @@ def make_run(variant, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromo
             mean = jnp.where(count > 0, jnp.sum(jnp.where(ok, col.cost, 0.0)) / jnp.maximum(count, 1), jnp.inf)
             hist = History(best.cost, col.cost[b], mean, count / col.cost.shape[0])
             snapshot = trail.tau if keep_pheromone == "history" else None
-            if report:
+            if report == "every":  # each iteration: a sweep chunk's bar and its interrupts
+                jax.debug.callback(_progress.report, t + 1)
+            elif report:
                 k = _progress.every(n_iters)
                 jax.lax.cond((t + 1) % k == 0, lambda: jax.debug.callback(_progress.report, t + 1), lambda: None)
             return (trail, best, seen | col.visited, steps + jnp.sum(col.n_steps)), (hist, snapshot)
@@ -371,7 +375,7 @@ def solve(grid: Grid, start, goal, variant: Variant, *, seed, n_ants, n_iters, s
     bar.start(n_iters)
     with _progress.listening(bar):
         run = compiled_run(variant, n_ants, n_iters, steplimit, keep_pheromone, batched=False, report=show)
-        out = jax.device_get(run(jax.random.key(seed), problem, params_from(values)))
+        out = _progress.run_interruptibly(lambda: jax.device_get(run(jax.random.key(seed), problem, params_from(values))))
     return to_result(
         out,
         grid=grid,

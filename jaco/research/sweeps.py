@@ -124,7 +124,8 @@ def _program(variant, n_ants, n_iters, steplimit, mesh, paths=False):
     key = ("sweep", id(variant), n_ants, n_iters, steplimit, tuple(d.id for d in mesh.devices.flat), paths)
 
     def build():
-        run = make_run(variant, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit)
+        # reports every iteration: a bar inside the chunk, and an interrupt ends the chunk at once
+        run = make_run(variant, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, report="every")
         batched = jax.vmap(jax.vmap(run, in_axes=(0, None, 0)), in_axes=(None, 0, None))
 
         def chunk(seeds, problems, params):
@@ -167,7 +168,7 @@ def _executable(variant, n_ants, n_iters, steplimit, mesh, batch, n_params: int,
         problems = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=replicated), batch)
         params = params_from(variant.default_params().to_dict(), (width,))
         params = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, np.float32, sharding=on_cfg), params)
-        return program.lower(seeds, problems, params).compile()
+        return _progress.run_interruptibly(lambda: program.lower(seeds, problems, params).compile())
 
     return cached(key, build, variant), new
 
@@ -355,19 +356,23 @@ class Runner:
         self._on_cfg = NamedSharding(mesh, PartitionSpec(AXIS))
         self._batch = jax.tree.map(lambda x: _put(x, NamedSharding(mesh, PartitionSpec())), batch)
 
-    def __call__(self, values: dict, seeds: np.ndarray, on_chunk=None) -> tuple:
+    def __call__(self, values: dict, seeds: np.ndarray, on_chunk=None, on_iteration=None) -> tuple:
         """``values``: name -> float array (one per row; every parameter of the planner);
         ``seeds``: uint32 (rows,). ``on_chunk(lo, hi, outputs)`` after each chunk (``outputs`` as
-        returned, for rows ``lo:hi``)."""
+        returned, for rows ``lo:hi``); ``on_iteration(lo, hi, done)`` while a chunk runs (``done``
+        of its iterations finished)."""
         n = len(seeds)
         outs = None
         for lo in range(0, n, self.width):
             hi = min(lo + self.width, n)
             idx = np.minimum(np.arange(lo, lo + self.width), n - 1)  # pad the last chunk
             prm = params_from({k: np.asarray(v)[idx] for k, v in values.items()}, (self.width,))
-            got = self.exe(_put(np.asarray(seeds, np.uint32)[idx], self._on_cfg), self._batch,
-                           jax.tree.map(lambda x: _put(x, self._on_cfg), prm))
-            got = [_fetch(x)[:, : hi - lo] for x in got]
+            args = (_put(np.asarray(seeds, np.uint32)[idx], self._on_cfg), self._batch,
+                    jax.tree.map(lambda x: _put(x, self._on_cfg), prm))
+            update = (lambda done, lo=lo, hi=hi: on_iteration(lo, hi, done)) if on_iteration else (lambda done: None)
+            with _progress.reporting(update):
+                got = _progress.run_interruptibly(lambda: [_fetch(x) for x in self.exe(*args)])
+            got = [x[:, : hi - lo] for x in got]
             if outs is None:
                 outs = [np.empty((x.shape[0], n) + x.shape[2:], x.dtype) for x in got]
             for dst, src in zip(outs, got):
@@ -555,8 +560,13 @@ def _run_sweep(bar, st, outs, todo, store=None, key=None) -> pd.DataFrame:
             store.append(key, rows, got)
         bar.update((n_rows - len(todo) + hi) * n_q)
 
+    def running(lo, hi, done):  # runs done inside the chunk, by its finished iterations
+        n_iters = st.runner.sizes["n_iters"]
+        bar.update((n_rows - len(todo) + lo) * n_q + (hi - lo) * n_q * min(int(done), n_iters) // n_iters)
+
     if len(todo):
-        st.runner({k: v[st.config[todo]] for k, v in st.values.items()}, st.seeds[todo], on_chunk=finished)
+        st.runner({k: v[st.config[todo]] for k, v in st.values.items()}, st.seeds[todo], on_chunk=finished,
+                  on_iteration=running)
     table = _tidy(st.variant, st.queries, st.problems, st.values, st.config, st.seeds, *outs)
     table.attrs["sweep"] = dict(st.info, resumed_runs=int((n_rows - len(todo)) * n_q)) if store is not None else st.info
     return table

@@ -314,8 +314,8 @@ def tune(
     bar = _progress.Bar(_progress.enabled(progress), f"tune {variant.name}", "step")
     bar.start(steps)
     with _progress.listening(bar):
-        final, x, objective, success = jax.device_get(
-            loop(key, problem, base, z0, jnp.float32(sigma), jnp.float32(penalty))
+        final, x, objective, success = _progress.run_interruptibly(
+            lambda: jax.device_get(loop(key, problem, base, z0, jnp.float32(sigma), jnp.float32(penalty)))
         )
     start_values = {k: float(values[k]) for k in variant.params}
     tuned = dict(start_values)

@@ -1,0 +1,139 @@
+"""Ctrl-C (SIGINT) and SIGTERM: a sweep, a search or a solve stops at once (a compiled loop ends at
+its next report), exits 130 / 143 with one line, leaves every existing output as it was and no
+temporary file, and keeps what was finished (stored chunks, stored trials).
+
+The commands run as real processes; the signal is sent at a known moment: while the program is
+being set up and compiled (after the command's first line), or while it runs (once a chunk or a
+trial is stored). An uninterrupted run of each would take minutes, so a stop within seconds is the
+interrupt's doing, not the run ending by itself."""
+
+import _thread
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+
+import jaco
+
+pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+
+CLI = [sys.executable, "-m", "jaco.cli"]
+LONG_SWEEP = ["sweep", "demo", "--variant", "acs", "--param", "beta=1:10:200", "--seeds", "50", "--ants", "20",
+              "--iters", "2000", "--chunk", "100"]  # 10,000 runs in chunks of 100: minutes in all
+
+
+def _start(args, cwd):
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    return subprocess.Popen(CLI + args, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+
+
+def _rows(db, table) -> int:
+    try:
+        with sqlite3.connect(db, timeout=0.2) as con:
+            return con.execute(f"SELECT COUNT(*) FROM {table}").fetchone()[0]
+    except sqlite3.Error:
+        return 0
+
+
+def _stop(proc, sig):
+    t0 = time.time()
+    proc.send_signal(sig)
+    out, err = proc.communicate(timeout=60)
+    return time.time() - t0, out, err
+
+
+def _wait_for(condition, proc, limit=180):
+    """Seconds until ``condition()`` holds (the process still running)."""
+    t0 = time.time()
+    while time.time() - t0 < limit and proc.poll() is None and not condition():
+        time.sleep(0.05)
+    assert proc.poll() is None and condition(), "the command ended, or the moment never came"
+    return time.time() - t0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig, code, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
+def test_a_sweep_stops_while_compiling_and_while_running(tmp_path, sig, code, word):
+    out = tmp_path / "out.csv"
+    out.write_text("old table\n")
+    store = tmp_path / "s.db"
+    # while compiling: right after the command's first line
+    proc = _start(LONG_SWEEP + ["--csv", str(out), "--store", str(store)], tmp_path)
+    assert proc.stdout.readline().startswith("sweep acs on demo")
+    _, _, err = _stop(proc, sig)
+    assert proc.returncode == code and err.strip().splitlines()[-1] == f"jaco: {word}"
+    # while running: in the second chunk, once the first is stored
+    proc = _start(LONG_SWEEP + ["--csv", str(out), "--store", str(store)], tmp_path)
+    assert proc.stdout.readline().startswith("sweep acs on demo")
+    first = _wait_for(lambda: _rows(store, "chunks") >= 1, proc)  # compiling + one chunk
+    time.sleep(0.2)
+    waited, _, err = _stop(proc, sig)
+    assert proc.returncode == code and err.strip().splitlines()[-1] == f"jaco: {word}"
+    assert waited < max(2.0, first / 3), f"took {waited:.1f} s to stop; a chunk takes about {first:.1f} s"
+    assert out.read_text() == "old table\n"  # the existing output is as it was
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.csv", "s.db"]  # no temporary file
+    assert _rows(store, "chunks") >= 1  # the finished chunk is kept
+
+
+@pytest.mark.slow
+def test_a_search_stops_and_keeps_its_finished_trials(tmp_path):
+    db = tmp_path / "study.db"
+    args = ["search", "demo", "--variant", "acs", "--param", "beta=1:10:log", "--trials", "400", "--batch", "4",
+            "--seeds", "25", "--ants", "20", "--iters", "2000", "--sampler", "random", "--storage", str(db)]
+    proc = _start(args, tmp_path)
+    first = _wait_for(lambda: _rows(db, "trials") >= 5, proc)  # the second batch has been asked
+    time.sleep(0.2)
+    waited, _, err = _stop(proc, signal.SIGTERM)
+    assert proc.returncode == 143 and "jaco: terminated" in err
+    assert waited < max(2.0, first / 3)
+    study = jaco.load_study(str(db))
+    states = [t.state.name for t in study.study.trials]
+    assert states.count("COMPLETE") >= 4 and set(states) <= {"COMPLETE", "RUNNING"}  # RUNNING: resumed next time
+
+
+@pytest.mark.slow
+def test_a_long_solve_stops(tmp_path):
+    args = ["solve", "Berlin_1_256.map", "--start", "14,254", "--goal", "247,110", "--variant", "iaca",
+            "--iters", "5000", "--ants", "100"]
+    proc = _start(args, tmp_path)
+    time.sleep(8)  # past the compile, well inside a run of minutes
+    waited, out, err = _stop(proc, signal.SIGINT)
+    assert proc.returncode == 130 and err.strip().splitlines()[-1] == "jaco: interrupted"
+    assert waited < 10 and out == ""
+
+
+def test_ctrl_c_in_python_ends_the_chunk_and_the_next_call_runs_normally():
+    grid = jaco.maps.named("demo")
+    s, g = grid.meta["start"], grid.meta["goal"]
+    kw = dict(params={"beta": [1.0, 2.0, 3.0, 4.0]}, seeds=200, n_ants=20, n_iters=400, progress=False)
+    plan = {k: v for k, v in kw.items() if k != "progress"}
+    assert jaco.plan_sweep(grid, s, g, "acs", chunk=800, **plan)["chunks"] == 1  # compiled: the interrupt lands in the run
+    timer = threading.Timer(1.0, _thread.interrupt_main)
+    t0 = time.time()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        jaco.sweep(grid, s, g, "acs", chunk=800, **kw)
+    assert time.time() - t0 < 15
+    assert not jaco.progress._STOP.is_set()  # the interrupted chunk has ended: the next call runs normally
+
+
+def test_an_interrupted_write_leaves_the_old_file_and_no_temporary(tmp_path, monkeypatch):
+    from jaco.outputs import write_text
+
+    path = tmp_path / "table.csv"
+    path.write_text("old\n")
+    real = os.replace
+
+    def interrupted(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(os, "replace", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        write_text(path, "new\n" * 1000)
+    monkeypatch.setattr(os, "replace", real)
+    assert path.read_text() == "old\n" and [p.name for p in tmp_path.iterdir()] == ["table.csv"]
