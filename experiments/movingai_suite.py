@@ -213,7 +213,8 @@ def run_suite(cfg, args, checkpoint=lambda rows: None, earlier=()):
                 seconds = time.perf_counter() - t0
                 per_query = seconds / (len(scen) * n_seeds)
                 for (_, r) in tab.iterrows():
-                    q = next(i for i, s in enumerate(scen) if tuple(s.start) == tuple(r["start"]) and tuple(s.goal) == tuple(r["goal"]))
+                    cells = ((r["start_row"], r["start_col"]), (r["goal_row"], r["goal_col"])) if "start_row" in r else None
+                    q = 0 if cells is None else next(i for i, s in enumerate(scen) if (tuple(s.start), tuple(s.goal)) == cells)
                     rows.append(dict(map=m.removesuffix(".map"), size=f"{grid.height}x{grid.width}", planner=label,
                                      budget=budget, ants=ants, iters=iters, query=q, bucket=scen[q].bucket,
                                      optimal=scen[q].optimal, seed=int(r["seed"]), success=bool(r["success"]),

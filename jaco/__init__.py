@@ -10,7 +10,7 @@ Submodules and the heavy parts (jax, pandas, matplotlib) load on first use, so t
 ``import jaco`` and ``jaco --help`` stay fast. The layout (README, "Layout"): :mod:`jaco.engine`
 (problem, params, pheromone rules, variants, walk, colony, run, result), :mod:`jaco.planners`
 (one module per source, and the registry), :mod:`jaco.maps`, :mod:`jaco.research` (sweeps,
-designs, tuning, records), and :mod:`jaco.api` (``solve``), :mod:`jaco.waypoints`,
+designs, tuning, records, result tables and their statistics), and :mod:`jaco.api` (``solve``), :mod:`jaco.waypoints`,
 :mod:`jaco.exact`, :mod:`jaco.metrics`, :mod:`jaco.plot`, :mod:`jaco.apf`, :mod:`jaco.cli`.
 """
 
@@ -37,6 +37,8 @@ _LAZY = {
     "compose": "planners.compose",
     "Variant": "engine.variant",
     "load_run": "research.records",
+    # statistics on a results table (the module is jaco.research.compare: jaco.compare is the function)
+    "compare": "research.compare",
     # which ant walk compiled programs use: the native kernel or the JAX walk
     "set_walk": "engine.native",
     # tuning with optax (the module is jaco.research.tuning: jaco.tune is the function)

@@ -10,12 +10,17 @@ engine never imports the planners and the waypoints sit above the single run.
 from __future__ import annotations
 
 from .engine import run as _run
+from .engine.params import unknown_parameter
 from .engine.result import Result
+from .errors import ParamError
 from .grid import Grid
 from .planners.registry import get_variant
 from .waypoints import solve_waypoints
 
 __all__ = ["solve", "make_run"]
+
+#: The keywords of :func:`solve` besides the planner's parameters.
+SOLVE_KEYWORDS = ("seed", "n_ants", "n_iters", "steplimit", "connectivity", "keep_pheromone", "waypoints", "progress")
 
 
 def solve(
@@ -37,7 +42,8 @@ def solve(
     """Plan a path from ``start`` to ``goal`` (``(row, col)`` cells) with one ACO variant.
 
     Everything is validated before anything compiles: the map, start and goal (and that the goal
-    is reachable), the sizes, and every parameter (unknown names list the valid ones).
+    is reachable), the sizes, and every parameter (an unknown name is answered with the closest
+    parameters and keywords, ``n_ant`` -> ``n_ants``, and the valid ones).
     ``waypoints=[(r, c), ...]``: visit them in order, then the goal; one leg per target, all legs
     in one batched call, one combined Result (:mod:`jaco.waypoints`).
     ``progress``: a bar of iterations on stderr when the call takes more than two seconds; None
@@ -52,6 +58,10 @@ def solve(
     (True, 5.0, 5.0)
     """
     variant = get_variant(variant)
+    for name in params:  # a misspelt keyword of solve lands among the parameters: suggest both
+        if name not in variant.params:
+            raise ParamError(unknown_parameter(name, variant.params, f"variant {variant.name!r}", SOLVE_KEYWORDS,
+                                               "jaco.solve"))
     kw = dict(seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, connectivity=connectivity,
               keep_pheromone=keep_pheromone, **params)
     if waypoints is not None:

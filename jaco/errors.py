@@ -1,6 +1,12 @@
 """Errors a user can cause. All derive from ``ValueError`` and are raised before anything compiles.
 
-The command line prints a :class:`JacoError` as one line and exits with code 2."""
+The command line prints a :class:`JacoError` as one line and exits with code 2. A misspelt name
+(a keyword of ``jaco.solve``/``sweep``/``tune``, a parameter) is answered with the closest names
+the call takes (:func:`did_you_mean`, :func:`check_keywords`)."""
+
+import difflib
+import functools
+import inspect
 
 
 class JacoError(ValueError):
@@ -33,3 +39,28 @@ class ResourceError(JacoError):
 class OutputError(JacoError):
     """An output path that cannot be written: its folder is missing a parent or not writable, it
     is a directory, it names one of the run's inputs, or its suffix is not a format jaco writes."""
+
+
+def did_you_mean(name: str, candidates) -> str:
+    """``" (did you mean 'n_ants'?)"`` for the names in ``candidates`` closest to a misspelt
+    ``name`` (difflib's ratio ≥ 0.6, at most three), or ``""`` when none is close."""
+    close = difflib.get_close_matches(str(name), [str(c) for c in candidates], n=3, cutoff=0.6)
+    return f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
+
+
+def check_keywords(fn):
+    """Decorate a public function so that an unknown keyword argument is a :class:`JacoError`
+    naming the closest keywords it takes (``n_ant`` -> ``n_ants``) and listing them all, instead
+    of Python's TypeError. The signature is kept (``inspect.signature`` sees ``fn``'s)."""
+    params = inspect.signature(fn).parameters.values()
+    names = [p.name for p in params if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
+
+    @functools.wraps(fn)
+    def checked(*args, **kwargs):
+        for key in kwargs:
+            if key not in names:
+                raise JacoError(f"unknown keyword {key!r} for jaco.{fn.__name__}{did_you_mean(key, names)}; "
+                                f"its keywords: {', '.join(names)}")
+        return fn(*args, **kwargs)
+
+    return checked

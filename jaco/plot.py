@@ -5,6 +5,10 @@ built as plain ``Figure`` objects (no pyplot state, no GUI backend needed), or d
 ``Axes`` passed as ``ax=`` (then its figure is returned). Write them with :func:`save`; in a notebook
 a returned ``Figure`` displays itself.
 
+Legends sit outside the axes, to the right (of a twin axis too), so they never cover data; the
+saved and displayed figures grow to hold them (``bbox_inches="tight"``). Gaps are fractions in the
+data and shown in % on axes, labels and annotations.
+
 Axes are in cell coordinates: column on x, row on y with row 0 at the top (``imshow`` with
 ``origin="upper"``), and the centre of cell ``(row, col)`` at ``(x, y) = (col, row)``.
 """
@@ -18,7 +22,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.colors import ListedColormap, LogNorm, Normalize
 from matplotlib.figure import Figure
-from matplotlib.ticker import MaxNLocator
+from matplotlib.ticker import MaxNLocator, NullLocator
 
 from .errors import ParamError, ProblemError
 from .outputs import check_output, write_bytes
@@ -26,7 +30,7 @@ from .outputs import check_output, write_bytes
 __all__ = [
     "plot_map", "plot_paths", "plot_pheromone", "plot_convergence", "plot_sweep_heatmap", "plot_sweep_box",
     "animate_pheromone", "save_gif", "save", "plot_search_history", "plot_param_importance", "plot_search_contour",
-    "plot_pareto",
+    "plot_pareto", "plot_critical_difference", "plot_performance_profile",
 ]
 
 _MAP_CMAP = ListedColormap(["#2b2b2b", "#f4f4f0"])  # 0 = blocked (dark), 1 = free (light)
@@ -43,6 +47,22 @@ def _figure_axes(ax, figsize=(6.0, 6.0)):
         return ax.figure, ax
     fig = Figure(figsize=figsize)
     return fig, fig.add_subplot()
+
+
+def _legend_outside(ax, handles=None, labels=None, *, beside=(), **kw):
+    """A legend to the right of ``ax``, outside its data area and beyond the axes in ``beside``
+    (a twin axis with its ticks and label on the right); None when there is nothing to show."""
+    if handles is None:
+        handles, labels = ax.get_legend_handles_labels()
+    if not handles:
+        return None
+    x = 1.02
+    for other in beside:
+        box = other.get_tightbbox()
+        if box is not None:
+            x = max(x, ax.transAxes.inverted().transform((box.x1, 0.0))[0] + 0.02)
+    kw = {"fontsize": "small", "framealpha": 0.85, **kw}
+    return ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(x, 1.0), borderaxespad=0.0, **kw)
 
 
 def _check_grid(grid):
@@ -144,22 +164,23 @@ def plot_paths(grid, paths, *, labels=None, start=None, goal=None, ax=None, titl
     """The map with one or several paths drawn through cell centres.
 
     ``paths`` is one ``(K, 2)`` path, a list of paths, or a dict ``label -> path``. With labels
-    (``labels=`` or the dict's keys) a legend names each path; a missing path (``None`` or empty,
-    e.g. a failed run) keeps its legend entry, marked "(no path)". Each path is one ``Line2D`` in
-    ``ax.lines``, in the given order.
+    (``labels=`` or the dict's keys) a legend beside the map names each path; a missing path
+    (``None`` or empty, e.g. a failed run) keeps its legend entry, marked "(no path)" unless its
+    label says so already. Each path is one ``Line2D`` in ``ax.lines``, in the given order.
     """
     paths, labels = _normalise_paths(paths, labels)
     fig = plot_map(grid, start=start, goal=goal, ax=ax, title=title)
     ax = ax if ax is not None else fig.axes[0]
     colors = [f"C{k % 10}" for k in range(len(paths))]
     for k, path in enumerate(paths):
-        label = None if labels is None else labels[k] + ("" if len(path) else " (no path)")
+        label = None if labels is None or len(path) or "no path" in labels[k] else labels[k] + " (no path)"
+        label = labels[k] if label is None and labels is not None else label
         # Dots at the vertices only while cells are big enough for them to mean something.
         marker = "." if len(path) <= 80 else None
         _draw_path(ax, path, color=colors[k], linewidth=2.0, marker=marker, markersize=5,
                    label=label, zorder=3 + k * 0.01)
     if labels is not None:
-        ax.legend(loc="best", fontsize="small", framealpha=0.85)
+        _legend_outside(ax)
     return fig
 
 
@@ -234,14 +255,18 @@ def _masked(values) -> np.ma.MaskedArray:
     return np.ma.masked_invalid(np.asarray(values, dtype=float).ravel())
 
 
-def plot_convergence(history, *, ax=None, optimal=None, label=None, title=None) -> Figure:
+def plot_convergence(history, *, ax=None, optimal=None, label=None, title=None, ylabel="path cost") -> Figure:
     """Best-so-far (solid) and iteration mean (dashed) cost per iteration, for one run or several.
 
     ``history`` is a dict with arrays under ``"best"`` (iteration best or best-so-far: the running
     minimum is drawn) and ``"mean"`` (optional), and optionally ``"success_rate"`` (drawn dotted on a
-    twin axis, 0..1) and ``"label"``; or a list of such dicts. ``label`` is a string for one run or a
+    twin axis, 0..1: the share of the iteration's ants that reached the goal) and ``"label"``; or a
+    list of such dicts. ``label`` is a string for one run or a
     list of strings, one per run (default: the dict's ``"label"``, else ``run i``). Inf or NaN values
     (iterations where no ant arrived) are masked. ``optimal`` adds a dashed horizontal line.
+    ``ylabel``: the y axis's label (the cost a planner minimises; for most planners it is the path
+    length, so ``ylabel="path length"`` says so). The legend sits beside the axes (and beside the
+    success rate's axis).
     """
     runs = [history] if isinstance(history, dict) else list(history)
     if not runs:
@@ -283,16 +308,14 @@ def plot_convergence(history, *, ax=None, optimal=None, label=None, title=None) 
         ax.axhline(float(optimal), color="black", linestyle="--", linewidth=1.0,
                    label=f"optimum {float(optimal):.4g}")
     ax.set_xlabel("iteration")
-    ax.set_ylabel("path cost")
+    ax.set_ylabel(ylabel)
     if title is not None:
         ax.set_title(title)
     handles, names = ax.get_legend_handles_labels()
     if twin is not None:
         h2, n2 = twin.get_legend_handles_labels()
         handles, names = handles + h2, names + n2
-    # The twin axes is drawn over ax: its legend must live there to stay on top of its lines.
-    (twin if twin is not None else ax).legend(handles, names, loc="best", fontsize="small",
-                                              framealpha=0.85)
+    _legend_outside(ax, handles, names, beside=[twin] if twin is not None else [])
     return fig
 
 
@@ -301,6 +324,41 @@ def _sweep_column(table, name, what):
     if name not in table.columns:
         raise ParamError(f"{what} {name!r} is not a column of the sweep table (columns: {', '.join(map(str, table.columns))})")
     return name
+
+
+def _is_numbers(column) -> bool:
+    import pandas as pd
+
+    return pd.api.types.is_numeric_dtype(column.dtype)
+
+
+def _numbers_column(table, name, what):
+    """``name`` checked to be a column of numbers (a string column is one ParamError line)."""
+    _sweep_column(table, name, what)
+    if not _is_numbers(table[name]):
+        shown = ", ".join(repr(str(v)) for v in table[name].drop_duplicates().head(3))
+        raise ParamError(f"{what} {name!r} is a column of text ({shown} ...): it needs numbers, "
+                         "e.g. gap, length, cost or success")
+    return name
+
+
+def _tick(name, v) -> str:
+    """A tick label: a planner's short name, a text value as it is, a number without float noise."""
+    from .research.tables import number, short_name
+
+    if name == "variant":
+        return short_name(v)
+    return v if isinstance(v, str) else number(v)
+
+
+def _axis_values(table, name):
+    """The values of an axis: sorted numbers, or text (a planner's name, ...) in order of first
+    appearance; empty (NaN) entries, e.g. a parameter a planner lacks, are left out."""
+    col = table[name]
+    if _is_numbers(col):
+        v = np.asarray(col, float)
+        return np.unique(v[~np.isnan(v)])
+    return np.array(list(col.dropna().drop_duplicates()), dtype=object)
 
 
 def _finite_mean(values) -> float:
@@ -312,14 +370,19 @@ def _finite_mean(values) -> float:
 def sweep_grid(table, x: str, y: str, value: str = "gap"):
     """``(xs, ys, Z)``: the mean of ``value`` over every other column (seeds, other parameters)
     for each pair of ``x`` and ``y`` values, ``Z[i, j]`` at ``ys[i], xs[j]``; inf where a run
-    failed, NaN where the sweep has no such pair."""
-    for name, what in ((x, "x"), (y, "y"), (value, "value")):
-        _sweep_column(table, name, what)
-    xs = np.unique(np.asarray(table[x], float))
-    ys = np.unique(np.asarray(table[y], float))
+    failed, NaN where the sweep has no such pair. ``x`` and ``y`` may be columns of numbers
+    (sorted) or of text, e.g. the ``variant`` of a sweep over planners (in order of appearance);
+    ``value`` must hold numbers."""
+    _sweep_column(table, x, "x")
+    _sweep_column(table, y, "y")
+    _numbers_column(table, value, "value")
+    xs, ys = _axis_values(table, x), _axis_values(table, y)
+    where_x = {(float(v) if _is_numbers(table[x]) else v): j for j, v in enumerate(xs)}
+    where_y = {(float(v) if _is_numbers(table[y]) else v): i for i, v in enumerate(ys)}
     Z = np.full((len(ys), len(xs)), np.nan)
     for (xv, yv), part in table.groupby([x, y])[value]:
-        Z[np.searchsorted(ys, yv), np.searchsorted(xs, xv)] = _finite_mean(part)
+        xv, yv = (float(xv) if _is_numbers(table[x]) else xv), (float(yv) if _is_numbers(table[y]) else yv)
+        Z[where_y[yv], where_x[xv]] = _finite_mean(part)
     return xs, ys, Z
 
 
@@ -327,58 +390,89 @@ def plot_sweep_heatmap(table, x: str, y: str, value: str = "gap", *, ax=None, ti
     """Heatmap of a sweep table (:func:`jaco.sweep`): the mean ``value`` over seeds (and over any
     other swept parameter) for every ``(x, y)`` pair, each cell annotated with its number.
 
-    Cells where at least one run failed (inf) are hatched grey and marked "fail"; ``percent``
-    (default: True for ``gap``) shows the value ×100 with a % sign.
+    ``x`` and ``y`` may be parameters or text columns such as the planner (``"variant"``, shown by
+    its short name); ``value`` must be a column of numbers. Cells where at least one run failed
+    (inf) are hatched grey and marked "fail"; ``percent`` (default: True for ``gap``, a fraction in
+    the table) shows the value ×100 with a % sign; a value of integers reads as integers.
     """
     xs, ys, Z = sweep_grid(table, x, y, value)
     percent = (value == "gap") if percent is None else percent
     shown = Z * 100 if percent else Z
-    fig, ax = _figure_axes(ax, figsize=(1.2 * len(xs) + 2.5, 0.9 * len(ys) + 1.8))
+    integers = not percent and np.all(np.isnan(shown) | np.isinf(shown) | (shown == np.round(shown)))
+    longest = max([len(_tick(x, v)) for v in xs] + [1])
+    fig, ax = _figure_axes(ax, figsize=(max(1.2, 0.09 * longest) * len(xs) + 2.5, 0.9 * len(ys) + 1.8))
     masked = np.ma.masked_invalid(shown)
     im = ax.imshow(masked, cmap=_viridis_with_bad().with_extremes(bad="#bdbdbd"), origin="lower", aspect="auto")
     fig.colorbar(im, ax=ax, label=f"mean {value}" + (" (%)" if percent else ""), shrink=0.85)
+    finite = shown[np.isfinite(shown)]
+    middle = np.mean(finite) if finite.size else 0.0
     for i in range(len(ys)):
         for j in range(len(xs)):
             v = shown[i, j]
-            text = "fail" if np.isinf(v) else "" if np.isnan(v) else (f"{v:.1f}%" if percent else f"{v:.3g}")
+            if np.isinf(v):
+                text = "fail"
+            elif np.isnan(v):
+                text = ""
+            else:
+                text = f"{v:.1f}%" if percent else (f"{v:.0f}" if integers else f"{v:.3g}")
             ax.text(j, i, text, ha="center", va="center", fontsize="small",
-                    color="black" if not np.isfinite(v) or v > np.nanmean(shown[np.isfinite(shown)]) else "white")
-    ax.set_xticks(range(len(xs)), [f"{v:g}" for v in xs])
-    ax.set_yticks(range(len(ys)), [f"{v:g}" for v in ys])
+                    color="black" if not np.isfinite(v) or v > middle else "white")
+    ax.set_xticks(range(len(xs)), [_tick(x, v) for v in xs])
+    ax.set_yticks(range(len(ys)), [_tick(y, v) for v in ys])
+    if longest > 8:
+        ax.tick_params(axis="x", labelrotation=30)
+        for label in ax.get_xticklabels():
+            label.set_horizontalalignment("right")
     ax.set_xlabel(x)
     ax.set_ylabel(y)
     ax.set_title(title if title is not None else f"mean {value} over seeds")
     return fig
 
 
+def _box_label(by, key, fails) -> str:
+    parts = [(_tick(n, k) if n == "variant" or isinstance(k, str) else f"{n}={_tick(n, k)}") for n, k in zip(by, key)]
+    return ", ".join(parts) + (f"\n({fails} failed)" if fails else "")
+
+
 def plot_sweep_box(table, by, value: str = "length", *, ax=None, title=None, optimal=None) -> Figure:
     """Box plots of ``value`` across seeds, one box per configuration (the distinct values of the
-    column(s) ``by``). Failed runs (inf) are left out of the boxes and counted in the labels.
-    ``optimal`` (default: the table's ``optimal`` column when it holds one value) is a dashed line."""
+    column(s) ``by``: parameters, or text such as the planner, ``"variant"``, shown by its short
+    name). Failed runs (inf) are left out of the boxes and counted in the labels. Numbers are
+    sorted, text keeps its order of appearance. ``optimal`` (default: the table's ``optimal``
+    column when it holds one value) is a dashed line named in a legend beside the axes. A gap (a
+    fraction in the table) is drawn in %."""
     by = [by] if isinstance(by, str) else list(by)
     for name in by:
         _sweep_column(table, name, "by")
-    _sweep_column(table, value, "value")
-    groups, labels = [], []
-    for key, part in table.groupby(by, sort=True)[value]:
+    _numbers_column(table, value, "value")
+    order = {n: {v: i for i, v in enumerate(_axis_values(table, n))} for n in by}
+    scale = 100.0 if value == "gap" else 1.0
+    groups, labels, keys = [], [], []
+    for key, part in table.groupby(by, sort=False)[value]:
         key = key if isinstance(key, tuple) else (key,)
-        v = np.asarray(part, float)
+        v = np.asarray(part, float) * scale
         ok = v[np.isfinite(v)]
+        keys.append(tuple(order[n].get(float(k) if _is_numbers(table[n]) else k, -1) for n, k in zip(by, key)))
         groups.append(ok)
-        fails = len(v) - len(ok)
-        labels.append(", ".join(f"{n}={k:g}" for n, k in zip(by, key)) + (f"\n({fails} failed)" if fails else ""))
+        labels.append(_box_label(by, key, len(v) - len(ok)))
     if not groups:
         raise ParamError("plot_sweep_box: the table is empty")
+    ranked = sorted(range(len(groups)), key=lambda i: keys[i])
+    groups, labels = [groups[i] for i in ranked], [labels[i] for i in ranked]
     fig, ax = _figure_axes(ax, figsize=(max(5.0, 0.8 * len(groups) + 2.0), 4.5))
     ax.boxplot([g if len(g) else [np.nan] for g in groups])
     ax.set_xticks(range(1, len(groups) + 1), labels)  # (boxplot's own label keyword was renamed in 3.9)
-    if optimal is None and "optimal" in table.columns and table["optimal"].nunique() == 1:
+    if optimal is None and value != "gap" and "optimal" in table.columns and table["optimal"].nunique() == 1:
         optimal = float(table["optimal"].iloc[0])
     if optimal is not None:
         ax.axhline(float(optimal), color="black", linestyle="--", linewidth=1.0, label=f"optimum {float(optimal):.4g}")
-        ax.legend(loc="best", fontsize="small")
-    ax.set_ylabel(value)
-    ax.tick_params(axis="x", labelrotation=45 if len(groups) > 6 else 0, labelsize="small")
+        _legend_outside(ax)
+    ax.set_ylabel(value + (" (%)" if value == "gap" else ""))
+    long = max(len(label.split("\n")[0]) for label in labels)
+    ax.tick_params(axis="x", labelrotation=45 if len(groups) > 6 or long > 12 else 0, labelsize="small")
+    if len(groups) > 6 or long > 12:
+        for label in ax.get_xticklabels():
+            label.set_horizontalalignment("right")
     ax.set_title(title if title is not None else f"{value} across seeds")
     return fig
 
@@ -594,6 +688,103 @@ def save_gif(animation, path, fps: int = 8) -> Path:
         drawn = Path(folder) / "animation.gif"
         animation.save(drawn, writer=PillowWriter(fps=fps))
         return write_bytes(path, drawn.read_bytes(), "animation")
+
+
+# -- comparisons (jaco.research.compare) -------------------------------------------------------
+def _comparison(obj, what):
+    from .research.compare import Comparison
+
+    if not isinstance(obj, Comparison):
+        raise ParamError(f"{what} takes the Comparison of jaco.compare(table, ...), got {type(obj).__name__}")
+    return obj
+
+
+def _cliques(ranks: np.ndarray, cd: float) -> list[tuple[int, int]]:
+    """Maximal runs ``(i, j)`` of configurations (sorted by mean rank) whose mean ranks lie within
+    ``cd`` of each other: the groups a critical-difference diagram joins with a bar."""
+    out = []
+    for i in range(len(ranks)):
+        j = i
+        while j + 1 < len(ranks) and ranks[j + 1] - ranks[i] < cd:
+            j += 1
+        if j > i and not any(a <= i and j <= b for a, b in out):
+            out.append((i, j))
+    return out
+
+
+def plot_critical_difference(comparison, *, ax=None, title=None) -> Figure:
+    """Critical-difference diagram (Demšar 2006) of a :func:`jaco.compare` result: the mean rank
+    of each configuration over the blocks on an axis (rank 1, the best, on the left), the Nemenyi
+    critical difference CD as a bar above it, and thick bars joining configurations whose mean
+    ranks differ by less than CD (they cannot be told apart at the comparison's ``alpha``)."""
+    c = _comparison(comparison, "plot_critical_difference")
+    names, ranks = list(c.ranks.index), c.ranks.to_numpy(float)
+    k, cd = len(names), float(c.friedman["cd"])
+    fig, ax = _figure_axes(ax, figsize=(8.0, 1.6 + 0.3 * k))
+    left = (k + 1) // 2
+    step = 0.45
+    ax.plot([1, k], [0, 0], color="black", linewidth=1.2)
+    for r in range(1, k + 1):
+        ax.plot([r, r], [0, 0.12], color="black", linewidth=1.0)
+        ax.text(r, 0.2, str(r), ha="center", va="bottom", fontsize="small")
+    for i, (name, r) in enumerate(zip(names, ranks)):
+        side = i < left
+        y = -(1 + (i if side else k - 1 - i)) * step - 0.2
+        end = 1 - 0.15 if side else k + 0.15
+        ax.plot([r, r, end], [0, y, y], color="black", linewidth=0.9)
+        ax.text(end + (-0.05 if side else 0.05), y, f"{name} ({r:.2f})", ha="right" if side else "left", va="center",
+                fontsize="small")
+    ax.plot([1, 1 + cd], [0.75, 0.75], color="black", linewidth=1.5)
+    for x in (1, 1 + cd):
+        ax.plot([x, x], [0.68, 0.82], color="black", linewidth=1.0)
+    ax.text(1 + cd / 2, 0.86, f"CD = {cd:.2f}", ha="center", va="bottom", fontsize="small")
+    for n, (i, j) in enumerate(_cliques(ranks, cd)):
+        y = -0.1 - 0.09 * n
+        ax.plot([ranks[i] - 0.03, ranks[j] + 0.03], [y, y], color="black", linewidth=3.5, solid_capstyle="butt")
+    lowest = -(1 + max(left, k - left)) * step - 0.45
+    ax.set_xlim(0.5, k + 0.5)
+    ax.set_ylim(lowest, 1.15)
+    ax.axis("off")
+    f = c.friedman
+    if title is None:
+        p = f"Friedman p = {f['pvalue']:.2g}, " if f["pvalue"] is not None else ""
+        title = f"mean rank of {c.value} over {f['n']} blocks ({p}Nemenyi CD at alpha {c.alpha:g})"
+    ax.set_title(title, fontsize="medium")
+    return fig
+
+
+def plot_performance_profile(comparison, *, ax=None, title=None, log2: bool = True) -> Figure:
+    """Performance profile (Dolan & Moré 2002) of a :func:`jaco.compare` result: for each
+    configuration the share ρ(τ) of pairs on which its path length is within a factor τ of the
+    best length any configuration reached there (a step function; τ on a log₂ axis by default).
+    The value at τ = 1 is the share of pairs it won (ties included); where a line levels off below
+    1 are the pairs it failed. The legend sits beside the axes."""
+    c = _comparison(comparison, "plot_performance_profile")
+    profile = c.profile()
+    taus = profile.index.to_numpy(float)
+    top = taus.max() if taus.size else 1.0
+    right = top * 1.1 if top > 1 else 1.1
+    fig, ax = _figure_axes(ax, figsize=(7.0, 4.5))
+    styles = ["-", "--", "-.", ":"]
+    for n, name in enumerate(profile.columns):
+        rho = profile[name].to_numpy(float)
+        never = not np.isfinite(c.ratios[name].to_numpy(float)).any()
+        ax.step(np.append(taus, right), np.append(rho, rho[-1]), where="post", linewidth=1.8,
+                color=f"C{n % 10}", linestyle=styles[(n // 10) % len(styles)],
+                label=name + (" (no path: on the τ axis)" if never else ""), clip_on=False)
+    if log2:
+        ax.set_xscale("log", base=2)
+    ticks = [t for t in (1, 1.05, 1.1, 1.2, 1.5, 2, 3, 4, 8, 16, 32, 64, 128) if t <= right]
+    ax.set_xticks(ticks, [f"{t:g}" for t in ticks])
+    ax.xaxis.set_minor_locator(NullLocator())
+    ax.set_xlim(1.0, right)
+    ax.set_ylim(0.0, 1.02)
+    ax.set_xlabel(f"τ: {c.ratio_of} / best {c.ratio_of} on the pair" + (" (log scale)" if log2 else ""))
+    ax.set_ylabel("share of pairs with ratio ≤ τ")
+    ax.grid(True, linewidth=0.3)
+    ax.set_title(title if title is not None else f"performance profile over {len(c.ratios)} pairs")
+    _legend_outside(ax)
+    return fig
 
 
 # -- output ------------------------------------------------------------------------------------

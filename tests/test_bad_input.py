@@ -595,6 +595,31 @@ def test_api_types_say_what_was_expected(call, needle):
     assert needle in str(e.value) and "\n" not in str(e.value)
 
 
+@pytest.mark.parametrize("call, suggestion, listed", [
+    (lambda: jaco.solve(GRID, (0, 0), (3, 5), n_ant=10), "'n_ants'", "valid: alpha, beta"),
+    (lambda: jaco.solve(GRID, (0, 0), (3, 5), "acs", betta=2.0), "'beta'", "keywords of jaco.solve: seed, n_ants"),
+    (lambda: jaco.solve(GRID, (0, 0), (3, 5), seeds=3), "'seed'", "valid: alpha"),
+    (lambda: jaco.sweep(GRID, (0, 0), (3, 5), n_ant=10), "'n_ants'", "its keywords: grid, start, goal"),
+    (lambda: jaco.sweep(GRID, (0, 0), (3, 5), "as", memory=10), "'memory_budget'", "seeds"),
+    (lambda: jaco.sweep(GRID, (0, 0), (3, 5), "as", {"rhoo": [0.1]}), "'rho'", "valid: alpha, beta, q, rho, tau0"),
+    (lambda: jaco.tune(GRID, (0, 0), (3, 5), n_iter=3), "'n_iters'", "population"),
+    (lambda: jaco.tune(GRID, (0, 0), (3, 5), "as", tune=("alpah",)), "'alpha'", "tunable for 'as'"),
+])
+def test_a_misspelt_keyword_is_answered_with_the_closest_names(call, suggestion, listed):
+    """Every keyword the call takes is a candidate: a parameter or one of the call's own."""
+    with pytest.raises(jaco.JacoError) as e:
+        call()
+    text = str(e.value)
+    assert f"(did you mean {suggestion}" in text and listed in text and "\n" not in text
+
+
+def test_keyword_checks_keep_the_signature():
+    import inspect
+
+    assert list(inspect.signature(jaco.sweep).parameters)[:6] == ["grid", "start", "goal", "variant", "params", "seeds"]
+    assert "population" in inspect.signature(jaco.tune).parameters
+
+
 def test_a_list_of_variants_is_still_a_sweep_axis():
     table = jaco.sweep(GRID, (0, 0), (3, 5), ["as", "acs"], None, 1, **SMALL)
     assert list(table["variant"]) == ["as", "acs"]

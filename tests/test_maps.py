@@ -732,3 +732,52 @@ def test_demo_map():
     length, path = shortest_path(g, s, t)
     assert length > math.dist(s, t) + 2  # the walls force a detour
     assert len(path) > 1
+
+
+# choosing queries ---------------------------------------------------------------------------------
+BERLIN = maps.load_scenarios(maps.bundled("Berlin_1_256.map.scen"))
+
+
+def test_select_scenarios_by_bucket_length_position_and_count():
+    long = maps.select_scenarios(BERLIN, bucket=(85, None))
+    assert long == [s for s in BERLIN if s.bucket >= 85] and len(long) == 60
+    assert [s.index for s in long] == list(range(850, 910))  # a scenario knows its position
+    assert maps.select_scenarios(BERLIN, bucket=85) == [s for s in BERLIN if s.bucket == 85]
+    mid = maps.select_scenarios(BERLIN, optimal=(100.0, 120.5))
+    assert mid == [s for s in BERLIN if 100.0 <= s.optimal <= 120.5]
+    assert maps.select_scenarios(BERLIN, index=[5, 2, 5]) == [BERLIN[5], BERLIN[2]]  # as given, once
+    both = maps.select_scenarios(BERLIN, index=range(840, 870), bucket=(85, 86))
+    assert [s.index for s in both] == list(range(850, 870))
+    assert maps.select_scenarios(maps.bundled("Berlin_1_256.map.scen"), index=3) == [BERLIN[3]]  # a path
+
+
+def test_count_spreads_over_the_optimal_lengths():
+    spread = maps.select_scenarios(BERLIN, bucket=(80, None), count=5)
+    pool = sorted((s for s in BERLIN if s.bucket >= 80), key=lambda s: (s.optimal, s.index))
+    assert len(spread) == 5
+    lengths = [s.optimal for s in spread]
+    assert min(lengths) == pool[0].optimal and max(lengths) == pool[-1].optimal  # the extremes
+    ranks = sorted(pool.index(s) for s in spread)
+    assert ranks == [round(x) for x in np.linspace(0, len(pool) - 1, 5)]  # evenly spaced ranks
+    assert [s.index for s in spread] == sorted(s.index for s in spread)  # in the file's order
+    assert maps.select_scenarios(BERLIN[:3], count=10) == BERLIN[:3]  # fewer than asked: all
+
+
+@pytest.mark.parametrize("kw, match", [
+    (dict(bucket=(95, None)), r"no scenario has bucket 95\.\.: the 910 scenarios have buckets 0\.\.90"),
+    (dict(optimal=(5.0, 1.0)), "low 5.0 is above high 1.0"),
+    (dict(index=[910]), "index 910 is out of range"),
+    (dict(count=0), "count must be a positive integer"),
+    (dict(bucket="80:"), "bucket must be a number or a"),
+])
+def test_select_scenarios_mistakes(kw, match):
+    with pytest.raises(jaco.JacoError, match=match):
+        maps.select_scenarios(BERLIN, **kw)
+
+
+def test_select_scenarios_example_runs():
+    import doctest
+
+    from jaco.maps import movingai
+
+    assert doctest.testmod(movingai).failed == 0

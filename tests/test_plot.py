@@ -35,6 +35,17 @@ def _assert_png(path):
     assert path.read_bytes()[:8] == PNG_MAGIC
 
 
+def assert_beside(legend, *axes):
+    """The legend covers no data: its box overlaps neither the data area of any of ``axes`` nor
+    (for a twin) its tick labels and axis label."""
+    fig = legend.figure
+    fig.draw_without_rendering()
+    box = legend.get_window_extent()
+    for ax in axes:
+        assert not box.overlaps(ax.get_window_extent())
+        assert not box.overlaps(ax.get_tightbbox(bbox_extra_artists=[]))  # ticks and labels
+
+
 def test_plot_map(tmp_path):
     fig = plot_map(GRID, start=START, goal=GOAL, title="map")
     assert isinstance(fig, Figure)
@@ -56,6 +67,9 @@ def test_plot_paths_three_labelled(tmp_path):
     assert len(ax.lines) == 3
     legend = ax.get_legend()
     assert legend is not None and [t.get_text() for t in legend.get_texts()] == ["a", "b", "c"]
+    assert_beside(legend, ax)  # beside the map, not on it
+    missing = plot_paths(GRID, {"a": P1, "no path": None, "b": []}).axes[0].get_legend()
+    assert [t.get_text() for t in missing.get_texts()] == ["a", "no path", "b (no path)"]  # said once
     # Lines go through cell centres: x = col, y = row.
     np.testing.assert_array_equal(ax.lines[0].get_xdata(), P1[:, 1])
     np.testing.assert_array_equal(ax.lines[0].get_ydata(), P1[:, 0])
@@ -137,9 +151,12 @@ def test_plot_convergence_masks_inf(tmp_path):
     np.testing.assert_array_equal(np.ma.compressed(y), [30.0, 30.0, 28.0, 28.0, 27.0])  # best so far
     assert np.ma.getmaskarray(mean_line.get_ydata()).tolist() == [True, True, False, True, False, False, False]
     assert opt_line.get_ydata()[0] == 26.0 and opt_line.get_linestyle() == "--"
-    legend = fig.axes[1].get_legend()  # on the twin, which is drawn on top
+    legend = ax.get_legend()  # one legend for both axes, beside the twin's ticks and label
     assert [t.get_text() for t in legend.get_texts()] == [
         "ACS best so far", "ACS iteration mean", "optimum 26", "ACS success rate"]
+    assert_beside(legend, ax, fig.axes[1])
+    assert ax.get_ylabel() == "path cost" and fig.axes[1].get_ylabel() == "success rate"
+    assert plot_convergence({"best": best}, ylabel="path length").axes[0].get_ylabel() == "path length"
     _assert_png(save(fig, tmp_path / "conv.png"))
 
 
@@ -153,6 +170,7 @@ def test_plot_convergence_several_runs(tmp_path):
     assert len(fig.axes) == 1 and len(ax.lines) == 4
     texts = [t.get_text() for t in ax.get_legend().get_texts()]
     assert texts == ["AS best so far", "AS iteration mean", "MMAS best so far", "MMAS iteration mean"]
+    assert_beside(ax.get_legend(), ax)
     _assert_png(save(fig, tmp_path / "runs.png"))
     with pytest.raises(ValueError):
         plot_convergence({"mean": [1.0]})
@@ -227,3 +245,65 @@ def test_pheromone_history_animates_to_a_gif(tmp_path):
         assert im.format == "GIF" and im.n_frames == 3  # iterations 1, 3, 5
     with pytest.raises(jaco.JacoError, match="keep_pheromone"):
         jaco.solve(grid, grid.meta["start"], grid.meta["goal"], "as", n_iters=2, keep_pheromone="all")
+
+
+# -- categorical axes: planners as an axis --------------------------------------------------------
+COMPOSED = "compose(construct=backtrack, heuristic=chaos, rule=iaca, transition=q0, schedule=constant, cost=length)"
+
+
+def _planner_table():
+    """Two planners x beta x 2 seeds, the layout of jaco.sweep(..., variant=[...])."""
+    import pandas as pd
+
+    rows = []
+    for v, base in (("iaca", 0.3), (COMPOSED, 0.2)):
+        for b in (8.0, 16.0):
+            for seed in range(2):
+                failed = v == "iaca" and b == 16.0 and seed == 1
+                g = np.inf if failed else base + 0.01 * b + 0.001 * seed
+                rows.append(dict(variant=v, beta=b, seed=seed, gap=g, optimal=100.0, best_iteration=3 + seed,
+                                 length=np.inf if failed else 100.0 * (1 + g)))
+    return pd.DataFrame(rows)
+
+
+def test_sweep_heatmap_draws_the_planner_axis():
+    table = _planner_table()
+    xs, ys, Z = jaco.plot.sweep_grid(table, "beta", "variant")
+    assert list(xs) == [8.0, 16.0] and list(ys) == ["iaca", COMPOSED]  # text in order of appearance
+    assert Z[1, 0] == pytest.approx(0.2 + 0.08 + 0.0005) and np.isinf(Z[0, 1])
+    fig = jaco.plot.plot_sweep_heatmap(table, "beta", "variant")
+    ax = fig.axes[0]
+    assert [t.get_text() for t in ax.get_yticklabels()] == ["iaca", "backtrack/chaos/iaca"]
+    assert [t.get_text() for t in ax.get_xticklabels()] == ["8", "16"]
+    texts = [t.get_text() for t in ax.texts]
+    assert "fail" in texts and f"{100 * (0.2 + 0.08 + 0.0005):.1f}%" in texts
+    # integers read as integers: the mean best iteration of two seeds, 3 and 4, is 3.5; of one value, 3
+    one = table[table.seed == 0]
+    assert {t.get_text() for t in jaco.plot.plot_sweep_heatmap(one, "beta", "variant", "best_iteration").axes[0].texts} == {"3"}
+
+
+def test_sweep_box_draws_the_planner_axis():
+    table = _planner_table()
+    fig = jaco.plot.plot_sweep_box(table, by="variant", value="gap")
+    ax = fig.axes[0]
+    assert [t.get_text() for t in ax.get_xticklabels()] == ["iaca\n(1 failed)", "backtrack/chaos/iaca"]
+    assert ax.get_ylabel() == "gap (%)"
+    medians = [line for line in ax.lines if line.get_color() in ("C1", "#ff7f0e", "orange")]
+    ok = table[(table.variant == COMPOSED)]["gap"]
+    assert medians[1].get_ydata()[0] == pytest.approx(100 * np.median(ok))  # the gap in %
+    both = jaco.plot.plot_sweep_box(table, by=["variant", "beta"], value="length")
+    labels = [t.get_text() for t in both.axes[0].get_xticklabels()]
+    assert labels == ["iaca, beta=8", "iaca, beta=16\n(1 failed)", "backtrack/chaos/iaca, beta=8",
+                      "backtrack/chaos/iaca, beta=16"]
+    assert_beside(both.axes[0].get_legend(), both.axes[0])  # the optimum's legend
+
+
+@pytest.mark.parametrize("call", [
+    lambda t: jaco.plot.plot_sweep_heatmap(t, "beta", "seed", "variant"),
+    lambda t: jaco.plot.plot_sweep_box(t, by="beta", value="variant"),
+    lambda t: jaco.plot.sweep_grid(t, "beta", "seed", "variant"),
+])
+def test_a_text_column_where_numbers_are_needed_is_one_line(call):
+    with pytest.raises(jaco.ParamError, match=r"^value 'variant' is a column of text \('iaca', .*needs numbers") as e:
+        call(_planner_table())
+    assert "\n" not in str(e.value)

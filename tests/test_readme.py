@@ -21,11 +21,13 @@ def test_readme_python_example_runs_and_prints(tmp_path, monkeypatch, capsys):
     length, optimum = map(float, re.match(r"length ([\d.]+), optimum ([\d.]+), gap", out[0]).groups())
     assert length >= optimum > 0
     assert out[1].startswith("[[2, 21], ")  # the path starts on the start cell
-    assert re.match(r"\s*beta\s+q0\s+success_rate\s+length_mean\s+gap_mean", out[2])
-    assert len(out) == 3 + 9 + 3 and out[-2] == "True"  # nine configurations; the record reran bit for bit
-    assert out[-3].startswith("via ((10, 5), (20, 20)): length ")
-    assert "'beta':" in out[-1]
-    assert {p.name for p in tmp_path.iterdir()} == {"paths.png", "heatmap.png", "run.json"}
+    assert re.match(r"\s*beta\s+q0\s+success_rate\s+length_median\s+gap_median", out[2])
+    words = out.index(next(line for line in out if line.startswith("3 configurations (variant) compared on gap")))
+    assert words == 3 + 9 + 3 and out[words - 2] == "True"  # nine configurations; the record reran bit for bit
+    assert out[words - 3].startswith("via ((10, 5), (20, 20)): length ")
+    assert "'beta':" in out[words - 1]
+    assert any(line.startswith("iaca beats as on 27 of 32 pairs") for line in out[words:])  # as the comment says
+    assert {p.name for p in tmp_path.iterdir()} == {"paths.png", "heatmap.png", "run.json", "cd.png"}
 
 
 @pytest.mark.slow

@@ -213,7 +213,11 @@ def test_sweep_record_reruns_and_checks_its_arguments(tmp_path, demo):
     assert doc["call"]["params"] == axes and doc["call"]["seeds"] == 2 and doc["call"]["n_ants"] == 8
     assert doc["call"]["grid"]["sha256"] == map_hash(demo)
     rec = load_run(tmp_path / "s.csv")  # the table's path finds the sidecar
-    assert len(rec.table) == 4 and rec.table["length"].tolist() == table["length"].tolist()
+    assert len(rec.table) == 4  # the CSV holds float32 values, the precision jaco computes in
+    assert rec.table["length"].to_numpy(np.float32).tobytes() == table["length"].to_numpy(np.float32).tobytes()
+    text = (tmp_path / "s.csv").read_text()
+    shortest = str(np.float32(table["length"].iloc[0]))  # e.g. 56.76955, not 56.76955032348633
+    assert f",{shortest}," in text and f",{table['length'].iloc[0]!r}," not in text
     rerun = rec.rerun()
     assert rerun.matched, rerun.summary()
     # the sweep rows are the solves: the recorded rows equal solve bit for bit
@@ -232,6 +236,43 @@ def test_sweep_record_reruns_and_checks_its_arguments(tmp_path, demo):
         warnings.simplefilter("error")
         rerun = load_run(sidecar).rerun()
     assert not rerun.matched and "rows differ" in rerun.differences[0]
+
+
+OLD = Path(__file__).parent / "data" / "sweep-record-v1"
+
+
+@pytest.mark.parametrize("name, rows", [("sweep", 16), ("single", 6)])
+def test_a_record_in_the_older_table_layout_still_reruns_and_matches(tmp_path, name, rows):
+    """Records written before start/goal became integer columns and floats float32 decimals
+    (tests/data/sweep-record-v1, made by that jaco) rerun and match, value by value."""
+    for suffix in (".csv", ".json"):
+        (tmp_path / f"{name}{suffix}").write_bytes((OLD / f"{name}{suffix}").read_bytes())
+    text = (tmp_path / f"{name}.csv").read_text()
+    assert "." in text and ("17.899494171142578" in text or "29.899494171142578" in text)  # float64 decimals
+    rec = load_run(tmp_path / f"{name}.json")
+    assert rec.warnings == [] and len(rec.table) == rows
+    if name == "sweep":
+        assert '"(0, 0)"' in text  # the query as text, read back as integer columns
+        assert list(rec.table.columns[2:6]) == ["start_row", "start_col", "goal_row", "goal_col"]
+        assert rec.table["start_row"].dtype.kind == "i" and set(rec.table["goal_row"]) == {0, 11}
+    rerun = rec.rerun()
+    assert rerun.matched, rerun.summary()
+    # one recorded length off by one float32 step is found, in its row and column
+    lines = text.splitlines()
+    k = lines[0].split(",").index("length")
+    row = next(i for i, line in enumerate(lines[1:], start=1) if _csv_split(line)[k] != "inf")
+    parts = _csv_split(lines[row])
+    parts[k] = repr(float(np.nextafter(np.float32(float(parts[k])), np.float32(np.inf))))
+    lines[row] = ",".join(f'"{p}"' if "," in p else p for p in parts)
+    (tmp_path / f"{name}.csv").write_text("\n".join(lines) + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RecordWarning)  # the table's hash no longer matches the sidecar
+        rerun = load_run(tmp_path / f"{name}.json").rerun()
+    assert not rerun.matched and rerun.differences == [f"1 of {rows} rows differ (first rows [{row - 1}]; columns ['length'])"]
+
+
+def _csv_split(line):
+    return next(csv.reader([line]))
 
 
 def test_latin_hypercube_sweep_record_reruns(tmp_path, demo):

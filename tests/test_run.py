@@ -63,10 +63,11 @@ def test_sweep_over_several_queries_and_maps_in_one_batch():
     other = jaco.Grid.from_rows(["......", "...#..", "...#..", "......"])
     table = jaco.sweep([GRID, other], (0, 0), [(3, 5), (0, 5)], "as", params={"beta": [1.0, 3.0]}, seeds=2, n_ants=8, n_iters=5)
     assert len(table) == 2 * 2 * 2
-    assert set(table["map"]) == {GRID.name, other.name} or len(set(table["goal"])) == 2
+    assert set(table["map"]) == {GRID.name, other.name} or len(set(table["goal_col"])) == 2
     for _, row in table.iterrows():
-        g = GRID if row.goal == (3, 5) else other
-        r = jaco.solve(g, row.start, row.goal, "as", seed=int(row.seed), beta=row.beta, n_ants=8, n_iters=5)
+        start, goal = (row.start_row, row.start_col), (row.goal_row, row.goal_col)  # integer columns
+        g = GRID if goal == (3, 5) else other
+        r = jaco.solve(g, start, goal, "as", seed=int(row.seed), beta=row.beta, n_ants=8, n_iters=5)
         assert r.length == row.length
 
 

@@ -206,12 +206,50 @@ def test_summarize_by_hand():
     assert s.length_std[0] == pytest.approx(math.sqrt(2.0)) and s.length_std[1] == 0.0
     assert s.success_rate.tolist() == pytest.approx([2 / 3, 1.0, 0.0])
     assert s.gap_mean.tolist()[:2] == pytest.approx([2 / 9, 0.0]) and s.gap_min.tolist()[:2] == pytest.approx([1 / 9, 0.0])
-    failed = s.iloc[2][["length_mean", "length_std", "length_min", "gap_mean", "gap_min"]]
+    # quartiles over the successful runs (numpy's linear interpolation): 10, 12 -> 10.5, 11, 11.5
+    assert (s.length_q1[0], s.length_median[0], s.length_q3[0]) == (10.5, 11.0, 11.5)
+    assert s.gap_median[0] == pytest.approx(np.median([1 / 9, 3 / 9])) and s.gap_q3[1] == 0.0
+    failed = s.iloc[2][["length_mean", "length_std", "length_min", "length_median", "length_q1", "length_q3",
+                        "gap_mean", "gap_min", "gap_median", "gap_q1", "gap_q3"]]
     assert failed.isna().all()
     assert not np.isinf(s.select_dtypes("number").to_numpy()).any()
     assert s.runs.tolist() == [3, 2, 2]
     with pytest.raises(jaco.JacoError, match="no column 'beta'"):
         jaco.summarize(table, by=["beta"])
+
+
+def test_summarize_over_several_planners_keeps_each_planners_own_parameters():
+    table = jaco.sweep(GRID, *ENDS, ["as", "acs", "mmas"], params={"beta": [1.0, 3.0]}, seeds=2, **TINY)
+    assert table[["q0", "p_best"]].isna().any().all()  # the tidy table: NaN where a planner lacks one
+    s = jaco.summarize(table)
+    assert len(s) == 6 and not s.drop(columns=["length_std"]).isna().any().any()
+    shared = {"alpha", "beta", "rho", "q"}  # every planner here has them: they stay columns
+    assert shared <= set(s.columns) and not {"q0", "xi", "tau0", "p_best"} & set(s.columns)
+    params = dict(zip(s.variant, s.params))
+    assert params == {"as": "tau0=0.1", "acs": "tau0=0.01, q0=0.8, xi=0.1", "mmas": "p_best=0.05"}
+    one = jaco.summarize(table[table.variant == "acs"])  # one planner: every parameter a column
+    assert "params" not in one and {"q0", "xi", "tau0"} <= set(one.columns)
+
+
+def test_queries_are_integer_columns_that_survive_a_csv_round_trip(tmp_path):
+    from jaco.research import tables
+
+    other = jaco.maps.random_map(12, 0.2, seed=4)
+    table = jaco.sweep([GRID, other], *ENDS, "as", params={"alpha": [0.7]}, seeds=2, **TINY)
+    assert list(table.columns[:6]) == ["map", "start_row", "start_col", "goal_row", "goal_col", "config"]
+    assert table.start_row.dtype == np.int64 and (table.goal_row == ENDS[1][0]).all()
+    path = tables.write_csv(table, tmp_path / "t.csv")
+    text = path.read_text()
+    for x in table["length"]:  # the shortest decimal of the float32 (54.970562), never float64 noise
+        assert f",{str(np.float32(x))}," in text
+    assert all(len(cell.replace("-", "").replace(".", "").lstrip("0")) <= 9 for line in text.splitlines()[1:]
+               for cell in line.split(",")[1:])  # float32 needs at most 9 significant digits
+    assert "0.7," in text and "0.699999988079071" not in text  # alpha: a float64 0.7 is written as the float32 it ran as
+    back = tables.read_table(path)
+    assert list(back.columns) == list(table.columns) and back.start_col.dtype.kind == "i"
+    for col in ("length", "cost", "optimal", "gap", "coverage", "alpha"):
+        assert back[col].to_numpy(np.float32).tobytes() == table[col].to_numpy(np.float32).tobytes(), col
+    assert tables.differences(back, table) == []
 
 
 def test_summarize_a_real_sweep_per_query():

@@ -67,6 +67,51 @@ _nonneg_int = _int_at_least(0, "an integer >= 0")
 _pos_int = _int_at_least(1, "a positive integer")
 
 
+def _bounds(text: str, what: str, cast):
+    """``"LO:HI"``, ``"LO:"``, ``":HI"`` or ``"X"`` -> ``(lo, hi)`` inclusive, None for an open end."""
+    parts = text.replace(" ", "").split(":")
+    try:
+        if len(parts) == 1:
+            lo = hi = cast(parts[0])
+        elif len(parts) == 2 and any(parts):
+            lo, hi = (cast(p) if p else None for p in parts)
+        else:
+            raise ValueError
+        if isinstance(lo, float) and not math.isfinite(lo) or isinstance(hi, float) and not math.isfinite(hi):
+            raise ValueError
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected {what} as X, LO:HI, LO: or :HI (both ends included), got {text!r}"
+        ) from None
+    if lo is not None and hi is not None and lo > hi:
+        raise argparse.ArgumentTypeError(f"expected LO <= HI in {text!r}")
+    return lo, hi
+
+
+def _bucket(text: str):
+    """``--bucket 80:`` -> ``(80, None)``: a bucket or an inclusive range of buckets."""
+    return _bounds(text, "a bucket (an integer)", int)
+
+
+def _length(text: str):
+    """``--optimal 300:400``: an inclusive range of optimal lengths."""
+    return _bounds(text, "an optimal length", float)
+
+
+def _indices(text: str):
+    """``--index 3``, ``3,7,9``, ``10:19`` (inclusive) or ``800:`` (to the end): a list of
+    ``(lo, hi)`` ranges of scenario positions, hi None for the end of the file."""
+    out = []
+    for part in text.replace(" ", "").split(","):
+        lo, hi = _bounds(part, "scenario positions (integers >= 0)", int) if part else (None, None)
+        if lo is None or lo < 0:
+            raise argparse.ArgumentTypeError(
+                f"expected --index K, K,L,M or LO:HI (integers >= 0, both ends included), got {text!r}"
+            )
+        out.append((lo, hi))
+    return out
+
+
 def _seed(text: str) -> int:
     """A seed: an integer in [0, 2**32) (jax keys take 32 bits; a larger seed is not wrapped)."""
     v = _nonneg_int(text)

@@ -1,4 +1,4 @@
-"""The commands: ``demo``, ``solve``, ``sweep``, ``rerun``, ``variants``, ``maps``, ``info`` (``cmd_*``), and
+"""The commands: ``demo``, ``solve``, ``sweep``, ``compare``, ``rerun``, ``variants``, ``maps``, ``info`` (``cmd_*``), and
 how a run is reported. Heavy modules are imported inside the functions."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 from .args import UsageError, _one_line, parse_params, parse_sweep_params
-from .queries import load_map, resolve_query
+from .queries import load_map, resolve_queries, resolve_query
 
 
 def _world_doc(grid, result) -> dict:
@@ -278,21 +278,26 @@ def cmd_sweep(args) -> int:
     if args.record and Path(args.record).suffix.lower() != ".csv":
         raise UsageError(f"--record writes the table as CSV plus a .json sidecar: give a name ending in .csv, got {args.record!r}")
     grid = load_map(args.map)
-    start, goal, scenario, label = resolve_query(grid, args)
+    starts, goals, scenarios, label = resolve_queries(grid, args)
     _check_outputs(args, grid, files=(("--csv", None), ("--record", (".csv",)), ("--store", None)))
     from ..planners.registry import get_variant
-    from ..research.sweeps import summarize, sweep
+    from ..research.sweeps import sweep
+    from ..research.tables import short_name
 
     names = args.variant or [args.default_variant]
     variants = [get_variant(v) for v in names]
     variant = variants[0] if len(variants) == 1 else variants
+    several = len(starts) > 1
+    start, goal = (starts, goals) if several else (starts[0], goals[0])
     n_configs = len(variants) * (math.prod(len(v) for v in axes.values()) if axes else 1)
+    query = f"{len(starts)} queries" if several else f"start {tuple(start)} -> goal {tuple(goal)}"
     print(
-        f"sweep {', '.join(v.name for v in variants)} on {grid.name} ({grid.height}x{grid.width}), start {tuple(start)} -> "
-        f"goal {tuple(goal)}: {n_configs} configurations x {args.seeds} seeds, "
-        f"{args.ants} ants x {args.iters} iterations",
+        f"sweep {', '.join(short_name(v.name) for v in variants)} on {grid.name} ({grid.height}x{grid.width}), {query}: "
+        f"{n_configs} configurations x {args.seeds} seeds, {args.ants} ants x {args.iters} iterations",
         flush=True,
     )
+    if scenarios is not None:
+        print(f"queries: {label}", flush=True)
     table = sweep(
         grid, start, goal, variant, axes, args.seeds,
         n_ants=args.ants, n_iters=args.iters, steplimit=args.steplimit,  # progress: a bar on a terminal
@@ -305,12 +310,13 @@ def cmd_sweep(args) -> int:
         plans = table.attrs["sweep"].values() if len(variants) > 1 else [table.attrs["sweep"]]
         resumed = sum(p.get("resumed_runs", 0) for p in plans)
         print(f"store {args.store}: {resumed} runs were already stored, {len(table) - resumed} ran now")
-    if scenario is not None:
-        print(f"scenario {label}: optimal length {scenario.optimal:.4f} (from the .scen file)")
+    if scenarios is not None and not several:
+        print(f"scenario {label}: optimal length {scenarios[0].optimal:.4f} (from the .scen file)")
     if args.csv:
         from ..outputs import write_text
+        from ..research.tables import csv_text
 
-        path = write_text(args.csv, table.to_csv(index=False, lineterminator="\n"), "--csv")
+        path = write_text(args.csv, csv_text(table), "--csv")
         print(f"wrote {path}")
     if args.record:
         from ..research.records import save_sweep
@@ -320,42 +326,122 @@ def cmd_sweep(args) -> int:
             n_ants=args.ants, n_iters=args.iters, steplimit=args.steplimit,
         )
         print(f"wrote {args.record} and {sidecar} (rerun them with 'jaco rerun {sidecar}')")
-    summary = summarize(table).sort_values(
-        ["success_rate", "gap_mean", "length_mean"], ascending=[False, True, True], kind="stable"
-    ).reset_index(drop=True)
-    swept = ["variant", *axes] if len(variants) > 1 else [k for k in axes] or list(variant.params)
-    cols = swept + ["success_rate", "length_mean", "length_std", "length_min", "gap_mean", "runs"]
-    print(f"\ntop {min(10, len(summary))} of {len(summary)} configurations (by success rate, then mean gap "
-          "over the successful runs, then mean length):")
-    print(_summary_table(summary[cols].head(10), swept))
-    best = summary.iloc[0]
-    winner = get_variant(best["variant"]) if len(variants) > 1 else variants[0]
-    conf = ", ".join(f"{k}={best[k]:g}" for k in winner.params)
-    if best["success_rate"] == 0:
-        print(f"\nno configuration reached the goal (optimum {table['optimal'].iloc[0]:.4f}): every run failed")
-        return 0
-    print(
-        f"\nbest: {winner.name} {conf}\n      mean length {best['length_mean']:.4f} "
-        f"(optimum {table['optimal'].iloc[0]:.4f}), mean gap {_unsigned_zero(format(100 * best['gap_mean'], '.2f'))}% "
-        f"over the successful runs, success {100 * best['success_rate']:.0f}% over {int(best['runs'])} seeds"
-    )
+    _print_sweep_summary(table, variants, axes, several)
+    if len(variants) > 1 and (args.csv or args.record):
+        print(f"\ncompare the planners with paired tests: jaco compare {args.csv or args.record}")
     return 0
 
 
-def _summary_table(shown, swept) -> str:
-    """The sweep's summary as text: a configuration that failed on every seed reads "failed" in
-    its length and gap columns (never inf or NaN), a missing std (one success) "-"."""
+def _print_sweep_summary(table, variants, axes, several) -> None:
+    """The best configurations (over every query when there are several) and the best one."""
+    from ..research.sweeps import summarize
+    from ..research.tables import percent, short_name
+
+    swept = (["variant"] if len(variants) > 1 else []) + list(axes)
+    by = swept + ["config"] if several else None  # several queries: one row per configuration
+    summary = summarize(table, by=by if by else None).sort_values(
+        ["success_rate", "gap_median", "gap_mean"], ascending=[False, True, True], kind="stable"
+    ).reset_index(drop=True)
+    shown_by = swept or list(variants[0].params)
+    over = "every query's seeds" if several else "the seeds"
+    print(f"\ntop {min(10, len(summary))} of {len(summary)} configurations over {over} (by success rate, then median "
+          "gap, then mean gap, over the successful runs; gaps in % of the optimum):")
+    print(_summary_table(summary.head(10), shown_by, lengths=not several))
+    best = summary.iloc[0]
+    if best["success_rate"] == 0:
+        optimum = "" if several else f" (optimum {table['optimal'].iloc[0]:.4f})"
+        print(f"\nno configuration reached the goal{optimum}: every run failed")
+        return
+    winner = _variant_of(best, variants)
+    conf = " ".join(f"{k}={best[k]:g}" for k in axes)
+    rest = "other parameters at their defaults" if axes else "default parameters"
+    print(f"\nbest: {short_name(winner.name)} {conf}".rstrip() + f" ({rest})")
+    if short_name(winner.name) != winner.name:
+        print(f"      planner {winner.name}")
+    length = "" if several else (f"median length {best['length_median']:.4f} "
+                                 f"(optimum {table['optimal'].iloc[0]:.4f}), ")
+    print(f"      {length}median gap {percent(best['gap_median'], 2)} (quartiles {percent(best['gap_q1'], 2)} to "
+          f"{percent(best['gap_q3'], 2)}) over the successful runs, success {100 * best['success_rate']:.0f}% "
+          f"of {int(best['runs'])} runs")
+
+
+def _variant_of(row, variants):
+    """The planner of a summary row (the one planner of the sweep, or the row's ``variant``)."""
+    from ..planners.registry import get_variant
+
+    return get_variant(row["variant"]) if len(variants) > 1 else variants[0]
+
+
+def _summary_table(shown, swept, lengths: bool = True) -> str:
+    """The sweep's summary as text: a planner by its short name, left-aligned; a configuration
+    that failed on every seed reads "failed" in its length and gap columns (never inf or NaN), a
+    missing value "-"; gaps in %, integers as integers."""
     import pandas as pd
 
+    from ..research.tables import number, short_name, text_table
+
     failed = shown["success_rate"] == 0
-    text = pd.DataFrame({k: shown[k].map(lambda x: x if isinstance(x, str) else f"{x:g}") for k in swept})
+    text = pd.DataFrame({k: shown[k].map(short_name if k == "variant" else number) for k in swept})
     text["success_%"] = (100 * shown["success_rate"]).map(lambda x: f"{x:.0f}")
-    for col in ("length_mean", "length_std", "length_min", "gap_mean"):
-        scale = 100 if col == "gap_mean" else 1
+    columns = (["length_median", "length_min"] if lengths else []) + ["gap_median", "gap_q1", "gap_q3", "gap_mean"]
+    for col in columns:
+        scale = 100 if col.startswith("gap") else 1
         values = (scale * shown[col]).map(lambda x: "-" if math.isnan(x) else _unsigned_zero(f"{x:.4g}"))
-        text[col + ("_%" if col == "gap_mean" else "")] = values.where(~failed, "failed")
+        text[col + ("_%" if col.startswith("gap") else "")] = values.where(~failed, "failed")
     text["runs"] = shown["runs"].map(str)
-    return text.to_string(index=False)
+    return text_table(text, left=["variant"])
+
+
+def cmd_compare(args) -> int:
+    """Paired statistics on a saved results table (jaco.research.compare)."""
+    from ..research.compare import compare
+    from ..research.tables import read_table
+
+    figures = [f for f in ("--cd", "--profile") if getattr(args, f[2:]) is not None]
+    _check_outputs(args, figures=figures)
+    table = read_table(args.table)
+    by = args.by or ["variant"]
+    if args.where:
+        table = _where(table, args.where)
+    result = compare(table, by=by, value=args.value, blocks=args.blocks, alpha=args.alpha,
+                     confidence=args.confidence, n_boot=args.boot, seed=args.seed)
+    print(f"table   {Path(args.table).name}: {len(table)} runs; bootstrap: {args.boot} resamples, seed {args.seed}")
+    print()
+    print(result.table())
+    print()
+    print(result.text)
+    from .. import plot
+
+    if args.cd:
+        print(f"wrote {plot.save(plot.plot_critical_difference(result), args.cd)}")
+    if args.profile:
+        print(f"wrote {plot.save(plot.plot_performance_profile(result), args.profile)}")
+    return 0
+
+
+def _where(table, items):
+    """Rows of ``table`` where each ``NAME=VALUE`` holds (numbers compared as numbers)."""
+    import numpy as np
+
+    for item in items:
+        name, sep, value = item.partition("=")
+        name, value = name.strip(), value.strip()
+        if not sep or not name:
+            raise UsageError(f"--where expects NAME=VALUE (e.g. beta=16), got {item!r}")
+        if name not in table.columns:
+            raise UsageError(f"--where {item}: no column {name!r} in the table (columns: {', '.join(map(str, table.columns))})")
+        col = table[name]
+        if col.dtype.kind in "iuf":
+            try:
+                mask = np.isclose(col.to_numpy(float), float(value), rtol=1e-6, atol=0)
+            except ValueError:
+                raise UsageError(f"--where {item}: column {name!r} holds numbers, {value!r} is not one") from None
+        else:
+            mask = (col.astype(str) == value).to_numpy()
+        if not mask.any():
+            raise UsageError(f"--where {item}: no row has {name} = {value}")
+        table = table[mask]
+    return table
 
 
 def cmd_rerun(args) -> int:

@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .args import _cell, _int_at_least, _nonneg_int, _Parser, _pos_int, _seed, _xy
-from .commands import cmd_demo, cmd_info, cmd_maps, cmd_solve, cmd_sweep, cmd_variants
+from .args import _bucket, _cell, _indices, _int_at_least, _length, _nonneg_int, _Parser, _pos_int, _seed, _xy
+from .commands import cmd_compare, cmd_demo, cmd_info, cmd_maps, cmd_solve, cmd_sweep, cmd_variants
 from .search import cmd_rerun, cmd_search
 
 DEMO_VARIANT = "mmas"  # on the demo map MMAS comes closer to the optimum than ACS (see --help)
@@ -48,7 +48,15 @@ def _add_query_options(p) -> None:
     q.add_argument("--goal-xy", type=_xy, metavar="X,Y", help="goal as a world point in metres (ROS maps)")
     q.add_argument("--scen", metavar="FILE",
                    help="MovingAI .scen file (a path or a bundled file name): take start/goal from it")
-    q.add_argument("--index", type=_nonneg_int, metavar="K", help="row of --scen to use (default 0)")
+    q.add_argument("--index", type=_indices, action="append", metavar="K",
+                   help="scenario of --scen by position: K, K,L,M or LO:HI (both ends included), repeatable "
+                   "(default 0 when no other selection is given)")
+    q.add_argument("--bucket", type=_bucket, metavar="B",
+                   help="scenarios of --scen in bucket B, or LO:HI, LO: or :HI (both ends included), e.g. --bucket 80:")
+    q.add_argument("--optimal", type=_length, metavar="LO:HI",
+                   help="scenarios of --scen whose optimal length is in LO:HI (LO: or :HI for an open end)")
+    q.add_argument("--count", type=_pos_int, metavar="N",
+                   help="of the scenarios selected, N spread evenly over their optimal lengths")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -180,6 +188,38 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot-format", metavar="FMT",
                    help="the --plot format (png, svg, pdf ...) when FILE has no suffix: '-', a device or a pipe")
     p.set_defaults(func=cmd_search)
+
+    p = sub.add_parser(
+        "compare", help="paired statistics on a saved results table: which planner is better, and how sure",
+        description="Compare the planners (or configurations) of a table written by 'jaco sweep --csv' "
+        "(any layout jaco wrote): per configuration the success rate, the median and quartiles of the "
+        "value with a bootstrap interval of the median; for every two configurations the paired "
+        "two-sided Wilcoxon signed-rank test over the (query, seed) pairs with Holm's correction; "
+        "the Friedman test with the mean ranks and Nemenyi's critical difference (Demsar 2006); and "
+        "what the data support, in words. A failed run counts as +inf: worse than any path, and two "
+        "failures tie (docs/compare.md).",
+        epilog="Example: jaco sweep Berlin_1_256.map --scen Berlin_1_256.map.scen --bucket 85: --count 6 "
+        "--variant iaca --variant mmas --param beta=8,16 --seeds 3 --csv b.csv; "
+        "jaco compare b.csv --by variant --by beta --cd cd.png --profile profile.png",
+    )
+    p.add_argument("table", metavar="TABLE.csv", help="a results table (jaco sweep --csv or --record)")
+    p.add_argument("--by", action="append", metavar="COL",
+                   help="the column naming a configuration (repeatable: --by variant --by beta; default variant)")
+    p.add_argument("--value", default="gap", metavar="COL",
+                   help="the column compared, lower is better (default gap, a fraction shown in %%)")
+    p.add_argument("--where", action="append", metavar="NAME=VALUE",
+                   help="keep only the rows where a column has this value (repeatable), e.g. --where beta=16")
+    p.add_argument("--blocks", choices=("run", "query"), default="run",
+                   help="blocks of the Friedman test: each (query, seed) pair (run, default) or each query, "
+                   "the median over its seeds (query)")
+    p.add_argument("--alpha", type=float, default=0.05, metavar="A", help="level of the tests (default 0.05)")
+    p.add_argument("--confidence", type=float, default=0.95, metavar="C",
+                   help="confidence of the bootstrap interval of the median (default 0.95)")
+    p.add_argument("--boot", type=_pos_int, default=2000, metavar="N", help="bootstrap resamples (default 2000)")
+    p.add_argument("--seed", type=_seed, default=0, metavar="S", help="seed of the bootstrap (default 0)")
+    p.add_argument("--cd", metavar="FILE", help="write the critical-difference diagram (.png, .svg, .pdf ...)")
+    p.add_argument("--profile", metavar="FILE", help="write the performance profile (Dolan & More 2002)")
+    p.set_defaults(func=cmd_compare)
 
     p = sub.add_parser(
         "rerun", help="rerun a run or sweep record and check it bit for bit",

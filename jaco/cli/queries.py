@@ -39,16 +39,26 @@ def _scen_path(spec: str) -> Path:
     return path
 
 
-def resolve_query(grid, args):
-    """``(start, goal, scenario or None, scenario label)`` from --start/--goal, --scen/--index or
-    the map's own ``meta``."""
+_SELECTION = ("--index", "--bucket", "--optimal", "--count")
+
+
+def _selection(args) -> dict:
+    return {flag: getattr(args, flag[2:], None) for flag in _SELECTION if getattr(args, flag[2:], None) is not None}
+
+
+def resolve_queries(grid, args):
+    """``(starts, goals, scenarios, label)``: the queries of a command, from --start/--goal, the
+    map's own ``meta``, or the scenarios of --scen chosen by --index / --bucket / --optimal /
+    --count (:func:`jaco.maps.select_scenarios`); ``scenarios`` is None without --scen."""
     from .. import maps
+    from ..errors import JacoError
 
     _world_query(grid, args)  # --start-xy / --goal-xy -> --start / --goal cells
     scen = getattr(args, "scen", None)
+    chosen = _selection(args)
     if scen is None:
-        if args.index is not None:
-            raise UsageError("--index needs --scen FILE")
+        if chosen:
+            raise UsageError(f"{' and '.join(chosen)} need{'s' if len(chosen) == 1 else ''} --scen FILE")
         start = args.start if args.start is not None else grid.meta.get("start")
         goal = args.goal if args.goal is not None else grid.meta.get("goal")
         missing = [w for w, v in (("--start", start), ("--goal", goal)) if v is None]
@@ -57,23 +67,51 @@ def resolve_query(grid, args):
                 f"map {grid.name!r} has no default start/goal: give {' and '.join(missing)} "
                 "ROW,COL or --scen FILE --index K"
             )
-        return tuple(start), tuple(goal), None, None
+        return [tuple(start)], [tuple(goal)], None, None
     if args.start is not None or args.goal is not None:
-        raise UsageError("give either --start/--goal or --scen/--index, not both")
+        raise UsageError("give either --start/--goal or --scen with a selection (--index ...), not both")
     path = _scen_path(scen)
     rows = maps.load_scenarios(path)
-    k = 0 if args.index is None else args.index
     if not rows:
         raise UsageError(f"scenario file {str(path)!r} has no scenarios")
-    if not 0 <= k < len(rows):
-        raise UsageError(f"--index {k} is out of range: {path.name} has {len(rows)} scenarios (0..{len(rows) - 1})")
-    sc = rows[k]
-    if (sc.height, sc.width) != tuple(grid.shape):
-        raise UsageError(
-            f"scenario {k} of {path.name} is for a {sc.height}x{sc.width} map ({sc.map}), "
-            f"but map {grid.name!r} is {grid.height}x{grid.width}"
-        )
-    return sc.start, sc.goal, sc, f"{path.name} #{k}"
+    index = None
+    if args.index is not None:
+        index = []
+        for lo, hi in (r for group in args.index for r in group):
+            top = len(rows) - 1 if hi is None else hi
+            if lo >= len(rows) or top >= len(rows):
+                raise UsageError(f"--index {lo if lo >= len(rows) else top} is out of range: {path.name} has "
+                                 f"{len(rows)} scenarios (0..{len(rows) - 1})")
+            index.extend(range(lo, top + 1))
+    elif not chosen:
+        index = [0]
+    try:
+        picked = maps.select_scenarios(rows, index=index, bucket=args.bucket, optimal=args.optimal, count=args.count)
+    except JacoError as e:
+        raise UsageError(f"{path.name}: {e}") from None
+    for sc in picked:
+        if (sc.height, sc.width) != tuple(grid.shape):
+            raise UsageError(
+                f"scenario {sc.index} of {path.name} is for a {sc.height}x{sc.width} map ({sc.map}), "
+                f"but map {grid.name!r} is {grid.height}x{grid.width}"
+            )
+    if len(picked) == 1:
+        label = f"{path.name} #{picked[0].index}"
+    else:
+        lengths = [sc.optimal for sc in picked]
+        label = (f"{len(picked)} scenarios of {path.name} (#{', #'.join(str(sc.index) for sc in picked[:6])}"
+                 f"{', ...' if len(picked) > 6 else ''}; optimal lengths {min(lengths):.4g} to {max(lengths):.4g})")
+    return [sc.start for sc in picked], [sc.goal for sc in picked], picked, label
+
+
+def resolve_query(grid, args):
+    """``(start, goal, scenario or None, scenario label)`` of a command that runs one query
+    (:func:`resolve_queries`, which must select exactly one)."""
+    starts, goals, scenarios, label = resolve_queries(grid, args)
+    if len(starts) != 1:
+        raise UsageError(f"{args.command} runs one query, but the selection gives {label}: use 'jaco sweep' to run "
+                         "several, or select one (--index K, --count 1)")
+    return starts[0], goals[0], (scenarios[0] if scenarios else None), label
 
 
 # -- world coordinates (ROS maps): --start-xy / --goal-xy -----------------------------------------

@@ -53,7 +53,7 @@ def _outputs(*flags):
 @_outputs("--csv", "--plot")
 def cmd_search(args) -> int:
     from .commands import _check_outputs
-    from .queries import load_map, resolve_query
+    from .queries import load_map, resolve_queries
 
     space = parse_space(args.param)
     if not space:
@@ -63,7 +63,9 @@ def cmd_search(args) -> int:
         raise UsageError("name the planners with --variant (repeatable), not --param variant=...")
     space["variant"] = variants if len(variants) > 1 else variants[0]
     grid = load_map(args.map)
-    start, goal, scenario, label = resolve_query(grid, args)
+    starts, goals, scenarios, label = resolve_queries(grid, args)
+    start, goal = (starts[0], goals[0]) if len(starts) == 1 else (starts, goals)
+    where = f"start {tuple(starts[0])} -> goal {tuple(goals[0])}" if len(starts) == 1 else f"{len(starts)} queries ({label})"
     _check_outputs(args, grid, figures=("--plot",), files=(("--csv", None),))
     from ..research.search import Halving, search
 
@@ -74,8 +76,7 @@ def cmd_search(args) -> int:
         raise UsageError("--min-iters and --eta belong to --halving or --hyperband")
     objectives = args.objective or ["gap"]
     print(
-        f"search {', '.join(variants)} on {grid.name} ({grid.height}x{grid.width}), start {tuple(start)} -> goal "
-        f"{tuple(goal)}: {args.trials} trials in batches of {args.batch}, {args.seeds} seeds, sampler {args.sampler}"
+        f"search {', '.join(variants)} on {grid.name} ({grid.height}x{grid.width}), {where}: {args.trials} trials in batches of {args.batch}, {args.seeds} seeds, sampler {args.sampler}"
         + (f", {'hyperband' if args.hyperband else 'successive halving'} over iterations" if fidelity else "")
         + (f", storage {args.storage}" if args.storage else ""),
         flush=True,
@@ -91,8 +92,8 @@ def cmd_search(args) -> int:
     print(f"{len(study.study.trials)} trials in the study; this command ran {t.get('generations', 0)} generations in "
           f"{seconds:.2f} s (sampler {t.get('sampler_s', 0):.2f} s, evaluation {t.get('evaluate_s', 0):.2f} s, "
           f"{t.get('compiles', 0)} compiled programs)")
-    if scenario is not None:
-        print(f"scenario {label}: optimal length {scenario.optimal:.4f} (from the .scen file)")
+    for sc in scenarios or ():
+        print(f"scenario #{sc.index}: optimal length {sc.optimal:.4f} (from the .scen file)")
     table = study.trials
     if args.csv:
         from ..outputs import write_text

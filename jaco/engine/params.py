@@ -15,7 +15,7 @@ from dataclasses import dataclass, fields, replace
 import jax
 import numpy as np
 
-from ..errors import ParamError
+from ..errors import ParamError, did_you_mean
 
 INF = math.inf
 
@@ -169,6 +169,14 @@ def param_names() -> tuple[str, ...]:
     return tuple(f.name for f in fields(Params))
 
 
+def unknown_parameter(name, allowed, where: str, keywords=(), call: str = "") -> str:
+    """The message for a name that is not a parameter of ``where``: the closest of the parameters
+    ``allowed`` and of the call's own ``keywords`` (``n_ant`` -> ``n_ants``), then the valid names."""
+    also = f"; the keywords of {call}: {', '.join(keywords)}" if keywords else ""
+    return (f"unknown parameter {name!r} for {where}{did_you_mean(name, [*allowed, *keywords])}; "
+            f"valid: {', '.join(sorted(allowed))}{also}")
+
+
 def check_values(values: dict, allowed: tuple[str, ...], where: str) -> dict:
     """Validate user values (names, NaN, ranges) with numpy; returns float arrays.
 
@@ -177,9 +185,7 @@ def check_values(values: dict, allowed: tuple[str, ...], where: str) -> dict:
     out = {}
     for name, v in values.items():
         if name not in allowed:
-            raise ParamError(
-                f"unknown parameter {name!r} for {where}; valid: {', '.join(sorted(allowed))}"
-            )
+            raise ParamError(unknown_parameter(name, allowed, where))
         try:
             if v is None or isinstance(v, (str, bytes)) or np.asarray(v).dtype.kind not in "iuf":
                 raise TypeError

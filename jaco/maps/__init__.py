@@ -11,7 +11,9 @@ Loaders (:func:`load` dispatches on the file suffix)
 * Images ``.png``, ``.pgm``, ``.ppm``, ``.bmp``: a pixel is free when its brightness is above a
   threshold.
 
-:func:`load_scenarios` reads MovingAI ``.scen`` files (9 tab-separated columns, ``version 1``).
+:func:`load_scenarios` reads MovingAI ``.scen`` files (9 tab-separated columns, ``version 1``);
+:func:`select_scenarios` picks queries from them by position, bucket, optimal length or as n
+spread over the lengths.
 
 Every file-format problem raises :class:`~jaco.errors.MapFormatError` naming the file (and the line
 where there is one). The package never reads outside ``jaco/maps/data`` at run time: :func:`bundled`
@@ -38,7 +40,7 @@ from .catalogue import DEMO_GOAL, DEMO_ROWS, DEMO_START, NAMED, demo, named
 from .files import BUNDLED, DATA_DIR, SUPPORTED_SUFFIXES, bundled, require_file
 from .generators import circle, complex_30, h_shape, random_map, s_shape, simple_20, utrap, wall
 from .image import load_image, read_pnm
-from .movingai import MOVINGAI_BLOCKED, MOVINGAI_PASSABLE, Scenario, load_movingai, load_scenarios
+from .movingai import MOVINGAI_BLOCKED, MOVINGAI_PASSABLE, Scenario, load_movingai, load_scenarios, select_scenarios
 from .ros import load_ros
 from .text import load_npy, load_text, save_text
 
@@ -129,6 +131,7 @@ __all__ = [
     "read_pnm",
     "s_shape",
     "save_text",
+    "select_scenarios",
     "simple_20",
     "utrap",
     "wall",

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MapFormatError
+from ..errors import JacoError, MapFormatError
 from ..grid import Grid
 from ..outputs import as_path
 from .files import read_text, require_file
@@ -108,7 +108,8 @@ class Scenario:
 
     ``start`` and ``goal`` are ``(row, col)`` cells (the file's x is the column, y the row);
     ``optimal`` is the benchmark's optimal octile length (8-connected, no corner cutting);
-    ``map`` is the map file name as written in the row.
+    ``map`` is the map file name as written in the row; ``index`` the scenario's position in its
+    file (0 for the first scenario; ``jaco solve --scen F --index K`` takes the K-th).
     """
 
     bucket: int
@@ -118,6 +119,7 @@ class Scenario:
     start: tuple[int, int]
     goal: tuple[int, int]
     optimal: float
+    index: int = 0
 
 
 def load_scenarios(path) -> list[Scenario]:
@@ -168,6 +170,84 @@ def load_scenarios(path) -> list[Scenario]:
                     f"{width}x{height} map"
                 )
         out.append(
-            Scenario(bucket, cols[1].strip(), width, height, (sy, sx), (gy, gx), optimal)
+            Scenario(bucket, cols[1].strip(), width, height, (sy, sx), (gy, gx), optimal, len(out))
         )
     return out
+
+
+def _bounds(value, what: str, cast) -> tuple:
+    """``(lo, hi)`` inclusive, either end None (open), from a number or a pair."""
+    if isinstance(value, (tuple, list)) and len(value) == 2:
+        lo, hi = value
+    elif isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
+        lo = hi = value
+    else:
+        raise JacoError(f"{what} must be a number or a (low, high) pair with None for an open end, got {value!r}")
+    try:
+        lo, hi = (None if v is None else cast(v) for v in (lo, hi))
+    except (TypeError, ValueError):
+        raise JacoError(f"{what} must be a number or a (low, high) pair with None for an open end, got {value!r}") from None
+    if lo is not None and hi is not None and lo > hi:
+        raise JacoError(f"{what}: low {lo} is above high {hi}")
+    return lo, hi
+
+
+def _within(x, lo, hi) -> bool:
+    return (lo is None or x >= lo) and (hi is None or x <= hi)
+
+
+def select_scenarios(scenarios, *, index=None, bucket=None, optimal=None, count=None) -> list[Scenario]:
+    """The scenarios (of :func:`load_scenarios`, or a ``.scen`` path) that a sweep should run.
+
+    ``index``: an int or a list of ints, positions in the file (``Scenario.index``), in the order
+    given; ``bucket``: an int or an inclusive ``(low, high)`` pair, either end None for open
+    (``(80, None)``: bucket 80 and above); ``optimal``: an inclusive ``(low, high)`` range of the
+    optimal length; ``count``: then keep ``count`` scenarios spread evenly over the optimal lengths
+    of those left (the shortest, the longest and evenly spaced ranks between; all of them when
+    there are fewer). Filters combine; the result keeps the file's order (or ``index``'s). An
+    empty selection is a :class:`~jaco.errors.JacoError` that says what the file holds.
+
+    >>> import jaco
+    >>> scen = jaco.maps.load_scenarios(jaco.maps.bundled("Berlin_1_256.map.scen"))
+    >>> long = jaco.maps.select_scenarios(scen, bucket=(85, None), count=4)
+    >>> [s.index for s in long], [round(s.optimal) for s in long]
+    ([858, 870, 885, 901], [340, 348, 355, 363])
+    """
+    if not isinstance(scenarios, (list, tuple)):
+        scenarios = load_scenarios(scenarios)
+    picked = list(scenarios)
+    if not picked:
+        raise JacoError("select_scenarios: no scenarios to select from")
+    if index is not None:
+        wanted = [index] if isinstance(index, (int, np.integer)) and not isinstance(index, bool) else list(index)
+        by_index = {s.index: s for s in picked}
+        for k in wanted:
+            if isinstance(k, bool) or not isinstance(k, (int, np.integer)):
+                raise JacoError(f"index must be an int or a list of ints, got {k!r}")
+            if k not in by_index:
+                raise JacoError(f"index {k} is out of range: there are {len(picked)} scenarios "
+                                f"({min(by_index)}..{max(by_index)})")
+        picked = [by_index[int(k)] for k in dict.fromkeys(wanted)]
+    filters = []
+    if bucket is not None:
+        lo, hi = _bounds(bucket, "bucket", int)
+        filters.append(("bucket", lo, hi))
+    if optimal is not None:
+        lo, hi = _bounds(optimal, "optimal", float)
+        filters.append(("optimal", lo, hi))
+    kept = [s for s in picked if all(_within(getattr(s, k), lo, hi) for k, lo, hi in filters)]
+    if not kept:
+        said = " and ".join(f"{k} {'' if lo is None else lo}..{'' if hi is None else hi}" for k, lo, hi in filters)
+        buckets = [s.bucket for s in picked]
+        lengths = [s.optimal for s in picked]
+        raise JacoError(f"no scenario has {said}: the {len(picked)} scenarios have buckets {min(buckets)}..{max(buckets)} "
+                        f"and optimal lengths {min(lengths):.4g}..{max(lengths):.4g}")
+    if count is not None:
+        if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
+            raise JacoError(f"count must be a positive integer, got {count!r}")
+        if count < len(kept):
+            by_length = sorted(range(len(kept)), key=lambda i: (kept[i].optimal, i))
+            ranks = np.unique(np.round(np.linspace(0, len(kept) - 1, int(count))).astype(int))
+            chosen = sorted(by_length[r] for r in ranks)
+            kept = [kept[i] for i in chosen]
+    return kept

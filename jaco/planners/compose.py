@@ -55,7 +55,7 @@ from ..errors import JacoError
 from ..potential import apf_distance, classic_distance
 from . import apf_guided, chaos, classic, double, iaaco, iaca, pg
 
-__all__ = ["compose", "parse", "COMPONENTS", "KINDS"]
+__all__ = ["compose", "parse", "default_transition", "COMPONENTS", "KINDS"]
 
 KINDS = ("construct", "heuristic", "rule", "transition", "schedule", "cost")
 
@@ -188,6 +188,12 @@ def _why_not(c: dict) -> str | None:
 _CACHE: dict = {}
 
 
+def default_transition(rule: str) -> str:
+    """The transition a rule brings when :func:`compose` is given none: ACS's and IACA's ``q0``,
+    IAACO's ``adaptive-q0``, else ``roulette``."""
+    return {"acs": "q0", "iaca": "q0", "iaaco": "adaptive-q0"}.get(rule, "roulette")
+
+
 def compose(construct: str = "dying", heuristic: str = "distance", rule: str = "as", transition: str | None = None,
             schedule: str = "constant", cost: str = "length") -> Variant:
     """A planner made of one component of each kind (the module docstring lists them).
@@ -207,7 +213,7 @@ def compose(construct: str = "dying", heuristic: str = "distance", rule: str = "
     for kind in ("construct", "heuristic", "rule", "schedule", "cost"):
         _check(kind, c[kind])
     if transition is None:
-        transition = {"acs": "q0", "iaca": "q0", "iaaco": "adaptive-q0"}.get(rule, "roulette")
+        transition = default_transition(rule)
     c["transition"] = _check("transition", transition)
     key = tuple(c[k] for k in KINDS)
     hit = _CACHE.get(key)

@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import hashlib
 import inspect
-import io
 import json
 import math
 import warnings
@@ -225,7 +224,9 @@ def _sidecar(path: Path) -> Path:
 
 
 def _csv_text(table) -> str:
-    return table.to_csv(index=False, lineterminator="\n")
+    from .tables import csv_text
+
+    return csv_text(table)
 
 
 def _encode_grids(grid):
@@ -330,7 +331,8 @@ def save_sweep(table, path, *args, **kwargs) -> Path:
 @dataclass
 class SweepRecord:
     """A loaded sweep record: ``call`` (the sweep arguments, maps rebuilt in ``grids``),
-    ``table`` (the recorded DataFrame), ``table_text`` (its CSV), ``versions``, ``warnings``."""
+    ``table`` (the recorded DataFrame, in the current layout: :func:`jaco.research.tables.read_table`),
+    ``table_text`` (its CSV as written), ``versions``, ``warnings``."""
 
     path: Path
     call: dict
@@ -351,11 +353,12 @@ class SweepRecord:
         return kw
 
     def rerun(self, *, warn: bool = True) -> Rerun:
-        """Run the recorded sweep again and compare the whole table (as CSV text, i.e. every
-        float to the last bit); differences name the first differing rows and columns."""
-        import pandas as pd
-
+        """Run the recorded sweep again and compare the whole table value by value, every number
+        to the last bit at the precision it was recorded in (float32 in tables written by this
+        jaco, float64 in older ones; :func:`jaco.research.tables.differences`), in the current
+        layout or an older one; differences name the first differing rows and columns."""
         from .sweeps import sweep
+        from .tables import differences
 
         if warn:
             for w in self.warnings:
@@ -364,20 +367,7 @@ class SweepRecord:
             new = sweep(**self.sweep_kwargs())
         except TypeError as e:
             raise RecordError(f"{self.path}: this jaco cannot rerun the recorded sweep ({e})") from None
-        text = _csv_text(new)
-        diffs = []
-        if text != self.table_text:
-            a = self.table
-            b = pd.read_csv(io.StringIO(text))
-            if list(a.columns) != list(b.columns):
-                diffs.append(f"columns: recorded {list(a.columns)}, rerun {list(b.columns)}")
-            elif len(a) != len(b):
-                diffs.append(f"rows: recorded {len(a)}, rerun {len(b)}")
-            else:
-                old_lines, new_lines = self.table_text.splitlines()[1:], text.splitlines()[1:]
-                rows = [i for i, (x, y) in enumerate(zip(old_lines, new_lines)) if x != y]
-                cols = [c for c in a.columns if not a[c].astype(str).equals(b[c].astype(str))]
-                diffs.append(f"{len(rows)} of {len(a)} rows differ (first rows {rows[:5]}; columns {cols})")
+        diffs = [] if _csv_text(new) == self.table_text else differences(self.table, new)
         what = f"{len(new)} rows x {len(new.columns)} columns"
         return Rerun(not diffs, diffs, list(self.warnings), new, what)
 
@@ -391,8 +381,6 @@ def load_run(path):
     """Load a record written by :meth:`jaco.Result.save` (returns a :class:`RunRecord`) or by
     :func:`save_sweep` (a :class:`SweepRecord`; the sidecar ``.json`` or its ``.csv`` table).
     ``load_run(path).rerun()`` reruns it and reports whether it matched."""
-    import pandas as pd
-
     path = as_path(path, "record", RecordError)
     if path.suffix.lower() == ".csv":
         path = _sidecar(path)
@@ -433,7 +421,9 @@ def load_run(path):
             text = table_path.read_text(encoding="utf-8")
             if hashlib.sha256(text.encode()).hexdigest() != doc["table"].get("sha256"):
                 map_notes.append(f"table {table_path.name}: its sha256 differs from the sidecar's: the table was modified")
-            table = pd.read_csv(io.StringIO(text))
+            from .tables import read_table
+
+            table = read_table(text)
             return SweepRecord(path, doc["call"], grids, table, text, recorded, notes + map_notes)
     except (KeyError, TypeError, ValueError) as e:
         raise RecordError(f"{path.name}: incomplete record ({type(e).__name__}: {e})") from None

@@ -42,7 +42,7 @@ from ..engine.run import (
     CONFIG_BYTES, SEED_LIMIT, bytes_per_run, cached, check_memory, check_run_memory, check_sizes, default_steplimit, is_cached,
     make_run, params_from, resolve_params,
 )
-from ..errors import JacoError, ParamError
+from ..errors import JacoError, ParamError, check_keywords
 from ..grid import Grid
 from ..planners.registry import get_variant
 from .designs import Design, as_design
@@ -452,6 +452,7 @@ def plan_sweep(
 STORE_CHUNKS = 10
 
 
+@check_keywords
 def sweep(
     grid,
     start,
@@ -601,7 +602,11 @@ def _tidy(variant, queries, problems, values, config, seed_arr, cost, length, be
         optimal = float(problems[q].optimal) * g.cell_size
         with np.errstate(invalid="ignore", divide="ignore"):
             gap = np.where(success, (L - optimal) / optimal if optimal else 0.0, math.inf)
-        cols = {"map": [g.name] * n_rows, "start": [s] * n_rows, "goal": [t] * n_rows} if n_q > 1 else {}
+        cols = {}
+        if n_q > 1:  # the query as integer columns, so that a CSV round trip keeps them numbers
+            cols = {"map": [g.name] * n_rows, "start_row": np.full(n_rows, s[0], np.int64),
+                    "start_col": np.full(n_rows, s[1], np.int64), "goal_row": np.full(n_rows, t[0], np.int64),
+                    "goal_col": np.full(n_rows, t[1], np.int64)}
         cols["config"] = config.astype(np.int64)
         cols.update({k: values[k][config] for k in variant.params})
         cols.update(
@@ -621,30 +626,46 @@ def _tidy(variant, queries, problems, values, config, seed_arr, cost, length, be
 def summarize(table: pd.DataFrame, by=None) -> pd.DataFrame:
     """Per-configuration summary over seeds, one row per configuration (and query).
 
-    ``by`` defaults to every column that is not a result (the query columns, ``config`` and the
-    parameters). Columns: ``success_rate``; ``length_mean, length_std, length_min, gap_mean,
-    gap_min`` over the successful runs, so they are NaN for a configuration that failed on every
-    seed (``success_rate`` 0; the std is also NaN with fewer than two successes); and ``runs``.
-    A failure is never averaged in as ``inf``: rank configurations by ``success_rate`` first,
-    e.g. ``summary.sort_values(["success_rate", "gap_mean"], ascending=[False, True])``.
+    ``by`` defaults to every column that is not a result (the planner, the query columns,
+    ``config`` and the parameters). Columns: ``success_rate``; ``length_mean, length_std,
+    length_min``, ``length_q1, length_median, length_q3`` (quartiles) and the same for ``gap``
+    (``gap_mean, gap_min, gap_q1, gap_median, gap_q3``) over the successful runs, so they are NaN
+    for a configuration that failed on every seed (``success_rate`` 0; the std is also NaN with
+    fewer than two successes); and ``runs``. A failure is never averaged in as ``inf``: rank
+    configurations by ``success_rate`` first, e.g.
+    ``summary.sort_values(["success_rate", "gap_median"], ascending=[False, True])``, or compare
+    them with :func:`jaco.research.compare.compare`, which counts a failure as worse than any path.
+    Gaps are fractions (0.05 is 5 %), as in the table.
+
+    A table of several planners (``jaco.sweep(..., variant=[...])``) has a column for every
+    planner's parameters, empty (NaN) on the rows of planners without that parameter. By default
+    the summary keeps as columns the parameters every planner of the table has, and folds the
+    others into one text column ``params``, each row holding its own planner's values only
+    (``"q0=0.8, xi=0.1"``, at float32 precision; empty for a planner without such parameters):
+    no column is NaN because of another planner.
     """
     if not isinstance(table, pd.DataFrame):
         raise JacoError(f"summarize takes the DataFrame of jaco.sweep, got {type(table).__name__}")
-    by = [c for c in table.columns if c not in RESULT_COLUMNS] if by is None else list(by)
+    if by is None:
+        from .tables import fold_params
+
+        table = fold_params(table, RESULT_COLUMNS)
+        by = [c for c in table.columns if c not in RESULT_COLUMNS]
+    else:
+        by = [by] if isinstance(by, str) else list(by)
     missing = [c for c in by if c not in table.columns]
     if missing:
         raise JacoError(f"summarize: no column {missing[0]!r} in the table")
     ok = table["success"].astype(bool) & np.isfinite(table["length"])
     finite = table.assign(length=table["length"].where(ok), gap=table["gap"].where(ok))
-    # dropna=False: in a sweep over several planners, a planner's row has no value (NaN) for the
-    # parameters only the others have
-    out = finite.groupby(by, sort=False, dropna=False).agg(
-        length_mean=("length", "mean"),
-        length_std=("length", "std"),
-        length_min=("length", "min"),
-        success_rate=("success", "mean"),
-        gap_mean=("gap", "mean"),
-        gap_min=("gap", "min"),
-        runs=("seed", "count"),
-    ).reset_index()
-    return out
+    # dropna=False: a planner's row may have no value (NaN) for a parameter a given `by` keeps
+    quartile = {name: (lambda v, q=q: v.quantile(q)) for name, q in (("q1", 0.25), ("median", 0.5), ("q3", 0.75))}
+    stats = {"success_rate": ("success", "mean")}
+    for col in ("length", "gap"):
+        stats.update({f"{col}_{k}": (col, f) for k, f in (("median", quartile["median"]), ("q1", quartile["q1"]),
+                                                         ("q3", quartile["q3"]), ("mean", "mean"), ("std", "std"),
+                                                         ("min", "min"))})
+    del stats["gap_std"]
+    stats["runs"] = ("seed", "count")
+    return finite.groupby(by, sort=False, dropna=False).agg(**stats).reset_index()
+

@@ -48,7 +48,7 @@ from ..engine.run import (
     resolve_params,
 )
 from ..engine.variant import Variant
-from ..errors import JacoError, ParamError
+from ..errors import JacoError, ParamError, check_keywords, did_you_mean
 from ..grid import Grid
 from ..planners.registry import get_variant
 
@@ -197,7 +197,8 @@ def _names(variant: Variant, tune) -> tuple[str, ...]:
         if not isinstance(name, str):
             raise ParamError(f"tune: parameter names must be strings, got {name!r}")
         if name not in param_names():
-            raise ParamError(f"unknown parameter {name!r}; tunable for {variant.name!r}: {', '.join(usable)}")
+            raise ParamError(f"unknown parameter {name!r}{did_you_mean(name, usable)}; tunable for {variant.name!r}: "
+                             f"{', '.join(usable)}")
         if name not in TUNABLE:
             pairs = " and ".join(f"{a} < {b}" for a, b in ORDERED if name in (a, b))
             raise ParamError(
@@ -230,6 +231,7 @@ def _positive_float(name, v):
     return x
 
 
+@check_keywords
 def tune(
     grid: Grid,
     start,

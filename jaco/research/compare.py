@@ -1,0 +1,426 @@
+"""From a results table to a conclusion: which planner (or configuration) is better, and how sure.
+
+``jaco.compare(table, by="variant") -> Comparison`` takes a tidy table (:func:`jaco.sweep`, or one
+read back with :func:`jaco.research.tables.read_table`) with a column (or columns, ``by``) naming
+the configuration and pairs its runs over the *pairing*: the query (``map, start_row, start_col,
+goal_row, goal_col``, when present) and the ``seed``. Every configuration must have one run per
+pair; pairs a configuration lacks are left out of the tests that need it.
+
+What it computes, on ``value`` (default ``gap``, a fraction; lower is better):
+
+* **per configuration** (``Comparison.summary``): runs, success rate, the quartiles of the value
+  over all runs (a failed run counts as +∞, so a median of ``inf`` means more than half failed),
+  and a **percentile bootstrap** confidence interval of the median (``n_boot`` resamples of the
+  runs, drawn with ``numpy.random.default_rng(seed)``: the same seed gives the same interval);
+* **paired comparisons** (``Comparison.pairwise``): for every two configurations A and B, the
+  pairs where A's value is lower (A wins), higher, or equal, and the two-sided **Wilcoxon
+  signed-rank test** of the differences (``scipy.stats.wilcoxon``), its p-values adjusted for all
+  pairs by **Holm's** step-down method (Holm 1979);
+* **all at once** (``Comparison.friedman``): the **Friedman test** of the ranks within each block
+  (``scipy.stats.friedmanchisquare``, three or more configurations) and the mean ranks with the
+  **Nemenyi critical difference** CD = q_α √(k(k+1)/(6N)) of the critical-difference diagram
+  (Demšar 2006; q_α from ``scipy.stats.studentized_range`` with infinite degrees of freedom, over
+  √2); blocks are the pairs (``blocks="run"``) or the queries (``blocks="query"``: each
+  configuration's median over the seeds of a query, Demšar's data sets);
+* **performance profile** (``Comparison.ratios``, Dolan & Moré 2002): for each pair and
+  configuration the ratio of its path length to the best length any configuration reached on that
+  pair (∞ for a failure); the profile ρ(τ) is the share of pairs with ratio ≤ τ
+  (:func:`performance_profile`, :func:`jaco.plot.plot_performance_profile`);
+* **words** (``Comparison.text``, ``str(comparison)``): what the data support, e.g. "A beats B on
+  31 of 40 pairs (B 5, 4 ties), p = 0.003 after Holm" or "C and D cannot be told apart".
+
+**Ties and failed runs.** A failed run has ``gap`` (and ``length``) +∞: it loses to every run that
+found a path, and two failed runs tie. In the signed-rank test a difference of zero (a tie: equal
+values, or both failed) is kept and its rank split between the two signs (``zero_method="zsplit"``,
+as Demšar 2006 recommends); a difference with one failure is larger than any finite difference,
+so it is given one magnitude above all finite ones (these tie with each other); equal magnitudes
+share their mean rank. In the Friedman ranks a failure ranks below every success and failures
+share their mean rank.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from itertools import combinations
+
+import numpy as np
+import pandas as pd
+
+from ..errors import JacoError
+from .tables import QUERY_COLUMNS, number, percent, short_name, text_table
+
+__all__ = ["Comparison", "compare", "holm", "critical_difference", "performance_profile", "quantile"]
+
+PAIRING = (*QUERY_COLUMNS, "seed")
+#: Columns of a sweep table that are results, not part of a configuration or of the pairing.
+RESULTS = ("success", "length", "cost", "best_iteration", "optimal", "gap", "coverage")
+
+
+# -- statistics -------------------------------------------------------------------------------
+def quantile(x, q, axis=-1):
+    """Linear-interpolation quantiles (numpy's default) that allow +∞: interpolating toward an
+    infinite value gives ∞ unless the weight on it is zero (``np.quantile`` would give NaN between
+    two infinities)."""
+    x = np.sort(np.asarray(x, np.float64), axis=axis)
+    x = np.moveaxis(x, axis, -1)
+    n = x.shape[-1]
+    h = np.asarray(q, np.float64) * (n - 1)
+    lo = np.floor(h).astype(int)
+    hi = np.minimum(lo + 1, n - 1)
+    frac = h - lo
+    a, b = x[..., lo], x[..., hi]
+    with np.errstate(invalid="ignore"):
+        out = np.where(frac == 0, a, a + frac * (b - a))
+    return np.where(np.isinf(b) & (frac > 0), b, out)
+
+
+def bootstrap_median(x, *, n_boot: int, confidence: float, rng) -> tuple[float, float]:
+    """Percentile bootstrap interval of the median of ``x`` (values may be +∞)."""
+    x = np.asarray(x, np.float64)
+    medians = np.median(x[rng.integers(0, len(x), size=(n_boot, len(x)))], axis=1)
+    lo, hi = quantile(medians, [(1 - confidence) / 2, (1 + confidence) / 2])
+    return float(lo), float(hi)
+
+
+def holm(pvalues) -> np.ndarray:
+    """Holm's (1979) step-down adjustment of ``m`` p-values: the i-th smallest becomes
+    ``max_{j ≤ i} min(1, (m − j + 1) p_(j))``, in the original order."""
+    p = np.asarray(pvalues, np.float64)
+    m = len(p)
+    order = np.argsort(p, kind="stable")
+    adjusted = np.minimum(1.0, np.maximum.accumulate((m - np.arange(m)) * p[order]))
+    out = np.empty(m)
+    out[order] = adjusted
+    return out
+
+
+def critical_difference(k: int, n: int, alpha: float = 0.05) -> float:
+    """The Nemenyi critical difference of mean ranks for ``k`` configurations over ``n`` blocks
+    (Demšar 2006, eq. after table 5): q_α √(k(k+1)/(6n)), with q_α the studentized range
+    quantile at infinite degrees of freedom over √2."""
+    from scipy.stats import studentized_range
+
+    q = studentized_range.ppf(1 - alpha, k, np.inf) / math.sqrt(2)
+    return float(q * math.sqrt(k * (k + 1) / (6 * n)))
+
+
+def _finite_stand_in(values: np.ndarray) -> np.ndarray:
+    """+∞ replaced by one number above every finite value (ranks are unchanged, failures tie)."""
+    finite = values[np.isfinite(values)]
+    top = (finite.max() + abs(finite.max()) + 1.0) if finite.size else 1.0
+    return np.where(np.isposinf(values), top, values)
+
+
+def signed_differences(a, b) -> np.ndarray:
+    """``a − b`` with both failed (∞ − ∞) a tie (0) and a difference with one failure given one
+    magnitude above every finite difference (signed)."""
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    with np.errstate(invalid="ignore"):
+        d = a - b
+    d = np.where(np.isinf(a) & np.isinf(b) & (np.sign(a) == np.sign(b)), 0.0, d)
+    finite = np.abs(d[np.isfinite(d)])
+    big = (finite.max() + 1.0) if finite.size else 1.0
+    return np.where(np.isinf(d), np.sign(d) * big, d)
+
+
+def wilcoxon(a, b) -> tuple[float, float]:
+    """``(statistic, p)`` of the two-sided Wilcoxon signed-rank test of paired values ``a`` and
+    ``b`` (:func:`signed_differences`, ``zero_method="zsplit"``); p = 1 when every pair ties."""
+    from scipy.stats import wilcoxon as scipy_wilcoxon
+
+    d = signed_differences(a, b)
+    if not np.any(d != 0):
+        return math.nan, 1.0
+    res = scipy_wilcoxon(d, zero_method="zsplit")
+    return float(res.statistic), float(res.pvalue)
+
+
+def performance_profile(ratios: pd.DataFrame, taus=None) -> pd.DataFrame:
+    """Dolan & Moré's (2002) profile ρ_s(τ): for each configuration (column of ``ratios``, one row
+    per problem) the share of problems whose ratio is ≤ τ, at ``taus`` (default: 1 and every
+    finite ratio); one row per τ."""
+    r = ratios.to_numpy(np.float64)
+    if taus is None:
+        taus = np.unique(np.concatenate([[1.0], r[np.isfinite(r)]]))
+    taus = np.asarray(taus, np.float64)
+    rho = (r[None, :, :] <= taus[:, None, None]).mean(axis=1)
+    return pd.DataFrame(rho, index=pd.Index(taus, name="tau"), columns=ratios.columns)
+
+
+# -- the comparison ---------------------------------------------------------------------------
+@dataclass
+class Comparison:
+    """The outcome of :func:`compare`. ``summary`` (one row per configuration, best mean rank
+    first), ``pairwise`` (one row per two configurations), ``friedman`` (dict: ``statistic``,
+    ``pvalue``, ``k``, ``n`` blocks, ``cd``, ``alpha``; ``statistic``/``pvalue`` None with fewer
+    than three configurations), ``ranks`` (mean rank per configuration), ``ratios`` (performance
+    ratios of ``ratio_of``, one row per pair), ``values`` (the value per pair and configuration)
+    and ``text`` (what the data support, in words)."""
+
+    by: list
+    value: str
+    pairing: list
+    summary: pd.DataFrame
+    pairwise: pd.DataFrame
+    friedman: dict
+    ranks: pd.Series
+    ratios: pd.DataFrame
+    values: pd.DataFrame
+    alpha: float
+    confidence: float
+    ratio_of: str = "length"
+    text: str = ""
+    notes: list = field(default_factory=list)
+
+    def __str__(self) -> str:
+        return self.text
+
+    def profile(self, taus=None) -> pd.DataFrame:
+        """The performance profile of :attr:`ratios` (:func:`performance_profile`)."""
+        return performance_profile(self.ratios, taus)
+
+    def table(self) -> str:
+        """The summary and the paired tests as text for a terminal (values in % for gaps)."""
+        return _tables_text(self)
+
+
+def _label(by, key) -> str:
+    key = key if isinstance(key, tuple) else (key,)
+    parts = []
+    for name, v in zip(by, key):
+        if name == "variant":
+            parts.append(short_name(v))
+        elif isinstance(v, str):
+            parts.append(v)
+        else:
+            parts.append(f"{name}={number(v)}")
+    return ", ".join(parts)
+
+
+def _check_table(table, by, value, blocks):
+    if not isinstance(table, pd.DataFrame):
+        raise JacoError(f"compare takes a results table (a DataFrame), got {type(table).__name__}")
+    from .tables import normalise
+
+    table = normalise(table)
+    by = [by] if isinstance(by, str) else list(by)
+    if not by:
+        raise JacoError("compare: by must name at least one column (the planner or configuration)")
+    for name in [*by, value]:
+        if name not in table.columns:
+            raise JacoError(f"compare: no column {name!r} in the table (columns: {', '.join(map(str, table.columns))})")
+    if not pd.api.types.is_numeric_dtype(table[value].dtype) or pd.api.types.is_bool_dtype(table[value].dtype):
+        raise JacoError(f"compare: value {value!r} must be a column of numbers (gap, length, cost ...), "
+                        f"it holds {table[value].dtype}")
+    if blocks not in ("run", "query"):
+        raise JacoError(f"compare: blocks must be 'run' or 'query', got {blocks!r}")
+    if table[value].isna().any():
+        raise JacoError(f"compare: column {value!r} has empty (NaN) values; a failed run is +inf")
+    pairing = [c for c in PAIRING if c in table.columns and c not in by]
+    if not pairing:
+        raise JacoError("compare: the table has no pairing column (a query or 'seed') to pair the runs by")
+    keys = table[by + pairing]
+    dup = keys.duplicated(keep=False)
+    if dup.any():
+        rest = [c for c in table.columns if c not in (*by, *pairing, *RESULTS, "config")] + ["config"] * ("config" in table)
+        varying = [c for c in rest if table[dup].groupby(by + pairing, dropna=False)[c].nunique(dropna=False).max() > 1]
+        hint = (f"column {varying[0]!r} varies within a configuration and pair: add it to by "
+                f"(by={by + [varying[0]]!r}) or select its rows first") if varying else "the table repeats runs"
+        raise JacoError(f"compare: {int(dup.sum())} rows share a configuration and pair ({', '.join(by + pairing)}); {hint}")
+    if len(table.groupby(by, dropna=False)) < 2:
+        raise JacoError(f"compare: the table has one configuration of {by}; need two or more")
+    return table, by, pairing
+
+
+def compare(
+    table: pd.DataFrame,
+    by="variant",
+    value: str = "gap",
+    *,
+    blocks: str = "run",
+    alpha: float = 0.05,
+    confidence: float = 0.95,
+    n_boot: int = 2000,
+    seed: int = 0,
+    ratio_of: str | None = None,
+) -> Comparison:
+    """Compare the configurations of a results table (module docstring: what, and how ties and
+    failed runs are handled). ``by``: the column (or list of columns) naming a configuration, e.g.
+    ``"variant"`` or ``["variant", "beta"]``; ``value``: the column compared, lower is better
+    (default ``gap``); ``blocks``: ``"run"`` (each pair is a block of the Friedman test) or
+    ``"query"`` (each query, the median over its seeds); ``alpha``: the level of the tests'
+    verdicts and of the critical difference; ``confidence`` and ``n_boot``: the bootstrap
+    interval of the median; ``seed``: the bootstrap's random generator (the same seed, the same
+    interval); ``ratio_of``: the positive column of the performance ratios (default ``length``
+    when the table has it, else ``value``)."""
+    from scipy.stats import friedmanchisquare, rankdata
+
+    table, by, pairing = _check_table(table, by, value, blocks)
+    for name, x, ok in (("alpha", alpha, 0 < alpha < 1), ("confidence", confidence, 0 < confidence < 1)):
+        if isinstance(x, bool) or not isinstance(x, (int, float)) or not ok:
+            raise JacoError(f"compare: {name} must be a number in (0, 1), got {x!r}")
+    if isinstance(n_boot, bool) or not isinstance(n_boot, (int, np.integer)) or n_boot < 1:
+        raise JacoError(f"compare: n_boot must be a positive integer, got {n_boot!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise JacoError(f"compare: seed must be a non-negative integer, got {seed!r}")
+    ratio_of = ratio_of or ("length" if "length" in table.columns else value)
+    if ratio_of not in table.columns:
+        raise JacoError(f"compare: no column {ratio_of!r} for the performance ratios")
+
+    groups = list(table.groupby(by, sort=False, dropna=False))
+    names = [_label(by, key) for key, _ in groups]
+    if len(set(names)) != len(names):
+        raise JacoError(f"compare: two configurations read the same ({names}); name them by other columns")
+    wide = table.assign(_config=table.groupby(by, sort=False, dropna=False).ngroup().map(dict(enumerate(names))))
+    values = wide.pivot(index=pairing, columns="_config", values=value)[names]
+    ratios_of = wide.pivot(index=pairing, columns="_config", values=ratio_of)[names]
+
+    # per configuration
+    rng = np.random.default_rng(seed)
+    rows = []
+    for name, (_, part) in zip(names, groups):
+        v = part[value].to_numpy(np.float64)
+        q1, med, q3 = quantile(v, [0.25, 0.5, 0.75])
+        lo, hi = bootstrap_median(v, n_boot=int(n_boot), confidence=confidence, rng=rng)
+        ok = np.isfinite(v)
+        rows.append({"configuration": name, "runs": len(v), "success_rate": ok.mean(),
+                     f"{value}_q1": q1, f"{value}_median": med, f"{value}_q3": q3,
+                     f"{value}_median_low": lo, f"{value}_median_high": hi})
+
+    # ranks within blocks (complete blocks only)
+    block_values = values
+    if blocks == "query":
+        query = [c for c in pairing if c != "seed"]
+        if not query:
+            raise JacoError("compare: blocks='query' needs query columns (map, start_row, ...) in the table")
+        block_values = values.groupby(level=query).agg(lambda s: float(quantile(s.to_numpy(), 0.5)))
+    complete = block_values.dropna()
+    notes = []
+    if len(complete) < len(block_values):
+        notes.append(f"{len(block_values) - len(complete)} of {len(block_values)} blocks lack a configuration "
+                     "and are left out of the ranks")
+    if len(complete) == 0:
+        raise JacoError("compare: no block (pair) has a run of every configuration")
+    stand_in = _finite_stand_in(complete.to_numpy(np.float64).ravel()).reshape(complete.shape)
+    ranks = rankdata(stand_in, axis=1)
+    mean_ranks = pd.Series(ranks.mean(axis=0), index=names, name="mean_rank")
+    k, n = len(names), len(complete)
+    friedman = {"statistic": None, "pvalue": None, "k": k, "n": n, "alpha": alpha, "blocks": blocks,
+                "cd": critical_difference(k, n, alpha)}
+    if k >= 3 and n >= 2:
+        if np.all(ranks == ranks[:, :1]):  # every block ties: nothing to tell apart
+            friedman.update(statistic=0.0, pvalue=1.0)
+        else:
+            res = friedmanchisquare(*stand_in.T)
+            friedman.update(statistic=float(res.statistic), pvalue=float(res.pvalue))
+
+    summary = pd.DataFrame(rows)
+    summary["mean_rank"] = mean_ranks.to_numpy()
+    summary = summary.sort_values(["mean_rank", f"{value}_median"], kind="stable").reset_index(drop=True)
+    order = summary["configuration"].tolist()
+
+    # paired tests
+    pairs = []
+    for a, b in combinations(order, 2):
+        both = values[[a, b]].dropna()
+        x, y = both[a].to_numpy(np.float64), both[b].to_numpy(np.float64)
+        stat, p = wilcoxon(x, y)
+        d = signed_differences(x, y)
+        pairs.append({"a": a, "b": b, "pairs": len(both), "a_better": int((d < 0).sum()), "b_better": int((d > 0).sum()),
+                      "ties": int((d == 0).sum()), "statistic": stat, "p": p})
+    pairwise = pd.DataFrame(pairs, columns=["a", "b", "pairs", "a_better", "b_better", "ties", "statistic", "p"])
+    pairwise["p_holm"] = holm(pairwise["p"].to_numpy()) if len(pairwise) else []
+    pairwise["significant"] = pairwise["p_holm"] < alpha
+
+    best = ratios_of.min(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratios = ratios_of.div(best, axis=0).where(np.isfinite(ratios_of), np.inf)
+    ratios = ratios.where(ratios_of.notna())
+
+    out = Comparison(by, value, pairing, summary, pairwise, friedman, mean_ranks[order], ratios[order], values[order],
+                     alpha, confidence, ratio_of, notes=notes)
+    out.text = _words(out)
+    return out
+
+
+# -- words --------------------------------------------------------------------------------------
+def _fmt_value(value: str, x: float) -> str:
+    if value == "gap":
+        return percent(x)
+    return "failed" if math.isinf(x) and x > 0 else number(x)
+
+
+def _p(p: float) -> str:
+    return f"{p:.2g}" if p >= 0.001 else f"{p:.1e}"
+
+
+def _pair_sentence(row, alpha) -> str:
+    a, b = row["a"], row["b"]
+    if row["ties"] == row["pairs"]:
+        return f"{a} and {b} cannot be told apart: they tie on all {row['pairs']} pairs"
+    if row["p_holm"] < alpha:
+        win, lose, w, l = (a, b, row["a_better"], row["b_better"]) if row["a_better"] >= row["b_better"] else \
+            (b, a, row["b_better"], row["a_better"])
+        return (f"{win} beats {lose} on {w} of {row['pairs']} pairs ({lose} better on {l}, {row['ties']} ties), "
+                f"p = {_p(row['p_holm'])} after Holm")
+    return (f"{a} and {b} cannot be told apart (p = {_p(row['p_holm'])} after Holm; {a} better on {row['a_better']}, "
+            f"{b} on {row['b_better']}, {row['ties']} ties)")
+
+
+def _words(c: Comparison) -> str:
+    v, s, alpha = c.value, c.summary, c.alpha
+    unit = " (a fraction of the optimum, shown in %)" if v == "gap" else ""
+    lines = [f"{len(s)} configurations ({', '.join(c.by)}) compared on {v}{unit} over "
+             f"{len(c.values)} pairs ({', '.join(c.pairing)}); lower is better, a failed run counts as +inf."]
+    top = s.iloc[0]
+    ci = f"{100 * c.confidence:g}% CI {_fmt_value(v, top[f'{v}_median_low'])}–{_fmt_value(v, top[f'{v}_median_high'])}"
+    lines.append(f"Best mean rank: {top['configuration']} (median {v} {_fmt_value(v, top[f'{v}_median'])}, {ci}; "
+                 f"success {percent(top['success_rate'], 0)} of {top['runs']} runs).")
+    f = c.friedman
+    if f["pvalue"] is not None:
+        verdict = "the configurations differ" if f["pvalue"] < alpha else "no evidence that the configurations differ"
+        lines.append(f"Friedman test over {f['n']} blocks: chi2 = {f['statistic']:.3g}, p = {_p(f['pvalue'])}: {verdict}; "
+                     f"mean ranks closer than CD = {f['cd']:.3g} cannot be told apart (Nemenyi, alpha = {alpha:g}).")
+    shown = set()
+    best = top["configuration"]
+    order = s["configuration"].tolist()
+    chosen = [(best, other) for other in order[1:]] + [(x, y) for x, y in zip(order[1:], order[2:])]
+    for x, y in chosen:
+        if (x, y) in shown:
+            continue
+        shown.add((x, y))
+        row = c.pairwise[((c.pairwise.a == x) & (c.pairwise.b == y)) | ((c.pairwise.a == y) & (c.pairwise.b == x))].iloc[0]
+        lines.append(_pair_sentence(row, alpha) + ".")
+    failed = s[s["success_rate"] == 0]["configuration"].tolist()
+    if failed:
+        lines.append(f"No path in any run: {'; '.join(failed)}.")
+    lines += [f"Note: {n}." for n in c.notes]
+    return "\n".join(lines)
+
+
+def _tables_text(c: Comparison) -> str:
+    v = c.value
+    s = c.summary
+    pct = v == "gap"
+    fmt = (lambda x: _fmt_value(v, x))  # noqa: E731
+    span = (lambda a, b: fmt(a) if fmt(a) == fmt(b) else f"{fmt(a)}–{fmt(b)}")  # noqa: E731
+    head = pd.DataFrame({
+        "configuration": s["configuration"],
+        "runs": s["runs"].map(str),
+        "success": s["success_rate"].map(lambda x: percent(x, 0)),
+        f"median {v}": s[f"{v}_median"].map(fmt),
+        "quartiles": [span(a, b) for a, b in zip(s[f"{v}_q1"], s[f"{v}_q3"])],
+        f"{100 * c.confidence:g}% CI of median": [span(a, b) for a, b in zip(s[f"{v}_median_low"], s[f"{v}_median_high"])],
+        "mean rank": s["mean_rank"].map(lambda x: f"{x:.2f}"),
+    })
+    pw = c.pairwise
+    pairs = pd.DataFrame({
+        "A": pw["a"], "B": pw["b"], "pairs": pw["pairs"].map(str), "A better": pw["a_better"].map(str),
+        "B better": pw["b_better"].map(str), "ties": pw["ties"].map(str), "p": pw["p"].map(_p),
+        "p (Holm)": pw["p_holm"].map(_p), f"differ at {c.alpha:g}": pw["significant"].map(lambda b: "yes" if b else "no"),
+    })
+    unit = " (gaps in %)" if pct else ""
+    return (f"per configuration{unit}:\n{text_table(head, left=['configuration'])}\n\n"
+            f"paired comparisons (two-sided Wilcoxon signed-rank, Holm over {len(pw)} pairs of configurations):\n"
+            f"{text_table(pairs, left=['A', 'B'])}")
