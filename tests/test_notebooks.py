@@ -57,7 +57,8 @@ def test_every_notebook_is_found():
     assert [p.name[:2] for p in NOTEBOOKS] == ["01", "02", "03", "04", "05", "06", "07"]
 
 
-SLOW = {"06_search"}  # minutes of searches on a 256x256 map: with the slow checks
+# the notebooks that take more than ten seconds run with the slow checks (pytest -m slow, .ci/run)
+SLOW = {"02_planners_gallery", "04_tuning", "05_paper_table", "06_search", "07_comparing_planners"}
 
 
 @pytest.mark.parametrize("path", [pytest.param(p, marks=pytest.mark.slow) if p.stem in SLOW else p for p in NOTEBOOKS],

@@ -328,6 +328,7 @@ KILLED = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 def test_resume_after_sigkill_loses_nothing_and_duplicates_nothing(tmp_path):
     db = tmp_path / "k.db"
     script = KILLED.format(rows=GRID.to_rows(), start=ENDS[0], goal=ENDS[1], space=SPACE)

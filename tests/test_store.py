@@ -87,6 +87,7 @@ KILLED = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 def test_a_killed_sweep_resumes_to_the_uninterrupted_table_bit_for_bit(tmp_path):
     store = tmp_path / "k.db"
     axes = {"beta": [1.0, 2.0, 3.0, 4.0, 6.0, 8.0], "rho": [0.1, 0.3]}
