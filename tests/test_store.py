@@ -14,16 +14,8 @@ import pytest
 import jaco
 from jaco.research.store import StoreError, exclusive_lock
 
-GRID = jaco.Grid.from_rows([
-    "..........",
-    "..####....",
-    "......#...",
-    ".##...#.#.",
-    "......#...",
-    "...####...",
-    "..........",
-])
-ENDS = ((6, 0), (0, 9))
+from test_search import ENDS, GRID  # the small map with walls both test files plan on
+
 AXES = {"beta": [1.0, 2.0, 4.0, 8.0], "rho": [0.1, 0.3]}
 KW = dict(seeds=2, n_ants=6, n_iters=12, progress=False)
 

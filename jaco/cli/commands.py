@@ -461,14 +461,20 @@ def cmd_rerun(args) -> int:
         print(f"record   {rec.path.name}: sweep of {c['variant']}, {len(rec.table)} rows")
     for w in rec.warnings:
         print(f"jaco: warning: {_one_line(w)}", file=sys.stderr)
+    return report_rerun(lambda: rec.rerun(warn=False), "the record")
+
+
+def report_rerun(rerun, what: str) -> int:
+    """Run ``rerun()`` (a :class:`jaco.research.records.Rerun`) and say whether it matched
+    ``what``: exit 0 when it did, 1 when it did not."""
     t0 = time.perf_counter()
-    rerun = rec.rerun(warn=False)
+    result = rerun()
     seconds = time.perf_counter() - t0
-    if rerun.matched:
-        print(f"rerun    matched the record bit for bit ({rerun.what}; {seconds:.2f} s)")
+    if result.matched:
+        print(f"rerun    matched {what} bit for bit ({result.what}; {seconds:.2f} s)")
         return 0
-    print(f"rerun    did NOT match the record ({len(rerun.differences)} difference(s)):")
-    for d in rerun.differences:
+    print(f"rerun    did NOT match {what} ({len(result.differences)} difference(s)):")
+    for d in result.differences:
         print(f"  {d}")
     return 1
 

@@ -135,6 +135,7 @@ def cmd_rerun(args) -> int:
     ``--trial N [--study NAME]`` a trial of a stored search; exit 0 when it matched, 1 when not."""
     from ..research.search import load_study
     from .commands import cmd_rerun as rerun_record
+    from .commands import report_rerun
 
     if args.trial is None:
         if args.study is not None:
@@ -143,13 +144,4 @@ def cmd_rerun(args) -> int:
 
     study = load_study(args.record, args.study)
     print(f"study    {study.study.study_name!r}: {len(study.study.trials)} trials, sampler {study.info['sampler']}")
-    t0 = time.perf_counter()
-    rerun = study.rerun(args.trial)
-    seconds = time.perf_counter() - t0
-    if rerun.matched:
-        print(f"rerun    matched the stored trial bit for bit ({rerun.what}; {seconds:.2f} s)")
-        return 0
-    print(f"rerun    did NOT match the stored trial ({len(rerun.differences)} difference(s)):")
-    for d in rerun.differences:
-        print(f"  {d}")
-    return 1
+    return report_rerun(lambda: study.rerun(args.trial), "the stored trial")
