@@ -193,15 +193,61 @@ def _opened(storage, lock_path):
         from .store import exclusive_lock
 
         lock = exclusive_lock(lock_path, "study storage")
+    engine = None
     try:
         if storage == "journal":
-            storage = optuna.storages.JournalStorage(
-                optuna.storages.journal.JournalFileBackend(str(lock_path),
-                                                           lock_obj=optuna.storages.journal.JournalFileOpenLock(str(lock_path))))
+            storage = _journal(lock_path)
+        elif isinstance(storage, str) and storage.startswith("sqlite:///"):
+            storage = _sqlite(storage, lock_path)
+            engine = storage.engine
         yield storage
     finally:
+        if engine is not None:
+            engine.dispose()  # closes the connections: SQLite folds its write-ahead log back into the file
+            _rollback_journal(lock_path)
         if lock is not None:
             lock.close()
+
+
+def _rollback_journal(path) -> None:
+    """Back to SQLite's default journal: readers after the search (``jaco.load_study``, Optuna's
+    dashboard) then open the file without making ``-wal``/``-shm`` files beside it."""
+    import sqlite3
+
+    con = sqlite3.connect(str(path), timeout=2)
+    try:
+        con.execute("PRAGMA journal_mode=DELETE")
+    except sqlite3.OperationalError:  # another reader holds the file (a dashboard): it stays in WAL mode
+        pass
+    finally:
+        con.close()
+
+
+def _journal(path):
+    import optuna
+
+    j = optuna.storages.journal
+    return optuna.storages.JournalStorage(j.JournalFileBackend(str(path), lock_obj=j.JournalFileOpenLock(str(path))))
+
+
+def _sqlite(url: str, path):
+    """Optuna's RDB storage on SQLite in write-ahead-log mode with ``synchronous=NORMAL``: a commit
+    no longer waits for the disk (measured here: 128 trials asked and told in 6 s instead of 17 s),
+    and a committed trial still survives a killed process (only a power cut or an OS crash could
+    lose the last commits). SQLite keeps ``FILE-wal`` and ``FILE-shm`` beside the file while the
+    search runs (after a kill they hold committed trials: the next open folds them back); at the end
+    the file returns to SQLite's default journal (:func:`_rollback_journal`)."""
+    import sqlite3
+
+    import optuna
+
+    def connect():
+        con = sqlite3.connect(str(path), timeout=60, check_same_thread=False)
+        con.execute("PRAGMA journal_mode=WAL")
+        con.execute("PRAGMA synchronous=NORMAL")
+        return con
+
+    return optuna.storages.RDBStorage(url, engine_kwargs={"creator": connect})
 
 
 @contextmanager
@@ -457,7 +503,10 @@ def search(
         finally:
             bar.close()
         timings = dict(run.timings, wall_s=time.perf_counter() - t0, compiles=evaluator.compiles)
-        return Study(study, timings=timings)
+    if isinstance(storage_obj, str):  # read back through plain connections (SQLite: out of WAL mode again)
+        with _quiet():
+            study = optuna.load_study(study_name=study.study_name, storage=storage_obj)
+    return Study(study, timings=timings)
 
 
 def _study_info(space, objectives, penalties, queries, seeds, sizes, steplimit, connectivity, sampler, seed, halving,
@@ -906,8 +955,7 @@ def load_study(storage, study_name: str | None = None) -> Study:
     if path is not None and not path.is_file():
         raise SearchError(f"no study storage at {str(path)!r}")
     if storage_obj == "journal":
-        storage_obj = optuna.storages.JournalStorage(optuna.storages.journal.JournalFileBackend(
-            str(path), lock_obj=optuna.storages.journal.JournalFileOpenLock(str(path))))
+        storage_obj = _journal(path)
     with _quiet():
         try:
             names = [s.study_name for s in optuna.get_all_study_summaries(storage_obj, include_best_trial=False)]
