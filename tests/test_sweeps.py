@@ -379,3 +379,15 @@ def test_sweep_progress_bar_says_compiling_then_counts_and_changes_nothing(capsy
     err = capsys.readouterr().err
     assert chunked.attrs["sweep"]["chunks"] == 4 and "4/4" in err
     pd.testing.assert_frame_equal(chunked, plain)
+
+
+def test_the_bar_moves_inside_one_chunk(monkeypatch):
+    """A chunk reports its iterations: a sweep of one chunk counts its runs up while it runs."""
+    kw = dict(params={"beta": [1.0, 2.0, 3.0, 4.0]}, seeds=10, n_ants=8, n_iters=30)  # 40 runs, one chunk
+    seen = []
+    real = jaco.progress.Bar.update
+    monkeypatch.setattr(jaco.progress.Bar, "update", lambda self, done: (seen.append(int(done)), real(self, done)))
+    table = jaco.sweep(GRID, *ENDS, "as", progress=True, **kw)
+    assert table.attrs["sweep"]["chunks"] == 1
+    inside = sorted({d for d in seen if 0 < d < 40})
+    assert len(inside) >= 10 and seen == sorted(seen) and seen[-1] == 40  # iteration by iteration, never back
