@@ -4,6 +4,7 @@ definition's paths bit for bit; every planner with it plans valid paths, never w
 in the iteration both runs share, the same key gives the same run, and names, sweeps, records and
 the shell take it. The published planners are unchanged (no local search)."""
 
+import doctest
 import functools
 import json
 
@@ -92,6 +93,14 @@ def test_without_diagonal_moves_the_segments_are_two_straight_runs(kind):
     detour = [(0, 0), (0, 1), (0, 2), (1, 2), (1, 1), (2, 1), (2, 2)]
     assert _shorten(["...", "...", "..."], detour, connectivity=4, kind=kind) == [(0, 0), (1, 0), (2, 0), (2, 1), (2, 2)]
     assert _shorten(["...", "#..", "..."], detour, connectivity=4, kind=kind) == [(0, 0), (0, 1), (0, 2), (1, 2), (2, 2)]
+
+
+def test_shorten_path_outside_a_run_and_the_doctests():
+    grid = jaco.Grid.from_rows(OPEN)
+    assert ls.shorten_path(grid, STAIRS).tolist() == [[0, 0], [1, 1], [2, 2], [3, 3], [4, 4]]
+    with pytest.raises(jaco.ProblemError, match="needs a valid path: .*not neighbours"):
+        ls.shorten_path(grid, [(0, 0), (2, 2)])
+    assert doctest.testmod(ls).failed == 0 and doctest.testmod(jaco.planners.registry).failed == 0
 
 
 def _length(cells) -> float:

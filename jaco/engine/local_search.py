@@ -199,6 +199,41 @@ def _one_pass(path, bits, start, offsets, diagonal, move_of, window):
     return jnp.where(jnp.arange(s) < o, out[:s], -1), changed
 
 
+def shorten_path(grid, path, *, connectivity: int = 8, window: int = WINDOW, passes: int = PASSES) -> np.ndarray:
+    """The octile shortcut of one path on ``grid``, outside any run: ``path`` ``(K, 2)`` (row, col)
+    cells, start first, a valid path of the move model (:func:`jaco.metrics.validate_path`);
+    returns the shortened path ``(K', 2)``, ``K' ≤ K``, never longer, with the same ends.
+
+    >>> import jaco
+    >>> grid = jaco.Grid.from_rows(["....", "....", "...."])
+    >>> shorten_path(grid, [(0, 0), (0, 1), (1, 1), (1, 2), (2, 2), (2, 3)]).tolist()
+    [[0, 0], [1, 1], [2, 2], [2, 3]]
+    """
+    from ..errors import ProblemError
+    from ..metrics import validate_path
+    from ..moves import cached_table
+
+    path = np.asarray(path, np.int64).reshape(-1, 2)
+    problems = validate_path(grid, path, connectivity=connectivity)
+    if problems:
+        raise ProblemError(f"shorten_path needs a valid path: {problems[0]}")
+    nbr, _ = cached_table(grid, connectivity)
+    w = grid.width
+    flat = (path[:, 0] * w + path[:, 1]).astype(np.int32)
+    out = _shorten_one(jnp.asarray(flat[1:, None]), allowed_bits(jnp.asarray(nbr)), jnp.int32(flat[0]),
+                       jnp.asarray((MOVES[:, 0] * w + MOVES[:, 1]).astype(np.int32)), jnp.bool_((nbr[:, 4:] >= 0).any()),
+                       window=int(window), passes=int(passes), walk=native.active_walk())
+    cells = np.asarray(out)[:, 0]
+    cells = np.concatenate([flat[:1], cells[cells >= 0]])
+    return np.stack(np.divmod(cells, w), axis=1).astype(np.int64)
+
+
+@functools.partial(jax.jit, static_argnames=("window", "passes", "walk"))
+def _shorten_one(cells, bits, start, offsets, diagonal, *, window, passes, walk):
+    """``walk``: the active walk, so that a program traced for one is never reused for the other."""
+    return shortcut(cells, start, bits, offsets, diagonal, window=window, passes=passes)
+
+
 def path_tours(problem, cells, arrived, n_steps, visited) -> Tours:
     """Step-major :class:`~jaco.engine.walk.Tours` of paths given by their cells ``(S, C)``
     (from ``problem.start``, -1 padded): the moves from the cells' coordinates, the step lengths
