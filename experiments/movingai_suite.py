@@ -268,6 +268,13 @@ def gap_rank(gaps) -> tuple:
     return float(np.median(g)), -float(ok.mean()), float(g[ok].mean()) if ok.any() else np.inf
 
 
+def ordered(labels, suffix: str = "+shortcut") -> list:
+    """The planners in the order they first appear, each with local search right after itself."""
+    labels = list(dict.fromkeys(labels))
+    bases = list(dict.fromkeys(p.removesuffix(suffix) if p.removesuffix(suffix) in labels else p for p in labels))
+    return [x for b in bases for x in (b, b + suffix) if x in labels]
+
+
 def quartiles(g):
     g = np.asarray(g, float)
     if not np.isfinite(g).any():
@@ -295,7 +302,7 @@ def report(df, command: str, fig_rel: str) -> str:
         steps = f"; {steps} (at most the free cells)" if steps else ""
         lines += [f"### {name.capitalize()} budget: {ants} ants × {iters} iterations{steps}", ""]
         maps = list(dict.fromkeys(part["map"]))
-        plist = list(dict.fromkeys(part.planner))
+        plist = ordered(part.planner)
         head = ["planner"] + [f"{m} ({part[part['map'] == m]['size'].iloc[0]})" for m in maps]
         body = []
         for p in plist:
@@ -318,13 +325,14 @@ def by_length(part) -> list:
     among its map's scenarios (shortest … longest), with the MovingAI buckets those scenarios
     come from."""
     ranks = sorted(set(part["query"]))
+    order = {p: i for i, p in enumerate(ordered(part.planner))}
     head = ["planner"]
     for q in ranks:
         b = part[part["query"] == q].bucket
         head.append(f"{'shortest' if q == ranks[0] else 'longest' if q == ranks[-1] else f'query {q + 1}'} "
                     f"(buckets {b.min()}–{b.max()})")
     body = [[p] + [f"{quartiles(g[g['query'] == q].gap)}; {100 * g[g['query'] == q].success.mean():.0f}%" for q in ranks]
-            for p, g in part.groupby("planner", sort=False)]
+            for p, g in sorted(part.groupby("planner", sort=False), key=lambda pg: order[pg[0]])]
     return ["#### Fixed budget, all maps, by scenario length", "",
             "Each map's scenarios ranked by optimal length (a map's scenarios come from its scenario file's "
             "buckets: bucket k holds optimal lengths in [4k, 4k + 4)); median gap in % [quartiles]; success.", "",
@@ -344,7 +352,7 @@ def pairs(part, suffix: str = "+shortcut"):
 
     out = {}
     labels = set(part.planner)
-    for p in dict.fromkeys(part.planner):
+    for p in ordered(part.planner):
         base = p.removesuffix(suffix)
         if p.endswith(suffix) and base in labels:
             key = ["map", "query", "seed"]
@@ -373,29 +381,34 @@ def paired_test(without, with_) -> dict:
 
 
 def with_and_without(part, fig_rel: str) -> list:
-    """Lines of the section comparing each planner with local search to itself without (one budget)."""
+    """Lines of the section comparing each planner with local search to itself without (one budget):
+    gaps over all maps and over the three largest, success, and the paired test."""
     both = pairs(part)
     if not both:
         return []
-    body = []
-    for p, g in both.items():
+    cells = part.drop_duplicates("map").set_index("map")["size"].map(lambda t: math.prod(int(x) for x in t.split("x")))
+    largest = list(cells.sort_values().index[-3:])
+
+    def row(label, g):
         t = paired_test(g["without"].to_numpy(), g["with"].to_numpy())
-        body.append([p.removesuffix("+shortcut"), quartiles(g["without"]), quartiles(g["with"]),
-                     f"{100 * np.isfinite(g['without']).mean():.0f}%", f"{100 * np.isfinite(g['with']).mean():.0f}%",
-                     f"{t['better']} / {t['equal']} / {t['worse']}", f"{t['p']:.2g}"])
-    pooled = pd_concat(both.values())
-    t = paired_test(pooled["without"].to_numpy(), pooled["with"].to_numpy())
-    body += [] if len(both) == 1 else [["all planners (pooled)", quartiles(pooled["without"]), quartiles(pooled["with"]),
-                 f"{100 * np.isfinite(pooled['without']).mean():.0f}%", f"{100 * np.isfinite(pooled['with']).mean():.0f}%",
-                 f"{t['better']} / {t['equal']} / {t['worse']}", f"{t['p']:.2g}"]]
-    return best_with_local_search(part) + ["#### With and without local search (fixed budget)", "",
-            "Each planner against itself with the octile shortcut (`+shortcut`) on the same (map, query, seed) runs: "
-            "median gap in % [quartiles] over all maps, success, how many runs are better / equal / worse with it, and "
-            "the p-value of a one-sided Wilcoxon signed-rank test that it lowers the gap (`scipy.stats.wilcoxon` over "
-            "the pairs; a failed run counts as worse than any success; equal pairs are left out, as in Wilcoxon's test).",
-            "", table(["planner", "gap without", "gap with", "success without", "success with", "better / equal / worse",
-                       "p (one-sided)"], body), "",
-            f"![gap with local search against without]({fig_rel})", ""]
+        big = g[g.index.get_level_values("map").isin(largest)]
+        return [label, quartiles(g["without"]), quartiles(g["with"]), quartiles(big["without"]), quartiles(big["with"]),
+                f"{100 * np.isfinite(g['without']).mean():.0f}%", f"{100 * np.isfinite(g['with']).mean():.0f}%",
+                f"{t['better']} / {t['equal']} / {t['worse']}", f"{t['p']:.2g}"]
+
+    body = [row(p.removesuffix("+shortcut"), g) for p, g in both.items()]
+    if len(both) > 1:
+        body.append(row("all planners (pooled)", pd_concat(both.values())))
+    return best_with_local_search(part) + [
+        "#### With and without local search (fixed budget)", "",
+        "Each planner against itself with the octile shortcut (`+shortcut`) on the same (map, query, seed) runs: "
+        f"median gap in % [quartiles] over all maps and over the three largest ({', '.join(largest)}), success over "
+        "all maps, how many runs are better / equal / worse with it, and the p-value of a one-sided Wilcoxon "
+        "signed-rank test that it lowers the gap (`scipy.stats.wilcoxon` over the pairs; a failed run counts as worse "
+        "than any success; equal pairs are left out, as in Wilcoxon's test).", "",
+        table(["planner", "gap without", "gap with", "gap without, 3 largest", "gap with, 3 largest", "success without",
+               "success with", "better / equal / worse", "p (one-sided)"], body), "",
+        f"![gap with local search against without]({fig_rel})", ""]
 
 
 def best_with_local_search(part, suffix: str = "+shortcut") -> list:
@@ -419,7 +432,7 @@ def best_with_local_search(part, suffix: str = "+shortcut") -> list:
     for m, x in g.groupby("map", sort=False):
         q = x[x.optimal == x.optimal.max()]
         longest.append(f"{m} (optimum {q.optimal.iloc[0]:.1f}) " + " / ".join(
-            "failed" if not np.isfinite(v) else f"{100 * v:.1f} %" for v in q.sort_values("seed").gap))
+            "failed" if not np.isfinite(v) else f"{decimals(100 * v, 1)} %" for v in q.sort_values("seed").gap))
     return ["#### The best planner with local search", "",
             f"**{best}** (the most runs solved, then the lowest mean of its per-map median gaps): solved "
             f"{int(g.success.sum())} of {len(g)} runs. Median gap (success) per map: {per_map}.", "",
