@@ -8,7 +8,9 @@ For each bundled MovingAI map (``jaco.maps.BUNDLED``: the MovingAI grid and MAPF
 to 512×512) the suite takes ``--scenarios`` scenarios spread over the scenario file's range of
 optimal lengths (from a short one to the longest, i.e. over its buckets) and runs every planner —
 the registered ones and a set of compositions of their components (``jaco.compose``) — on all of
-them with ``--seeds`` seeds, at the fixed budget (50 ants × 100 iterations) and, for each map's
+them with ``--seeds`` seeds, each planner without and with local search (``--local-search``, by
+default the octile shortcut: ``"<planner>+shortcut"``, ``compose(..., local_search="shortcut")``),
+at the fixed budget (50 ants × 100 iterations) and, for each map's
 best three at the fixed budget (or the planners named by ``--larger-planners``), at a larger one
 (100 × 300). Each (map, planner, budget) is one batched ``jaco.sweep`` over the queries × seeds.
 It records per run: success, length, the gap to the scenario's optimum; per batch: the time per
@@ -18,8 +20,11 @@ map's best three loses its larger-budget rows there, so the parts add up to one 
 
 Outputs (into ``--out``, default ``docs/``): ``results.md``'s ``movingai_suite`` section (success
 rate and gap median/quartiles per map and planner, then per planner by the scenario's rank in its
-map's length range (the MovingAI buckets), time per query), ``figures/movingai_suite_gap.png``
-(median gap against optimal length, one line per planner) and ``movingai_suite.csv`` (every run). Nothing here asserts a time or a gap.
+map's length range (the MovingAI buckets), time per query; then each planner with local search
+against itself without, a paired Wilcoxon signed-rank test over the (map, query, seed) runs),
+``figures/movingai_suite_gap.png`` (median gap against optimal length, one line per planner),
+``figures/movingai_suite_local_search.png`` (every run's gap with local search against without)
+and ``movingai_suite.csv`` (every run). Nothing here asserts a time or a gap.
 """
 
 from __future__ import annotations
@@ -73,8 +78,11 @@ def parse_args(argv=None):
                     help="folder for results.md, figures/ and the CSV (default docs/; with --smoke a temporary folder)")
     ap.add_argument("--maps", nargs="*", default=None, help="bundled map files (default: every MovingAI map)")
     ap.add_argument("--planners", nargs="*", default=None,
-                    help="planners: registered names and composition names (default: all registered + the compositions; "
+                    help="planners: registered names and composition names, with a local search as '<name>+shortcut' "
+                    "(default: all registered + the compositions, each without and with --local-search; "
                     "none after the flag: only the selected one)")
+    ap.add_argument("--local-search", default="shortcut", metavar="NAME",
+                    help="the local search the default planners also run with (default shortcut; none: without)")
     ap.add_argument("--larger-planners", nargs="*", default=None,
                     help="planners also run at the larger budget (default: the best three at the fixed budget; "
                     "none after the flag: no larger budget)")
@@ -84,7 +92,7 @@ def parse_args(argv=None):
                     help="keep the rows of the (map, planner) pairs not run now from the existing CSV in --out "
                     "(run the suite in parts)")
     ap.add_argument("--steplimit-scale", type=float, default=None, metavar="S",
-                    help="run only the fixed budget, with S times the default step limit (at most the free cells), "
+                    help="run only the fixed budget, with S times 4·(H + W) as the step limit (at most the free cells), "
                     "reported as a budget of its own")
     ap.add_argument("--skip", nargs="*", default=(), help="registered planners to leave out")
     ap.add_argument("--no-select", action="store_true", help="leave out the planner selected on other maps")
@@ -106,6 +114,8 @@ def parse_args(argv=None):
             jaco.planners.registry.get_variant(n)
         except jaco.JacoError as e:
             ap.error(str(e))
+    if args.local_search not in jaco.planners.compose.LOCAL_SEARCHES:
+        ap.error(f"unknown local search {args.local_search!r}; valid: {', '.join(jaco.planners.compose.LOCAL_SEARCHES)}")
     args.out = output_dir(args.out, args.smoke)
     return args
 
@@ -121,10 +131,15 @@ def scenarios(jaco, map_name: str, k: int):
     return [rows[i] for i in picks]
 
 
-def planners(jaco, names):
-    """``(label, variant, fixed parameters)`` of every planner to run."""
-    vs = ([jaco.planners.registry.get_variant(n) for n in names] if names is not None
-          else list(jaco.VARIANTS.values()) + [jaco.compose(**kw) for kw in COMPOSITIONS])
+def planners(jaco, names, local_search: str = "none"):
+    """``(label, variant, fixed parameters)`` of every planner to run: ``names``, or every registered
+    planner and composition, each also with ``local_search`` (unless ``"none"``)."""
+    if names is not None:
+        vs = [jaco.planners.registry.get_variant(n) for n in names]
+    else:
+        vs = list(jaco.VARIANTS.values()) + [jaco.compose(**kw) for kw in COMPOSITIONS]
+        if local_search != "none":
+            vs += [jaco.planners.registry.with_local_search(v, local_search) for v in vs]
     return [(short(v.name), v, {}) for v in vs]
 
 
@@ -172,7 +187,7 @@ def short(name: str) -> str:
         return name
     parts = [p.strip() for p in name[len("compose("):-1].split(",")]
     keep = [p.split("=")[1] for p in parts if p not in ("transition=roulette", "schedule=constant", "cost=length")]
-    return "+".join(keep)
+    return "+".join(keep)  # a local search comes last: "backtrack+chaos+iaca+q0+shortcut"
 
 
 def run_suite(cfg, args, checkpoint=lambda rows: None, earlier=()):
@@ -184,8 +199,8 @@ def run_suite(cfg, args, checkpoint=lambda rows: None, earlier=()):
     # smallest map first: a long run that is cut short still reports every smaller map
     map_names = args.maps or cfg["maps"] or sorted((n for n in jaco.maps.BUNDLED if n.endswith(".map")),
                                                    key=lambda n: jaco.maps.load(jaco.maps.bundled(n)).n_cells)
-    names = args.planners if args.planners is not None else (["mmas", "iaca"] if args.smoke else None)
-    plist = [p for p in planners(jaco, names) if p[0] not in args.skip]
+    names = args.planners if args.planners is not None else (["mmas", "iaca", "iaca+shortcut"] if args.smoke else None)
+    plist = [p for p in planners(jaco, names, args.local_search) if p[0] not in args.skip]
     if not args.no_select:
         plist.append(select(jaco, cfg, args))
     k, n_seeds = args.scenarios or cfg["scenarios"], args.seeds or cfg["seeds"]
@@ -199,8 +214,8 @@ def run_suite(cfg, args, checkpoint=lambda rows: None, earlier=()):
         scen = scenarios(jaco, m, k)
         starts, goals = [s.start for s in scen], [s.goal for s in scen]
         budgets = (("fixed", cfg["budget"]), ("larger", cfg["larger"]))
-        steplimit = None  # the default: 4·(H + W), at most the free cells
-        if args.steplimit_scale:
+        steplimit = None  # the default: 4·(H + W), at most the free cells; twice that for backtracking ants
+        if args.steplimit_scale:  # times the default of every planner before backtracking ants got twice it
             budgets = ((f"fixed, {args.steplimit_scale:g}× step limit", cfg["budget"]),)
             steplimit = int(min(grid.free.sum(), round(args.steplimit_scale * 4 * (grid.height + grid.width))))
         for budget, (ants, iters) in budgets:
@@ -254,6 +269,13 @@ def gap_rank(gaps) -> tuple:
     return float(np.median(g)), -float(ok.mean()), float(g[ok].mean()) if ok.any() else np.inf
 
 
+def ordered(labels, suffix: str = "+shortcut") -> list:
+    """The planners in the order they first appear, each with local search right after itself."""
+    labels = list(dict.fromkeys(labels))
+    bases = list(dict.fromkeys(p.removesuffix(suffix) if p.removesuffix(suffix) in labels else p for p in labels))
+    return [x for b in bases for x in (b, b + suffix) if x in labels]
+
+
 def quartiles(g):
     g = np.asarray(g, float)
     if not np.isfinite(g).any():
@@ -281,7 +303,7 @@ def report(df, command: str, fig_rel: str) -> str:
         steps = f"; {steps} (at most the free cells)" if steps else ""
         lines += [f"### {name.capitalize()} budget: {ants} ants × {iters} iterations{steps}", ""]
         maps = list(dict.fromkeys(part["map"]))
-        plist = list(dict.fromkeys(part.planner))
+        plist = ordered(part.planner)
         head = ["planner"] + [f"{m} ({part[part['map'] == m]['size'].iloc[0]})" for m in maps]
         body = []
         for p in plist:
@@ -295,6 +317,7 @@ def report(df, command: str, fig_rel: str) -> str:
         lines += ["Slowest planner's time per query (s, batched): " + ", ".join(f"{m} {tq[m]:.1f}" for m in maps), ""]
     lines += by_length(df[df.budget == "fixed"])
     lines += [f"![median gap against optimal length]({fig_rel})", ""]
+    lines += with_and_without(df[df.budget == "fixed"], LOCAL_FIGURE)
     return "\n".join(lines)
 
 
@@ -303,17 +326,160 @@ def by_length(part) -> list:
     among its map's scenarios (shortest … longest), with the MovingAI buckets those scenarios
     come from."""
     ranks = sorted(set(part["query"]))
+    order = {p: i for i, p in enumerate(ordered(part.planner))}
     head = ["planner"]
     for q in ranks:
         b = part[part["query"] == q].bucket
         head.append(f"{'shortest' if q == ranks[0] else 'longest' if q == ranks[-1] else f'query {q + 1}'} "
                     f"(buckets {b.min()}–{b.max()})")
     body = [[p] + [f"{quartiles(g[g['query'] == q].gap)}; {100 * g[g['query'] == q].success.mean():.0f}%" for q in ranks]
-            for p, g in part.groupby("planner", sort=False)]
+            for p, g in sorted(part.groupby("planner", sort=False), key=lambda pg: order[pg[0]])]
     return ["#### Fixed budget, all maps, by scenario length", "",
             "Each map's scenarios ranked by optimal length (a map's scenarios come from its scenario file's "
             "buckets: bucket k holds optimal lengths in [4k, 4k + 4)); median gap in % [quartiles]; success.", "",
             table(head, body), ""]
+
+
+LOCAL_FIGURE = "figures/movingai_suite_local_search.png"
+#: A failed run's gap in the paired test: worse than any run that found a path.
+FAILED = 1e6
+
+
+def pairs(part, suffix: str = "+shortcut"):
+    """``{planner with local search: DataFrame of (map, query, seed) -> gap without, gap with}`` for
+    every planner of ``part`` (one budget) whose label ends in ``suffix`` and whose label without it
+    is there too."""
+    import pandas as pd
+
+    out = {}
+    labels = set(part.planner)
+    for p in ordered(part.planner):
+        base = p.removesuffix(suffix)
+        if p.endswith(suffix) and base in labels:
+            key = ["map", "query", "seed"]
+            a = part[part.planner == base].set_index(key).gap.rename("without")
+            b = part[part.planner == p].set_index(key).gap.rename("with")
+            out[p] = pd.concat([a, b], axis=1, join="inner")
+    return out
+
+
+def paired_test(without, with_) -> dict:
+    """Does local search lower the gap? A one-sided Wilcoxon signed-rank test (``scipy.stats.wilcoxon``,
+    ``alternative="greater"`` on without − with) over paired runs; a failed run counts as worse than
+    any success (:data:`FAILED`); equal pairs (both optimal, both failed) carry no sign and are left
+    out, as Wilcoxon's test does. Returns the counts of better / equal / worse pairs, the statistic
+    and the p-value (1 when no pair differs)."""
+    from scipy.stats import wilcoxon
+
+    a = np.where(np.isfinite(without), without, FAILED)
+    b = np.where(np.isfinite(with_), with_, FAILED)
+    d = a - b
+    out = dict(better=int((d > 0).sum()), equal=int((d == 0).sum()), worse=int((d < 0).sum()), statistic=np.nan, p=1.0)
+    if (d != 0).any():
+        res = wilcoxon(d, alternative="greater", zero_method="wilcox")
+        out.update(statistic=float(res.statistic), p=float(res.pvalue))
+    return out
+
+
+def with_and_without(part, fig_rel: str) -> list:
+    """Lines of the section comparing each planner with local search to itself without (one budget):
+    gaps over all maps and over the three largest, success, and the paired test."""
+    both = pairs(part)
+    if not both:
+        return []
+    cells = part.drop_duplicates("map").set_index("map")["size"].map(lambda t: math.prod(int(x) for x in t.split("x")))
+    largest = list(cells.sort_values().index[-3:])
+
+    def row(label, g):
+        t = paired_test(g["without"].to_numpy(), g["with"].to_numpy())
+        big = g[g.index.get_level_values("map").isin(largest)]
+        return [label, quartiles(g["without"]), quartiles(g["with"]), quartiles(big["without"]), quartiles(big["with"]),
+                f"{100 * np.isfinite(g['without']).mean():.0f}%", f"{100 * np.isfinite(g['with']).mean():.0f}%",
+                f"{t['better']} / {t['equal']} / {t['worse']}", f"{t['p']:.2g}"]
+
+    body = [row(p.removesuffix("+shortcut"), g) for p, g in both.items()]
+    if len(both) > 1:
+        body.append(row("all planners (pooled)", pd_concat(both.values())))
+    return best_with_local_search(part) + [
+        "#### With and without local search (fixed budget)", "",
+        "Each planner against itself with the octile shortcut (`+shortcut`) on the same (map, query, seed) runs: "
+        f"median gap in % [quartiles] over all maps and over the three largest ({', '.join(largest)}), success over "
+        "all maps, how many runs are better / equal / worse with it, and the p-value of a one-sided Wilcoxon "
+        "signed-rank test that it lowers the gap (`scipy.stats.wilcoxon` over the pairs; a failed run counts as worse "
+        "than any success; equal pairs are left out, as in Wilcoxon's test).", "",
+        table(["planner", "gap without", "gap with", "gap without, 3 largest", "gap with, 3 largest", "success without",
+               "success with", "better / equal / worse", "p (one-sided)"], body), "",
+        f"![gap with local search against without]({fig_rel})", ""]
+
+
+def best_with_local_search(part, suffix: str = "+shortcut") -> list:
+    """Lines: the planner with local search that solves the most runs (then: the lowest mean of
+    its per-map median gaps), its success and median gap on every map, and its gaps on the
+    longest query of each map (one per seed)."""
+    mine = part[part.planner.str.endswith(suffix)]
+    if mine.empty:
+        return []
+
+    def rank(p):
+        g = mine[mine.planner == p]
+        med = g.groupby("map").gap.median()
+        return -float(np.isfinite(g.gap).mean()), float(np.mean(np.minimum(med, FAILED)))
+
+    best = min(dict.fromkeys(mine.planner), key=rank)
+    g = mine[mine.planner == best]
+    per_map = ", ".join(f"{m} {quartiles(x.gap).split(' ')[0]} % ({100 * x.success.mean():.0f}%)"
+                        for m, x in g.groupby("map", sort=False))
+    longest = []
+    for m, x in g.groupby("map", sort=False):
+        q = x[x.optimal == x.optimal.max()]
+        longest.append(f"{m} (optimum {q.optimal.iloc[0]:.1f}) " + " / ".join(
+            "failed" if not np.isfinite(v) else f"{decimals(100 * v, 1)} %" for v in q.sort_values("seed").gap))
+    return ["#### The best planner with local search", "",
+            f"**{best}** (the most runs solved, then the lowest mean of its per-map median gaps): solved "
+            f"{int(g.success.sum())} of {len(g)} runs. Median gap (success) per map: {per_map}.", "",
+            "Its gap on each map's longest query, one per seed: " + "; ".join(longest) + ".", ""]
+
+
+def pd_concat(frames):
+    import pandas as pd
+
+    return pd.concat(list(frames))
+
+
+def local_search_figure(part, path: Path):
+    """Every paired run's gap with local search against its gap without (one budget), one colour per map."""
+    import matplotlib
+
+    matplotlib.use("Agg")  # a script, not a notebook
+    import matplotlib.pyplot as plt
+
+    both = pairs(part)
+    if not both:
+        return
+    pooled = pd_concat(both.values()).reset_index()
+    finite = np.concatenate([g[np.isfinite(g)] for g in (pooled["without"], pooled["with"])])
+    top = 100 * max(float(finite.max()) if finite.size else 1.0, 1.0) * 2  # failed runs drawn on this line
+    fig, ax = plt.subplots(figsize=(7, 6))
+    colours = plt.get_cmap("tab20")(np.r_[0:20:2, 1:20:2])  # the dark shades first: eleven maps told apart
+    for i, (m, g) in enumerate(pooled.groupby("map", sort=False)):
+        x = np.where(np.isfinite(g["without"]), 100 * g["without"], top)
+        y = np.where(np.isfinite(g["with"]), 100 * g["with"], top)
+        ax.scatter(x, y, s=8, alpha=0.6, color=colours[i % 20], label=m)
+    ax.plot([0, top], [0, top], color="grey", lw=0.8)
+    ax.axhline(top, color="grey", lw=0.5, ls=":")
+    ax.axvline(top, color="grey", lw=0.5, ls=":")
+    ax.set_xscale("symlog", linthresh=1)
+    ax.set_yscale("symlog", linthresh=1)
+    ax.set_xlim(left=0)
+    ax.set_ylim(bottom=0)
+    ax.set_xlabel("gap without local search (%); failed runs on the dotted line")
+    ax.set_ylabel("gap with local search (%)")
+    ax.set_title("Every planner, map, query and seed: with the octile shortcut against without")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
 
 
 def figure(df, path: Path):
@@ -323,20 +489,22 @@ def figure(df, path: Path):
     import matplotlib.pyplot as plt
 
     part = df[df.budget == "fixed"]
-    fig, ax = plt.subplots(figsize=(12, 6))
-    colours = plt.get_cmap("tab20")(np.linspace(0, 1, 20))
-    for i, (p, g) in enumerate(part.groupby("planner", sort=False)):  # 20 colours × 2 line styles: no two planners drawn alike
+    fig, ax = plt.subplots(figsize=(12, 7))
+    colours = [*plt.get_cmap("tab20")(np.linspace(0, 1, 20)), *plt.get_cmap("tab20b")(np.linspace(0, 1, 20))]
+    bases = list(dict.fromkeys(p.removesuffix("+shortcut") for p in part.planner))
+    for p, g in part.groupby("planner", sort=False):  # a planner's colour, dashed with local search
+        i = bases.index(p.removesuffix("+shortcut"))
         pts = g.groupby("optimal").gap.median().sort_index()
         y = np.where(np.isfinite(pts.values), 100 * pts.values, np.nan)
-        ax.plot(pts.index, y, marker="o", ms=3, lw=1, color=colours[i % 20], ls="-" if i < 20 else "--",
-                label=textwrap.fill(p, 48))
+        ax.plot(pts.index, y, marker="o", ms=3, lw=1, color=colours[i % len(colours)],
+                ls="--" if p.endswith("+shortcut") else ("-" if i < len(colours) else ":"), label=textwrap.fill(p, 48))
     ax.set_xscale("log")
     ax.set_yscale("symlog", linthresh=1)
     ax.set_ylim(bottom=0)  # a gap is never negative
     ax.set_xlabel("optimal length of the scenario (cells)")
     ax.set_ylabel("median gap over seeds (%); gaps of failed runs left out")
-    ax.set_title("Gap to the optimum on the MovingAI maps, 50 ants × 100 iterations")
-    ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0)
+    ax.set_title("Gap to the optimum on the MovingAI maps, 50 ants × 100 iterations (dashed: with local search)")
+    ax.legend(fontsize=5, loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0, ncol=2 if len(bases) > 20 else 1)
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=110, format="png")
@@ -358,6 +526,7 @@ def main(argv=None):
     def publish(df, footer=""):
         """The figure and results.md's section from the table ``df``."""
         figure(df, out / "figures" / "movingai_suite_gap.png")
+        local_search_figure(df[df.budget == "fixed"], out / LOCAL_FIGURE)
         text = report(df, "`; `".join(dict.fromkeys(df.command)), "figures/movingai_suite_gap.png")
         write_section(out / "results.md", SECTION, text + footer + "\n", intro="# Results\n")
         return text

@@ -159,3 +159,24 @@ def test_movingai_suite_refuses_unknown_names_before_running(argv, message, tmp_
         movingai_suite.main(["--smoke", "--out", str(tmp_path), *argv])
     assert e.value.code == 2 and message in capsys.readouterr().err
     assert not list(tmp_path.iterdir())  # nothing written
+
+
+@pytest.mark.slow  # compiles one planner four ways and iaca twice
+def test_local_search_benchmark_smoke_writes_its_section(tmp_path):
+    sys.path.insert(0, str(ROOT / "experiments"))
+    try:
+        import bench_local_search
+    finally:
+        sys.path.remove(str(ROOT / "experiments"))
+    out = tmp_path / "BENCHMARKS.md"
+    assert bench_local_search.main(["--smoke", "--longest", "1", "--out", str(out)]) == 0
+    text = out.read_text()
+    assert "<!-- bench_local_search:start -->" in text and "Command: `python experiments/bench_local_search.py --smoke" in text
+    for heading in ("Which paths to search", "A solve with and without local search", "The default step limit",
+                    "Every map's longest scenarios"):
+        assert f"### {heading}" in text
+    searched = [line.split(" | ")[1] for line in text.splitlines() if line.startswith("| room-32-32-4 | ")][:4]
+    assert searched == ["none", "best 1", "best 5", "every ant"]
+    assert re.search(r"\*\*All queries: median [\d.]+ s without, [\d.]+ s with local search: [\d.]+×\.\*\*", text)
+    limits = [line.split(" | ")[1] for line in text.splitlines() if line.startswith("| iaca | ")]
+    assert limits == ["256 — 4·(H + W) (old default)", "512 — 8·(H + W) (new default, backtracking ants)"]

@@ -24,18 +24,21 @@ def _add_run_options(p, *, default_variant: str, steplimit: bool = True, several
     if several:  # a sweep may run several planners, a categorical axis of the table
         p.add_argument("--variant", action="append", metavar="V",
                        help=f"ACO variant, repeatable to sweep over planners (default {default_variant}; "
-                       f"one of: {_variant_names()}, or a composition 'compose(construct=..., rule=...)')")
+                       f"one of: {_variant_names()}, or a composition 'compose(construct=..., rule=...)'; "
+                       "'<name>+shortcut' adds local search)")
         p.set_defaults(default_variant=default_variant)
     else:
         p.add_argument("--variant", default=default_variant, metavar="V",
-                       help=f"ACO variant (default {default_variant}; one of: {_variant_names()})")
+                       help=f"ACO variant (default {default_variant}; one of: {_variant_names()}; "
+                       "'<name>+shortcut' adds local search)")
     p.add_argument("--ants", type=_pos_int, default=DEFAULT_ANTS, metavar="N",
                    help=f"ants per iteration (default {DEFAULT_ANTS})")
     p.add_argument("--iters", type=_pos_int, default=DEFAULT_ITERS, metavar="N",
                    help=f"iterations (default {DEFAULT_ITERS})")
     if steplimit:
         p.add_argument("--steplimit", type=_pos_int, default=None, metavar="N",
-                       help="most steps an ant may take (default 4*(H+W), at most the free cells)")
+                       help="most steps an ant may take (default 4*(H+W), at most the free cells; "
+                       "twice that for backtracking ants)")
 
 
 def _add_query_options(p) -> None:

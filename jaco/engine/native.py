@@ -23,7 +23,8 @@ from ..errors import JacoError
 
 CHOICES = ("auto", "native", "jax")
 _TARGETS = {"jaco_walk": "JacoWalk", "jaco_backtrack": "JacoBacktrack", "jaco_deposit": "JacoDeposit",
-            "jaco_uniforms": "JacoUniforms", "jaco_power": "JacoPower", "jaco_apf_next": "JacoApfNext"}
+            "jaco_uniforms": "JacoUniforms", "jaco_power": "JacoPower", "jaco_apf_next": "JacoApfNext",
+            "jaco_shortcut": "JacoShortcut"}
 _state: dict = {}
 
 
@@ -150,6 +151,14 @@ def apf_next(free, nbr, goal, offsets):
     _load()
     call = jax.ffi.ffi_call("jaco_apf_next", jax.ShapeDtypeStruct(free.shape, jnp.int32), vmap_method="broadcast_all")
     return call(free, nbr, goal, offsets, jnp.asarray(MOVES, jnp.int32))
+
+
+def shortcut(cells, bits, start, offsets, diagonal, move_of, *, window: int, passes: int):
+    """The kernel's octile shortcut; same arguments and result as
+    :func:`jaco.engine.local_search.jax_shortcut` (``cells (S, C)``, each column a path)."""
+    _load()
+    call = jax.ffi.ffi_call("jaco_shortcut", jax.ShapeDtypeStruct(cells.shape, jnp.int32), vmap_method="broadcast_all")
+    return call(cells, bits, start, offsets, diagonal, move_of, window=np.int64(window), passes=np.int64(passes))
 
 
 def power(x, a):

@@ -115,6 +115,8 @@ def make_run(variant, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromo
             trail, best, seen, steps = carry
             key_t, t = xs
             p, trail, col = construct(trail, t, key_t)
+            if variant.local_search is not None:  # the improved paths are deposited and become the best
+                col = variant.local_search(variant, problem, col, p)
             b = jnp.argmin(col.cost)
             better = col.cost[b] < best.cost
             candidate = _Best(col.cells[:, b], col.targets[:, b], col.step_len[:, b], col.cost[b], col.length[b], t)
@@ -203,9 +205,23 @@ def compiled_run(variant: Variant, n_ants: int, n_iters: int, steplimit: int, ke
     return cached(key + (("report",) if report and not batched else ()), build, variant)
 
 
-def default_steplimit(grid: Grid) -> int:
-    """Step limit when none is given: 4·(H + W), at most the number of free cells (a walk
-    with a tabu list can never be longer)."""
+def default_steplimit(grid: Grid, variant: Variant | None = None) -> int:
+    """Step limit when none is given: 4·(H + W), at most the number of free cells (a walk with a
+    tabu list can never be longer). Ants that step back at dead ends (a construct marked
+    ``back_steps``, IACA's) count their back-steps against the limit: they get twice that, at
+    most twice the free cells. A back-step undoes a forward step, so this gives them the forward
+    reach of the ants that die; and 2·(free cells) is the depth-first search's bound (every cell
+    entered once and left once), so on a map where it is the limit every backtracking ant reaches
+    a reachable goal (docs/compose.md, "The step limit")."""
+    free, extent = grid.n_free, 4 * (grid.height + grid.width)
+    if variant is not None and getattr(variant.construct, "back_steps", False):
+        free, extent = 2 * free, 2 * extent
+    return int(max(1, min(extent, free)))
+
+
+def legacy_steplimit(grid: Grid) -> int:
+    """The default step limit of records before format 3, for every planner: 4·(H + W), at most
+    the free cells (a sweep record stores ``steplimit: null`` when none was given)."""
     return int(max(1, min(4 * (grid.height + grid.width), grid.n_free)))
 
 
@@ -349,7 +365,7 @@ def prepare(grid: Grid, variant: Variant, *, seed, n_ants, n_iters, steplimit, p
     check_grid(grid)
     if keep_pheromone not in (False, True, "history"):
         raise JacoError(f"keep_pheromone must be False, True or 'history', got {keep_pheromone!r}")
-    steplimit = default_steplimit(grid) if steplimit is None else steplimit
+    steplimit = default_steplimit(grid, variant) if steplimit is None else steplimit
     check_sizes(n_ants, n_iters, steplimit)
     check_seed(seed)
     check_run_memory(grid.n_cells, n_ants, n_iters, steplimit, runs=runs, keep_pheromone=keep_pheromone)

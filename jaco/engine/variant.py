@@ -27,7 +27,9 @@ class Variant(NamedTuple):
     ``schedule(params, t, n_iters)`` gives the parameters of iteration t (branch-free);
     ``factor(variant, trail, problem, params, t, n_iters)`` is the log of a move's weight besides
     τ^α (by default β·log η of ``heuristic``); ``construct`` builds an iteration's candidate paths
-    (:mod:`jaco.engine.colony`: one colony of ants that die at dead ends by default)."""
+    (:mod:`jaco.engine.colony`: one colony of ants that die at dead ends by default);
+    ``local_search(variant, problem, colony, params)`` improves an iteration's candidates before the
+    pheromone update (:mod:`jaco.engine.local_search`; None: none, as every published planner)."""
 
     name: str
     source: str
@@ -42,6 +44,7 @@ class Variant(NamedTuple):
     cost: Callable = path_length
     construct: Callable = single_colony
     factor: Callable = eta_factor
+    local_search: Callable | None = None
 
     def default_params(self) -> Params:
         return Params(**dict(self.defaults))

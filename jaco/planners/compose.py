@@ -24,6 +24,8 @@ kind                  components
                       ``adaptive-q0`` (IAACO's q0 = δ0·exp(−½(Nc/Nmax)²), eqs. 6-7)
 ``schedule``          ``constant``, ``idaca`` (IDACA's α, β, ρ schedules, 3-8..3-10)
 ``cost``              ``length``, ``multi`` (J = kL·L + kS·S + kE·E)
+``local_search``      ``none`` (the default), ``shortcut`` (the octile shortcut of the iteration's
+                      best paths before the pheromone update, :mod:`jaco.engine.local_search`)
 ====================  ========================================================================
 
 Parameters and defaults come from the components: the rule owns α and its own (ρ, Q, τ0, …), the
@@ -33,7 +35,8 @@ needs it (``backtrack``, ``iaca``), else on moves. Combinations that cannot work
 :class:`~jaco.errors.JacoError` naming the reason.
 
 A composition is named by its components, ``compose(construct=backtrack, heuristic=iaaco,
-rule=mmas, transition=roulette, schedule=constant, cost=length)``; the registry resolves such a
+rule=mmas, transition=roulette, schedule=constant, cost=length)`` (a local search other than
+``none`` is appended: ``..., cost=length, local_search=shortcut)``); the registry resolves such a
 name (:func:`jaco.planners.registry.get_variant`), so records store and rerun compositions, and
 the same arguments give the same object (no recompiles). docs/compose.md has the table of which
 registered planner is which composition.
@@ -47,6 +50,7 @@ from typing import NamedTuple
 
 from ..engine import cost as costs
 from ..engine import heuristics
+from ..engine import local_search as ls
 from ..engine import pheromone as ph
 from ..engine import schedules as sch
 from ..engine.colony import eta_factor, single_colony
@@ -55,7 +59,7 @@ from ..errors import JacoError
 from ..potential import apf_distance, classic_distance
 from . import apf_guided, chaos, classic, double, iaaco, iaca, pg
 
-__all__ = ["compose", "parse", "default_transition", "COMPONENTS", "KINDS"]
+__all__ = ["compose", "parse", "default_transition", "COMPONENTS", "KINDS", "LOCAL_SEARCHES"]
 
 KINDS = ("construct", "heuristic", "rule", "transition", "schedule", "cost")
 
@@ -142,6 +146,19 @@ COMPONENTS: dict = {
     },
 }
 
+#: The local searches (``compose(..., local_search=...)``, ``"<planner>+<local search>"``): beyond the
+#: sources, none of them is part of a published planner. Each is a ``Variant.local_search`` with
+#: its static choices (:func:`jaco.engine.local_search.shortcut_search`; docs/compose.md says why these).
+LOCAL_SEARCHES: dict = {
+    "none": None,
+    "shortcut": ls.shortcut_search(window=ls.WINDOW, passes=ls.PASSES, best=ls.BEST),
+}
+#: Each local search's source, in a few words.
+LOCAL_SEARCH_SOURCES = {
+    "shortcut": f"octile shortcut of the {ls.BEST} best paths of each iteration, window {ls.WINDOW}, at most "
+                f"{ls.PASSES} passes, before the pheromone update (daemon action, Dorigo & Stützle 2004)",
+}
+
 #: Every registered planner as a composition: with the planner's own defaults
 #: (``jaco.VARIANTS[name].defaults``) the composition runs exactly the planner.
 REGISTERED = {
@@ -195,12 +212,12 @@ def default_transition(rule: str) -> str:
 
 
 def compose(construct: str = "dying", heuristic: str = "distance", rule: str = "as", transition: str | None = None,
-            schedule: str = "constant", cost: str = "length") -> Variant:
+            schedule: str = "constant", cost: str = "length", local_search: str = "none") -> Variant:
     """A planner made of one component of each kind (the module docstring lists them).
 
     ``transition=None`` takes the rule's own: ``q0`` for ``acs`` and ``iaca``, ``adaptive-q0`` for
-    ``iaaco``, else ``roulette``. The same arguments return the same object (so repeated runs
-    never recompile).
+    ``iaaco``, else ``roulette``. ``local_search``: ``"none"`` or one of :data:`LOCAL_SEARCHES`.
+    The same arguments return the same object (so repeated runs never recompile).
 
     >>> import jaco
     >>> v = jaco.compose(construct="backtrack", heuristic="iaaco", rule="mmas")
@@ -215,11 +232,21 @@ def compose(construct: str = "dying", heuristic: str = "distance", rule: str = "
     if transition is None:
         transition = default_transition(rule)
     c["transition"] = _check("transition", transition)
-    key = tuple(c[k] for k in KINDS)
+    if not isinstance(local_search, str) or local_search not in LOCAL_SEARCHES:
+        raise JacoError(f"unknown local_search {local_search!r}; local searches: {', '.join(LOCAL_SEARCHES)}")
+    key = tuple(c[k] for k in KINDS) + (local_search,)
     hit = _CACHE.get(key)
     if hit is None:
-        hit = _CACHE[key] = _build(c)
+        hit = _CACHE[key] = _build(c) if local_search == "none" else _searching(compose(**c), local_search)
     return hit
+
+
+def _searching(base: Variant, local_search: str) -> Variant:
+    """``base`` (a composition) with a local search: its name gets ``local_search=...``."""
+    source = f"{base.source}; local_search {local_search}: {LOCAL_SEARCH_SOURCES[local_search]}"
+    return base._replace(name=base.name[:-1] + f", local_search={local_search})", source=source,
+                         doc=f"{base.doc} Local search: {LOCAL_SEARCH_SOURCES[local_search]}.",
+                         local_search=LOCAL_SEARCHES[local_search])
 
 
 def _build(c: dict) -> Variant:
@@ -280,8 +307,9 @@ def parse(name: str) -> Variant | None:
     for part in filter(None, (p.strip() for p in m.group(1).split(","))):
         kind, _, value = part.partition("=")
         kind, value = kind.strip(), value.strip()
-        if kind not in KINDS or not value:
-            raise JacoError(f"cannot read {name!r}: expected compose(kind=value, ...) with kinds {', '.join(KINDS)}")
+        if kind not in KINDS + ("local_search",) or not value:
+            raise JacoError(f"cannot read {name!r}: expected compose(kind=value, ...) with kinds "
+                            f"{', '.join(KINDS)}, local_search")
         kw[kind] = value
     return compose(**kw)
 

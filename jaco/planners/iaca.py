@@ -348,6 +348,10 @@ def _backtrack(variant, problem, trail, params, key, factors, *, n_ants: int, st
     return trail._replace(tau=tau), colony
 
 
+# Back-steps count against the step limit: these ants get twice the default (jaco.engine.run.default_steplimit).
+iaca_colony.back_steps = backtrack_colony.back_steps = True
+
+
 IACA_PARAMS = (
     "alpha", "beta", "rho", "q", "sigma", "q0", "tau_min", "tau_max", "k_init", "rho_local",
     "q1", "q2", "q3", "rho1", "rho2", "q_step",

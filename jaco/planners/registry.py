@@ -17,10 +17,10 @@ from .classic import ACS, AS, AS_DENSITY, AS_QUANTITY, EAS, MMAS, RAS  # docs/al
 from .double import DACA, IDACA  # thesis chapter 3
 from .iaaco import IAACO, IAACO_PRINTED  # IAACO (Miao et al. 2021)
 from .iaca import IACA  # thesis chapter 4
-from .compose import parse
+from .compose import LOCAL_SEARCHES, parse
 from .pg import PG_ACO  # policy-gradient ACO (Meuleau & Dorigo 2002)
 
-__all__ = ["VARIANTS", "get_variant", "register", "with_cost"]
+__all__ = ["VARIANTS", "get_variant", "register", "with_cost", "with_local_search"]
 
 VARIANTS: dict[str, Variant] = {
     v.name: v
@@ -35,8 +35,9 @@ VARIANTS: dict[str, Variant] = {
 
 def get_variant(variant) -> Variant:
     """A :class:`Variant` as it is, or one by name: a registered planner, a composition's name
-    (``compose(construct=..., ...)``, :func:`jaco.planners.compose.compose`), or a registered
-    planner with another cost (``"acs+multi"``, :func:`with_cost`)."""
+    (``compose(construct=..., ...)``, :func:`jaco.planners.compose.compose`), or either with
+    another cost (``"acs+multi"``, :func:`with_cost`) or a local search (``"iaca+shortcut"``,
+    :func:`with_local_search`)."""
     if isinstance(variant, Variant):
         return variant
     if isinstance(variant, str):
@@ -45,15 +46,21 @@ def get_variant(variant) -> Variant:
         composed = parse(variant)
         if composed is not None:
             return composed
-        base, _, cost = variant.rpartition("+")
-        if base in VARIANTS and cost in COSTS:
-            return with_cost(base, cost)
+        base, _, suffix = variant.rpartition("+")
+        if base and (suffix in COSTS or (suffix in LOCAL_SEARCHES and suffix != "none")):
+            try:
+                found = get_variant(base)
+            except JacoError:
+                found = None
+            if found is not None:
+                return with_cost(found, suffix) if suffix in COSTS else with_local_search(found, suffix)
     if not isinstance(variant, str):
         several = " (several planners are a sweep axis: jaco.sweep(..., variant=[...]))" if isinstance(variant, (list, tuple)) else ""
         raise JacoError(f"variant must be a planner name (str) or a Variant, got {type(variant).__name__} {variant!r}{several}")
     raise JacoError(
         f"unknown variant {variant!r}; registered: {', '.join(sorted(VARIANTS))} "
-        "(or a composition: compose(construct=..., heuristic=..., rule=...))"
+        "(or a composition: compose(construct=..., heuristic=..., rule=...); a suffix adds a cost or a local "
+        f"search: +{', +'.join(sorted(COSTS))}, +{', +'.join(k for k in LOCAL_SEARCHES if k != 'none')})"
     )
 
 
@@ -101,3 +108,47 @@ def with_cost(variant, cost: str = "multi") -> Variant:
         hit = (base, new)  # keep the base alive so its id is not reused
         _WITH_COST[key] = hit
     return hit[1]
+
+
+_WITH_SEARCH: dict = {}
+
+
+def with_local_search(variant, local_search: str = "shortcut") -> Variant:
+    """``variant`` (a name or a :class:`Variant`) with a local search of the compose vocabulary
+    (:data:`jaco.planners.compose.LOCAL_SEARCHES`, :mod:`jaco.engine.local_search`), named
+    ``"<name>+<local search>"``; a composition gets its own name's ``local_search=...`` instead
+    (``compose(..., local_search="shortcut")``). ``"none"`` gives the variant without one.
+
+    Cached: the same arguments return the same object, so repeated runs never recompile.
+
+    >>> import jaco
+    >>> v = jaco.planners.registry.with_local_search("iaca")
+    >>> v.name, v is jaco.planners.registry.get_variant("iaca+shortcut"), jaco.VARIANTS["iaca"].local_search is None
+    ('iaca+shortcut', True, True)
+    """
+    from .compose import LOCAL_SEARCH_SOURCES, compose
+
+    if not isinstance(local_search, str) or local_search not in LOCAL_SEARCHES:
+        raise JacoError(f"unknown local search {local_search!r}; valid: {', '.join(LOCAL_SEARCHES)}")
+    base = get_variant(variant)
+    key = (id(base), local_search)
+    hit = _WITH_SEARCH.get(key)
+    if hit is None:
+        if parse(base.name) is base:  # a composition: the local search is one of its components
+            new = compose(**{**_composition_kwargs(base.name), "local_search": local_search})
+        elif base.local_search is not None:
+            raise JacoError(f"{base.name!r} has a local search already; add one to the planner without it")
+        elif local_search == "none":
+            new = base
+        else:
+            new = base._replace(name=f"{base.name}+{local_search}", local_search=LOCAL_SEARCHES[local_search],
+                                source=f"{base.source}; {LOCAL_SEARCH_SOURCES[local_search]}",
+                                doc=f"{base.doc} Local search: {LOCAL_SEARCH_SOURCES[local_search]}.")
+        hit = (base, new)  # keep the base alive so its id is not reused
+        _WITH_SEARCH[key] = hit
+    return hit[1]
+
+
+def _composition_kwargs(name: str) -> dict:
+    inner = name.strip()[len("compose("):-1]
+    return dict((k.strip(), v.strip()) for k, _, v in (p.partition("=") for p in inner.split(",") if p.strip()))

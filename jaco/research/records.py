@@ -341,11 +341,16 @@ class SweepRecord:
     table_text: str
     versions: dict
     warnings: list = field(default_factory=list)
+    format_version: int = FORMAT_VERSION
 
     def sweep_kwargs(self) -> dict:
         kw = dict(self.call)
         kw["grid"] = self.grids
         kw["start"], kw["goal"] = _uncells(kw["start"]), _uncells(kw["goal"])
+        if kw.get("steplimit") is None and self.format_version < 3:  # the default of the jaco that wrote it
+            from ..engine.run import legacy_steplimit
+
+            kw["steplimit"] = legacy_steplimit(self.grids if isinstance(self.grids, Grid) else self.grids[0])
         if isinstance(kw.get("params"), dict) and "design" in kw["params"]:  # explicit rows (a Design)
             from .designs import table
 
@@ -424,7 +429,8 @@ def load_run(path):
             from .tables import read_table
 
             table = read_table(text)
-            return SweepRecord(path, doc["call"], grids, table, text, recorded, notes + map_notes)
+            return SweepRecord(path, doc["call"], grids, table, text, recorded, notes + map_notes,
+                               doc.get("format_version", 0))
     except (KeyError, TypeError, ValueError) as e:
         raise RecordError(f"{path.name}: incomplete record ({type(e).__name__}: {e})") from None
     raise RecordError(f"{path.name}: unknown record kind {doc.get('kind')!r} (expected 'run' or 'sweep')")

@@ -323,7 +323,7 @@ def prepare_queries(grid, start, goal, *, n_ants, n_iters, steplimit, connectivi
     shapes = {g.shape for g, _, _ in queries}
     if len(shapes) != 1:
         raise JacoError(f"all maps of a sweep must have one shape, got {sorted(shapes)}")
-    steplimit = default_steplimit(queries[0][0]) if steplimit is None else steplimit
+    steplimit = default_steplimit(queries[0][0], variant) if steplimit is None else steplimit
     check_sizes(n_ants, n_iters, steplimit)
     # one configuration of every query must fit: the chunks are cut under memory_budget from there
     check_run_memory(queries[0][0].n_cells, n_ants, n_iters, steplimit, runs=len(queries), what="a sweep chunk")

@@ -282,7 +282,7 @@ def tune(
     variant = get_variant(variant)
     names = _names(variant, tune)
     check_grid(grid)
-    steplimit = default_steplimit(grid) if steplimit is None else steplimit
+    steplimit = default_steplimit(grid, variant) if steplimit is None else steplimit
     check_sizes(n_ants, n_iters, steplimit)
     steps = _positive_int("steps", steps)
     population = _positive_int("population", population, even=True)
