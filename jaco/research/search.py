@@ -21,8 +21,8 @@ relative gap to the exact optimum; ``"length"`` the mean path length; ``"turns"`
 heading changes of the best path; ``"success"`` the success rate (maximised); ``"budget"`` ants ×
 iterations (with the sizes in the space: the cost of a configuration). A failed run counts as a
 *penalty*, never NaN: by default the worst value a successful run could have — the length of a
-path of ``steplimit`` diagonal steps, √2·steplimit, its gap, and ``steplimit`` turns — so a failure
-is never better than a success; ``penalty=`` sets it (a number, or a dict by objective). With
+path of ``steplimit`` diagonal steps, √2·steplimit, its gap, and ``steplimit`` turns (the largest
+step limit of the planners searched) — so a failure is never better than a success; ``penalty=`` sets it (a number, or a dict by objective). With
 several objectives the study's ``best_trials`` is the Pareto front.
 
 **Multi-fidelity** (``fidelity=Halving(...)``): successive halving over the iteration budget
@@ -284,16 +284,17 @@ class Evaluator:
         from .sweeps import AXIS, _devices
 
         self.space, self.queries, self.seeds = space, queries, np.asarray(seeds, np.uint32)
-        self.steplimit, self.objectives, self.batch, self.budget = steplimit, objectives, batch, budget
+        self.steplimit, self.objectives, self.batch, self.budget = steplimit, objectives, batch, budget  # by planner
         self.paths = "turns" in objectives
         self.mesh = Mesh(np.array(_devices(devices)), (AXIS,))
         self.runners: dict = {}
         cell = np.array([g.cell_size for g, _, _ in queries.queries])
         self.optimal = np.array([float(p.optimal) for p in queries.problems]) * cell
         self.cell = cell
-        worst = math.sqrt(2.0) * steplimit * cell  # a path of steplimit diagonal steps
+        longest = max(steplimit.values())  # one penalty for every planner: a failure is worse than any success
+        worst = math.sqrt(2.0) * longest * cell  # a path of steplimit diagonal steps
         with np.errstate(divide="ignore", invalid="ignore"):
-            default = {"length": worst, "turns": np.full(len(cell), float(steplimit)),
+            default = {"length": worst, "turns": np.full(len(cell), float(longest)),
                        "gap": np.where(self.optimal > 0, (worst - self.optimal) / np.where(self.optimal > 0, self.optimal, 1), 0.0)}
         self.penalty = {n: (default[n] if v is None else np.full(len(cell), v)) for n, v in penalties.items()}
         self.compiles = 0
@@ -308,7 +309,7 @@ class Evaluator:
                 self.compiles += 1
 
             self.runners[key] = Runner(self.space.planners[planner], self.queries, n_ants=n_ants, n_iters=n_iters,
-                                       steplimit=self.steplimit, mesh=self.mesh, rows=width, budget=self.budget,
+                                       steplimit=self.steplimit[planner], mesh=self.mesh, rows=width, budget=self.budget,
                                        on_compile=compiling, paths=self.paths)
         return self.runners[key]
 
@@ -459,8 +460,16 @@ def search(
     sizes = {k: space.fixed.get(k, v) for k, v in (("n_ants", n_ants), ("n_iters", n_iters))}
     largest = {k: int(max(space.dims[k].choices) if hasattr(space.dims.get(k), "choices") else space.dims[k].high)
                if k in space.dims else sizes[k] for k in SIZES}
-    queries, steplimit = prepare_queries(grid, start, goal, n_ants=largest["n_ants"], n_iters=largest["n_iters"],
-                                         steplimit=steplimit, connectivity=connectivity)
+    from ..engine.run import check_run_memory, check_sizes, default_steplimit
+
+    queries, _ = prepare_queries(grid, start, goal, n_ants=largest["n_ants"], n_iters=largest["n_iters"],
+                                 steplimit=steplimit, connectivity=connectivity)
+    # each planner's own default step limit (backtracking ants get twice the dying ants'), or the one given
+    steplimit = {name: default_steplimit(queries.grid, v) if steplimit is None else steplimit
+                 for name, v in space.planners.items()}
+    check_sizes(largest["n_ants"], largest["n_iters"], max(steplimit.values()))
+    check_run_memory(queries.grid.n_cells, largest["n_ants"], largest["n_iters"], max(steplimit.values()),
+                     runs=len(queries.queries), what="a search chunk")
     seed_list = _seeds(seeds)
     budget = check_budget(memory_budget)
     storage_obj, lock_path, storage_text = _storage(storage)
@@ -503,7 +512,7 @@ def search(
         finally:
             bar.close()
         timings = dict(run.timings, wall_s=time.perf_counter() - t0, compiles=evaluator.compiles)
-    if isinstance(storage_obj, str):  # read back through plain connections (SQLite: out of WAL mode again)
+    if isinstance(storage_obj, str) and storage_obj != "journal":  # read back through plain connections (SQLite: no WAL)
         with _quiet():
             study = optuna.load_study(study_name=study.study_name, storage=storage_obj)
     return Study(study, timings=timings)
@@ -533,7 +542,7 @@ def _study_info(space, objectives, penalties, queries, seeds, sizes, steplimit, 
         "seeds": [int(s) for s in seeds],
         "n_ants": sizes["n_ants"] if "n_ants" not in space.dims else None,
         "n_iters": sizes["n_iters"] if "n_iters" not in space.dims else None,
-        "steplimit": int(steplimit),
+        "steplimit": {k: int(v) for k, v in steplimit.items()},  # by planner
         "connectivity": int(connectivity),
         "sampler": sampler,
         "sampler_seed": int(seed),
@@ -931,7 +940,7 @@ class TrialRecord:
         diffs, n_runs = [], 0
         for n_iters, runs in sorted(a["runs"].items(), key=lambda kv: int(kv[0])):
             new = sweep(grids, starts, goals, a["planner"], table({k: [v] for k, v in a["params"].items()}),
-                        info["seeds"], n_ants=int(a["n_ants"]), n_iters=int(n_iters), steplimit=info["steplimit"],
+                        info["seeds"], n_ants=int(a["n_ants"]), n_iters=int(n_iters), steplimit=info["steplimit"][a["planner"]],
                         connectivity=info["connectivity"], progress=False)
             n_q, n_s = len(info["queries"]), len(info["seeds"])
             got = {"success": new["success"].to_numpy().reshape(n_q, n_s),

@@ -316,9 +316,10 @@ class Queries(NamedTuple):
         return self.queries[0][0]
 
 
-def prepare_queries(grid, start, goal, *, n_ants, n_iters, steplimit, connectivity) -> tuple[Queries, int]:
+def prepare_queries(grid, start, goal, *, n_ants, n_iters, steplimit, connectivity, variant=None) -> tuple[Queries, int]:
     """Validate the maps, queries and sizes (before anything compiles) and build the problems;
-    returns them and the step limit (the map's default when ``steplimit`` is None)."""
+    returns them and the step limit (when ``steplimit`` is None, the map's default for ``variant``:
+    :func:`jaco.engine.run.default_steplimit`)."""
     queries = _queries(grid, start, goal)
     shapes = {g.shape for g, _, _ in queries}
     if len(shapes) != 1:
@@ -398,7 +399,7 @@ def _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit
     """Validate everything (before compiling), then plan the chunks and compile the program."""
     variant = get_variant(variant)
     qs, steplimit = prepare_queries(grid, start, goal, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,
-                                    connectivity=connectivity)
+                                    connectivity=connectivity, variant=variant)
     seed_list = _seeds(seeds)
     budget = check_budget(memory_budget)
     if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1):
