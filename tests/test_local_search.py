@@ -311,14 +311,24 @@ def test_the_shell_takes_a_planner_with_local_search(capsys):
 
 
 # -- the default step limit ----------------------------------------------------------------------
-def test_backtracking_ants_get_twice_the_default_step_limit():
-    grid = jaco.maps.load(jaco.maps.bundled("lak303d.map"))
-    assert default_steplimit(grid) == legacy_steplimit(grid) == 4 * (194 + 194)
+def test_backtracking_ants_get_twice_the_default_step_limit_stretched_on_mazes():
+    """Dying ants: 4·(H + W) at most the free cells. Backtracking ants: 8·max(H + W, the free
+    cells' extent) at most twice the free cells; on a snake-shaped corridor the extent is its
+    length, exactly."""
+    berlin = jaco.maps.load(jaco.maps.bundled("Berlin_1_256.map"))
+    assert jaco.exact.free_extent(berlin) < 512
+    assert default_steplimit(berlin) == legacy_steplimit(berlin) == 4 * 512
     for name in ("iaca", "iaca+shortcut", jaco.compose(construct="backtrack", rule="mmas").name):
-        assert default_steplimit(grid, get_variant(name)) == 8 * (194 + 194)
-    assert default_steplimit(grid, get_variant("acs")) == default_steplimit(grid, get_variant("idaca")) == 4 * 388
+        assert default_steplimit(berlin, get_variant(name)) == 8 * 512
+    assert default_steplimit(berlin, get_variant("acs")) == default_steplimit(berlin, get_variant("idaca")) == 4 * 512
+    maze = jaco.maps.load(jaco.maps.bundled("maze-128-128-1.map"))
+    assert jaco.exact.free_extent(maze) == 1208  # a perfect maze: the double sweep is exact, 4.7 × (H + W)
+    assert default_steplimit(maze) == 1024 and default_steplimit(maze, get_variant("iaca")) == 8 * 1208
+    snake = jaco.Grid.from_rows(["#....", "#.##.", "#..#.", "##.#.", "...#."])  # one corridor, 14 steps end to end
+    assert jaco.exact.free_extent(snake) == 14 and default_steplimit(snake, get_variant("iaca")) == 2 * snake.n_free
     tiny = jaco.Grid.from_rows(["..", ".."])
     assert default_steplimit(tiny) == 4 and default_steplimit(tiny, get_variant("iaca")) == 8
+    assert jaco.exact.free_extent(jaco.Grid.from_rows(["#.#"])) == 0
 
 
 def test_a_sweep_record_without_a_step_limit_reruns_with_the_default_of_its_format(tmp_path):
