@@ -269,6 +269,12 @@ def gap_rank(gaps) -> tuple:
     return float(np.median(g)), -float(ok.mean()), float(g[ok].mean()) if ok.any() else np.inf
 
 
+def by_size(part) -> list:
+    """The maps of ``part``, smallest first (by cells, then name)."""
+    sizes = part.drop_duplicates("map").set_index("map")["size"]
+    return sorted(sizes.index, key=lambda m: (math.prod(int(x) for x in sizes[m].split("x")), m))
+
+
 def ordered(labels, suffix: str = "+shortcut") -> list:
     """The planners in the order they first appear, each with local search right after itself."""
     labels = list(dict.fromkeys(labels))
@@ -302,7 +308,7 @@ def report(df, command: str, fig_rel: str) -> str:
         name, _, steps = budget.partition(", ")
         steps = f"; {steps} (at most the free cells)" if steps else ""
         lines += [f"### {name.capitalize()} budget: {ants} ants × {iters} iterations{steps}", ""]
-        maps = list(dict.fromkeys(part["map"]))
+        maps = by_size(part)
         plist = ordered(part.planner)
         head = ["planner"] + [f"{m} ({part[part['map'] == m]['size'].iloc[0]})" for m in maps]
         body = []
@@ -387,8 +393,7 @@ def with_and_without(part, fig_rel: str) -> list:
     both = pairs(part)
     if not both:
         return []
-    cells = part.drop_duplicates("map").set_index("map")["size"].map(lambda t: math.prod(int(x) for x in t.split("x")))
-    largest = list(cells.sort_values().index[-3:])
+    largest = by_size(part)[-3:]
 
     def row(label, g):
         t = paired_test(g["without"].to_numpy(), g["with"].to_numpy())
@@ -423,19 +428,22 @@ def best_with_local_search(part, suffix: str = "+shortcut") -> list:
     def rank(p):
         g = mine[mine.planner == p]
         med = g.groupby("map").gap.median()
-        return -float(np.isfinite(g.gap).mean()), float(np.mean(np.minimum(med, FAILED)))
+        ok = np.isfinite(g.gap)
+        return -float(ok.mean()), float(np.mean(np.minimum(med, FAILED))), float(g.gap[ok].mean()) if ok.any() else np.inf
 
     best = min(dict.fromkeys(mine.planner), key=rank)
     g = mine[mine.planner == best]
-    per_map = ", ".join(f"{m} {quartiles(x.gap).split(' ')[0]} % ({100 * x.success.mean():.0f}%)"
-                        for m, x in g.groupby("map", sort=False))
+    maps = by_size(g)
+    per_map = ", ".join(f"{m} {quartiles(g[g['map'] == m].gap).split(' ')[0]} % ({100 * g[g['map'] == m].success.mean():.0f}%)"
+                        for m in maps)
     longest = []
-    for m, x in g.groupby("map", sort=False):
+    for m, x in ((m, g[g["map"] == m]) for m in maps):
         q = x[x.optimal == x.optimal.max()]
         longest.append(f"{m} (optimum {q.optimal.iloc[0]:.1f}) " + " / ".join(
             "failed" if not np.isfinite(v) else f"{decimals(100 * v, 1)} %" for v in q.sort_values("seed").gap))
     return ["#### The best planner with local search", "",
-            f"**{best}** (the most runs solved, then the lowest mean of its per-map median gaps): solved "
+            f"**{best}** (the most runs solved, then the lowest mean of its per-map median gaps, then the lowest "
+            "mean gap): solved "
             f"{int(g.success.sum())} of {len(g)} runs. Median gap (success) per map: {per_map}.", "",
             "Its gap on each map's longest query, one per seed: " + "; ".join(longest) + ".", ""]
 
@@ -461,7 +469,8 @@ def local_search_figure(part, path: Path):
     top = 100 * max(float(finite.max()) if finite.size else 1.0, 1.0) * 2  # failed runs drawn on this line
     fig, ax = plt.subplots(figsize=(7, 6))
     colours = plt.get_cmap("tab20")(np.r_[0:20:2, 1:20:2])  # the dark shades first: eleven maps told apart
-    for i, (m, g) in enumerate(pooled.groupby("map", sort=False)):
+    for i, m in enumerate(by_size(part)):
+        g = pooled[pooled["map"] == m]
         x = np.where(np.isfinite(g["without"]), 100 * g["without"], top)
         y = np.where(np.isfinite(g["with"]), 100 * g["with"], top)
         ax.scatter(x, y, s=8, alpha=0.6, color=colours[i % 20], label=m)
@@ -474,7 +483,7 @@ def local_search_figure(part, path: Path):
     ax.set_ylim(bottom=0)
     ax.set_xlabel("gap without local search (%); failed runs on the dotted line")
     ax.set_ylabel("gap with local search (%)")
-    ax.set_title("Every planner, map, query and seed: with the octile shortcut against without")
+    ax.set_title("Every run (planner, map, query, seed):\nthe gap with the octile shortcut against without", fontsize=10)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0)
     fig.tight_layout()
     with atomic_path(path) as tmp:
@@ -492,7 +501,8 @@ def figure(df, path: Path):
     fig, ax = plt.subplots(figsize=(12, 7))
     colours = [*plt.get_cmap("tab20")(np.linspace(0, 1, 20)), *plt.get_cmap("tab20b")(np.linspace(0, 1, 20))]
     bases = list(dict.fromkeys(p.removesuffix("+shortcut") for p in part.planner))
-    for p, g in part.groupby("planner", sort=False):  # a planner's colour, dashed with local search
+    groups = dict(tuple(part.groupby("planner", sort=False)))
+    for p, g in ((p, groups[p]) for p in ordered(part.planner)):  # a planner's colour, dashed with local search
         i = bases.index(p.removesuffix("+shortcut"))
         pts = g.groupby("optimal").gap.median().sort_index()
         y = np.where(np.isfinite(pts.values), 100 * pts.values, np.nan)

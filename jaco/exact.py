@@ -43,6 +43,29 @@ def distance_field(grid: Grid, goal, *, connectivity: int = 8) -> np.ndarray:
     return dist.reshape(grid.shape)
 
 
+def free_extent(grid: Grid, connectivity: int = 8) -> float:
+    """How far apart free cells lie along the free cells: the longest shortest path a double sweep
+    of the exact search finds, from a cell of the largest connected region to its farthest cell,
+    then from that one to its farthest. A lower bound of the map's geodesic diameter (at least half
+    of it, exact on a tree such as a perfect maze); a property of the map, not of any query; 0 with
+    fewer than two free cells. Cached on the grid."""
+    key = f"_extent{connectivity}"
+    if key not in grid.meta:
+        graph = _graph(grid, connectivity)
+        cells = np.flatnonzero(grid.free.ravel())
+        extent = 0.0
+        if len(cells) > 1:
+            _, labels = connected_components(graph, directed=False)  # each blocked cell is a region of its own
+            region = np.bincount(labels[cells]).argmax()
+            far = cells[labels[cells] == region][0]
+            for _ in range(2):
+                d = dijkstra(graph, directed=True, indices=far)
+                far = int(np.argmax(np.where(np.isfinite(d), d, -1.0)))
+            extent = float(d[far])
+        grid.meta[key] = extent
+    return grid.meta[key]
+
+
 def shortest_path(grid: Grid, start, goal, *, connectivity: int = 8):
     """Exact shortest path: ``(length, path)`` with ``path`` a ``(K, 2)`` array of ``(row, col)``.
 

@@ -200,7 +200,7 @@ def test_quality_on_random_maps_median_gap_within_3_percent():
     names = ["random-30-05", "random-30-10", "random-30-30", "random-30-50"]
     grids = [jaco.maps.named(n) for n in names]
     starts, goals = [g.meta["start"] for g in grids], [g.meta["goal"] for g in grids]
-    # the step limit of the table (then the default, 4·(H + W); backtracking ants now get twice it)
+    # the step limit of the table (then the default, 4·(H + W); backtracking ants now get more)
     table = jaco.sweep(grids, starts, goals, IACA, seeds=range(6), n_ants=50, n_iters=100, steplimit=240)
     assert table.success.all()
     assert (table.groupby("map").gap.median() <= 0.03).all()

@@ -311,19 +311,30 @@ def test_the_shell_takes_a_planner_with_local_search(capsys):
 
 
 # -- the default step limit ----------------------------------------------------------------------
-def test_backtracking_ants_get_twice_the_default_step_limit():
-    grid = jaco.maps.load(jaco.maps.bundled("lak303d.map"))
-    assert default_steplimit(grid) == legacy_steplimit(grid) == 4 * (194 + 194)
+def test_backtracking_ants_get_twice_the_default_step_limit_stretched_on_mazes():
+    """Dying ants: 4·(H + W) at most the free cells. Backtracking ants: 8·max(H + W, the free
+    cells' extent) at most twice the free cells; on a snake-shaped corridor the extent is its
+    length, exactly."""
+    berlin = jaco.maps.load(jaco.maps.bundled("Berlin_1_256.map"))
+    assert jaco.exact.free_extent(berlin) < 512
+    assert default_steplimit(berlin) == legacy_steplimit(berlin) == 4 * 512
     for name in ("iaca", "iaca+shortcut", jaco.compose(construct="backtrack", rule="mmas").name):
-        assert default_steplimit(grid, get_variant(name)) == 8 * (194 + 194)
-    assert default_steplimit(grid, get_variant("acs")) == default_steplimit(grid, get_variant("idaca")) == 4 * 388
+        assert default_steplimit(berlin, get_variant(name)) == 8 * 512
+    assert default_steplimit(berlin, get_variant("acs")) == default_steplimit(berlin, get_variant("idaca")) == 4 * 512
+    maze = jaco.maps.load(jaco.maps.bundled("maze-128-128-1.map"))
+    assert jaco.exact.free_extent(maze) == 1208  # a perfect maze: the double sweep is exact, 4.7 × (H + W)
+    assert default_steplimit(maze) == 1024 and default_steplimit(maze, get_variant("iaca")) == 8 * 1208
+    snake = jaco.Grid.from_rows(["#....", "#.##.", "#..#.", "##.#.", "...#."])  # one corridor, 14 steps end to end
+    assert jaco.exact.free_extent(snake) == 14 and default_steplimit(snake, get_variant("iaca")) == 2 * snake.n_free
     tiny = jaco.Grid.from_rows(["..", ".."])
     assert default_steplimit(tiny) == 4 and default_steplimit(tiny, get_variant("iaca")) == 8
+    assert jaco.exact.free_extent(jaco.Grid.from_rows(["#.#"])) == 0
 
 
-def test_a_sweep_record_without_a_step_limit_reruns_with_the_default_of_its_format(tmp_path):
+def test_a_sweep_record_without_a_step_limit_reruns_with_the_default_of_its_format(tmp_path, monkeypatch):
     """A sweep record stores ``steplimit: null`` for the default. One written before format 3
-    meant the old default for every planner, and reruns with it bit for bit."""
+    meant the old default for every planner, one of format 3 twice that for backtracking ants, and
+    each reruns with its own bit for bit."""
     grid = jaco.maps.named("utrap-20")
     ends = grid.meta["start"], grid.meta["goal"]
     old, new = legacy_steplimit(grid), default_steplimit(grid, get_variant("iaca"))
@@ -332,12 +343,34 @@ def test_a_sweep_record_without_a_step_limit_reruns_with_the_default_of_its_form
     then = jaco.sweep(grid, *ends, "iaca", steplimit=old, **kw)
     now = jaco.sweep(grid, *ends, "iaca", **kw)
     assert not then.equals(now)  # the limit matters on this map
+    assert then.attrs["sweep"]["steplimit"] == old and now.attrs["sweep"]["steplimit"] == new
     sidecar = save_sweep(then, tmp_path / "old.csv", grid, *ends, "iaca", **kw)
     doc = json.loads(sidecar.read_text())
-    assert doc["call"]["steplimit"] is None and doc["format_version"] == 3
-    assert not load_run(sidecar).rerun().matched  # read as format 3: today's default
+    assert doc["call"]["steplimit"] is None and doc["format_version"] == 4
+    assert not load_run(sidecar).rerun().matched  # read as format 4: today's default
     doc["format_version"] = 2
     sidecar.write_text(json.dumps(doc))
     check = load_run(sidecar).rerun()
     assert check.matched, check.summary()
     pd.testing.assert_frame_equal(check.result, then)
+    # Format 3: twice the old default for backtracking ants, 8·(H + W) before the free cells' extent
+    # counted; on a maze the two differ, and a list of planners reruns each with its own.
+    maze = jaco.maps.load(jaco.maps.bundled("maze-128-128-1.map"))
+    three = legacy_steplimit(maze, get_variant("iaca"), 3)
+    assert (three, legacy_steplimit(maze, get_variant("acs"), 3)) == (8 * 256, 4 * 256)
+    assert three < default_steplimit(maze, get_variant("iaca"))
+    doc.update(format_version=3, call={**doc["call"], "variant": ["iaca", "acs"]})
+    sidecar.write_text(json.dumps(doc))
+    rec = load_run(sidecar)
+    rec.grids = maze
+    seen = []
+
+    def spy(**k):  # the sweep each planner would run, without running it
+        seen.append((get_variant(k["variant"]).name, k["steplimit"]))
+        table = then.iloc[:0].copy()
+        table.attrs["sweep"] = {}
+        return table
+
+    monkeypatch.setattr(jaco.research.sweeps, "sweep", spy)
+    assert not rec.rerun(warn=False).matched
+    assert seen == [("iaca", three), ("acs", 4 * 256)]

@@ -38,7 +38,7 @@ def _add_run_options(p, *, default_variant: str, steplimit: bool = True, several
     if steplimit:
         p.add_argument("--steplimit", type=_pos_int, default=None, metavar="N",
                        help="most steps an ant may take (default 4*(H+W), at most the free cells; "
-                       "twice that for backtracking ants)")
+                       "for backtracking ants 8*max(H+W, the free cells' extent), at most twice the free cells)")
 
 
 def _add_query_options(p) -> None:

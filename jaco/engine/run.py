@@ -208,21 +208,33 @@ def compiled_run(variant: Variant, n_ants: int, n_iters: int, steplimit: int, ke
 def default_steplimit(grid: Grid, variant: Variant | None = None) -> int:
     """Step limit when none is given: 4·(H + W), at most the number of free cells (a walk with a
     tabu list can never be longer). Ants that step back at dead ends (a construct marked
-    ``back_steps``, IACA's) count their back-steps against the limit: they get twice that, at
-    most twice the free cells. A back-step undoes a forward step, so this gives them the forward
-    reach of the ants that die; and 2·(free cells) is the depth-first search's bound (every cell
-    entered once and left once), so on a map where it is the limit every backtracking ant reaches
-    a reachable goal (docs/compose.md, "The step limit")."""
-    free, extent = grid.n_free, 4 * (grid.height + grid.width)
+    ``back_steps``, IACA's) count their back-steps against the limit and explore dead branches,
+    whose length grows with how far apart the free cells lie: they get 8·E, at most twice the free
+    cells, with E = max(H + W, the free cells' extent :func:`jaco.exact.free_extent`, the longest
+    shortest path between two free cells). Twice 4·(H + W) gives them the forward reach of the
+    ants that die (a back-step undoes a forward step); the extent stretches it on mazes, where
+    paths are much longer than the map is wide; 2·(free cells) is the depth-first search's bound
+    (every cell entered once and left once), so where it is the limit every backtracking ant
+    reaches a reachable goal (docs/compose.md, "The step limit")."""
     if variant is not None and getattr(variant.construct, "back_steps", False):
+        from ..exact import free_extent
+
+        extent = max(grid.height + grid.width, math.ceil(free_extent(grid)))
+        return int(max(1, min(8 * extent, 2 * grid.n_free)))
+    return int(max(1, min(4 * (grid.height + grid.width), grid.n_free)))
+
+
+def legacy_steplimit(grid: Grid, variant: Variant | None = None, format_version: int = 2) -> int:
+    """The default step limit of the jaco that wrote a record of ``format_version`` (a sweep record
+    stores ``steplimit: null`` when none was given): before format 3, 4·(H + W) at most the free
+    cells for every planner; in format 3, twice that (at most twice the free cells) for
+    backtracking ants; since format 4, :func:`default_steplimit`."""
+    if format_version >= 4:
+        return default_steplimit(grid, variant)
+    free, extent = grid.n_free, 4 * (grid.height + grid.width)
+    if format_version == 3 and variant is not None and getattr(variant.construct, "back_steps", False):
         free, extent = 2 * free, 2 * extent
     return int(max(1, min(extent, free)))
-
-
-def legacy_steplimit(grid: Grid) -> int:
-    """The default step limit of records before format 3, for every planner: 4·(H + W), at most
-    the free cells (a sweep record stores ``steplimit: null`` when none was given)."""
-    return int(max(1, min(4 * (grid.height + grid.width), grid.n_free)))
 
 
 INT32_MAX = 2**31 - 1

@@ -347,15 +347,28 @@ class SweepRecord:
         kw = dict(self.call)
         kw["grid"] = self.grids
         kw["start"], kw["goal"] = _uncells(kw["start"]), _uncells(kw["goal"])
-        if kw.get("steplimit") is None and self.format_version < 3:  # the default of the jaco that wrote it
-            from ..engine.run import legacy_steplimit
-
-            kw["steplimit"] = legacy_steplimit(self.grids if isinstance(self.grids, Grid) else self.grids[0])
         if isinstance(kw.get("params"), dict) and "design" in kw["params"]:  # explicit rows (a Design)
             from .designs import table
 
             kw["params"] = table(kw["params"]["design"])
         return kw
+
+    def _rerun_old_default(self, kw):
+        """The sweep with the default step limit of the jaco that wrote the record, each planner's."""
+        from ..engine.run import legacy_steplimit
+        from ..planners.registry import get_variant
+        from .sweeps import _over_variants, sweep
+
+        grid = self.grids if isinstance(self.grids, Grid) else self.grids[0]
+
+        def one(v):
+            v = get_variant(v)
+            return sweep(**{**kw, "variant": v, "steplimit": legacy_steplimit(grid, v, self.format_version)})
+
+        variants = kw["variant"]
+        if isinstance(variants, (list, tuple)) and not isinstance(variants, Variant):
+            return _over_variants(variants, one, kw.get("params"))
+        return one(variants)
 
     def rerun(self, *, warn: bool = True) -> Rerun:
         """Run the recorded sweep again and compare the whole table value by value, every number
@@ -368,8 +381,12 @@ class SweepRecord:
         if warn:
             for w in self.warnings:
                 warnings.warn(w, RecordWarning, stacklevel=2)
+        kw = self.sweep_kwargs()
         try:
-            new = sweep(**self.sweep_kwargs())
+            if kw.get("steplimit") is None and self.format_version < FORMAT_VERSION:
+                new = self._rerun_old_default(kw)
+            else:
+                new = sweep(**kw)
         except TypeError as e:
             raise RecordError(f"{self.path}: this jaco cannot rerun the recorded sweep ({e})") from None
         diffs = [] if _csv_text(new) == self.table_text else differences(self.table, new)

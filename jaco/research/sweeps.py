@@ -416,7 +416,7 @@ def _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit
     runner = Runner(variant, qs, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, mesh=mesh, rows=rows,
                     budget=budget, on_compile=on_compile)
     info = dict(runs=len(config) * len(qs.problems), configurations=n_cfg, seeds=len(seed_list),
-                queries=len(qs.problems), **runner.info)
+                queries=len(qs.problems), steplimit=int(steplimit), **runner.info)
     if chunk is not None:  # chunks: over every row, not only the capped first one
         info["chunks"] = math.ceil(len(config) / runner.width)
     return _Setup(variant, qs.queries, qs.problems, values, config, seed_arr, runner, info)
@@ -439,7 +439,8 @@ def plan_sweep(
     chunk: int | None = None,
 ) -> dict:
     """What :func:`sweep` with the same arguments would do, without running it: compiles the chunk
-    program and returns its plan (``chunk``, ``chunks``, ``chunk_per_device``, ``devices``,
+    program and returns its plan (``steplimit``, the one given or the planner's default;
+    ``chunk``, ``chunks``, ``chunk_per_device``, ``devices``,
     ``bytes_per_chunk`` from XLA's memory analysis, ``bytes_per_config_estimate`` and
     ``_measured``, ``compiles``...). The compiled program is cached, so the sweep reuses it."""
     return _setup(
