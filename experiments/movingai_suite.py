@@ -369,22 +369,24 @@ def pairs(part, suffix: str = "+shortcut"):
     return out
 
 
-def paired_test(without, with_) -> dict:
-    """Does local search lower the gap? A one-sided Wilcoxon signed-rank test (``scipy.stats.wilcoxon``,
-    ``alternative="greater"`` on without − with) over paired runs; a failed run counts as worse than
-    any success (:data:`FAILED`); equal pairs (both optimal, both failed) carry no sign and are left
-    out, as Wilcoxon's test does. Returns the counts of better / equal / worse pairs, the statistic
-    and the p-value (1 when no pair differs)."""
-    from scipy.stats import wilcoxon
+def paired_test(g) -> dict:
+    """Does local search lower the gap? ``jaco.research.compare`` of the two forms over the paired
+    (map, query, seed) runs of ``g`` (columns ``without``, ``with``): the two-sided Wilcoxon
+    signed-rank test (a failed run counts as worse than any success, both failed is a tie, ties keep
+    their ranks split between the signs). Returns the counts of better / equal / worse pairs with
+    local search and the p-value."""
+    import pandas as pd
 
-    a = np.where(np.isfinite(without), without, FAILED)
-    b = np.where(np.isfinite(with_), with_, FAILED)
-    d = a - b
-    out = dict(better=int((d > 0).sum()), equal=int((d == 0).sum()), worse=int((d < 0).sum()), statistic=np.nan, p=1.0)
-    if (d != 0).any():
-        res = wilcoxon(d, alternative="greater", zero_method="wilcox")
-        out.update(statistic=float(res.statistic), p=float(res.pvalue))
-    return out
+    from jaco.research.compare import compare
+
+    pairing = list(g.index.names)  # map, query, seed (and planner, pooled)
+    runs = g.reset_index()
+    long = pd.concat([runs.assign(form=f, gap=runs[f]) for f in ("without", "with")], ignore_index=True)
+    c = compare(long[["form", *pairing, "gap"]], by="form", pairing=pairing, n_boot=1)
+    row = c.pairwise.iloc[0]
+    with_better = row.a_better if row.a == "with" else row.b_better
+    return dict(better=int(with_better), equal=int(row.ties), worse=int(row.pairs - row.ties - with_better),
+                p=float(row.p))
 
 
 def with_and_without(part, fig_rel: str) -> list:
@@ -396,7 +398,7 @@ def with_and_without(part, fig_rel: str) -> list:
     largest = by_size(part)[-3:]
 
     def row(label, g):
-        t = paired_test(g["without"].to_numpy(), g["with"].to_numpy())
+        t = paired_test(g)
         big = g[g.index.get_level_values("map").isin(largest)]
         return [label, quartiles(g["without"]), quartiles(g["with"]), quartiles(big["without"]), quartiles(big["with"]),
                 f"{100 * np.isfinite(g['without']).mean():.0f}%", f"{100 * np.isfinite(g['with']).mean():.0f}%",
@@ -404,16 +406,16 @@ def with_and_without(part, fig_rel: str) -> list:
 
     body = [row(p.removesuffix("+shortcut"), g) for p, g in both.items()]
     if len(both) > 1:
-        body.append(row("all planners (pooled)", pd_concat(both.values())))
+        body.append(row("all planners (pooled)", pd_concat(both, names=["planner"])))
     return best_with_local_search(part) + [
         "#### With and without local search (fixed budget)", "",
         "Each planner against itself with the octile shortcut (`+shortcut`) on the same (map, query, seed) runs: "
         f"median gap in % [quartiles] over all maps and over the three largest ({', '.join(largest)}), success over "
-        "all maps, how many runs are better / equal / worse with it, and the p-value of a one-sided Wilcoxon "
-        "signed-rank test that it lowers the gap (`scipy.stats.wilcoxon` over the pairs; a failed run counts as worse "
-        "than any success; equal pairs are left out, as in Wilcoxon's test).", "",
+        "all maps, how many runs are better / equal / worse with it, and the p-value of the two-sided Wilcoxon "
+        "signed-rank test of the pairs by `jaco.research.compare` (a failed run counts as worse than any success, "
+        "both failed is a tie; ties keep their ranks, split between the signs).", "",
         table(["planner", "gap without", "gap with", "gap without, 3 largest", "gap with, 3 largest", "success without",
-               "success with", "better / equal / worse", "p (one-sided)"], body), "",
+               "success with", "better / equal / worse", "p (Wilcoxon)"], body), "",
         f"![gap with local search against without]({fig_rel})", ""]
 
 
@@ -448,10 +450,10 @@ def best_with_local_search(part, suffix: str = "+shortcut") -> list:
             "Its gap on each map's longest query, one per seed: " + "; ".join(longest) + ".", ""]
 
 
-def pd_concat(frames):
+def pd_concat(frames, **kw):
     import pandas as pd
 
-    return pd.concat(list(frames))
+    return pd.concat(frames if isinstance(frames, dict) else list(frames), **kw)
 
 
 def local_search_figure(part, path: Path):

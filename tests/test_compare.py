@@ -179,11 +179,30 @@ def test_configurations_of_several_columns_and_short_names():
     (dict(blocks="map"), "blocks must be"),
     (dict(alpha=1.5), "alpha must be"),
     (dict(n_boot=0), "n_boot"),
+    (dict(pairing=["query"]), "pairing column 'query'"),
+    (dict(pairing="variant"), "pairing column 'variant'"),
 ])
 def test_bad_calls_are_one_line(kw, match):
     with pytest.raises(jaco.JacoError, match=match) as e:
         cmp.compare(table_of({"A": A, "B": B}), **kw)
     assert "\n" not in str(e.value)
+
+
+def test_pairing_by_a_query_number():
+    """A table that numbers its queries (no start/goal columns) pairs by the columns it names:
+    two queries × 8 seeds are 16 pairs, as many as the same runs with their query's cells."""
+    t = table_of({"A": A + B, "B": B + C}).assign(query=lambda d: d.index % 16 // 8, seed=lambda d: d.index % 8)
+    with pytest.raises(jaco.JacoError, match="rows share a configuration and pair"):
+        cmp.compare(t)  # paired by seed alone, each seed is two runs
+    by_number = cmp.compare(t, pairing=["query", "seed"], n_boot=20)
+    by_cells = cmp.compare(t.assign(map="m", start_row=0, start_col=0, goal_row=1, goal_col=t["query"]).drop(columns="query"),
+                           n_boot=20)
+    row = by_number.pairwise.iloc[0]
+    assert row.pairs == 16 and (row.a, row.a_better, row.b_better) == ("A", 14, 2)  # C beats B on seeds 2 and 5
+    pd.testing.assert_frame_equal(by_number.pairwise, by_cells.pairwise)
+    d = np.subtract(A + B, B + C)
+    d[np.isinf(d)] = -(np.abs(d[np.isfinite(d)]).max() + 1)  # a failure: one magnitude above every finite difference
+    assert row.p == pytest.approx(stats.wilcoxon(d, zero_method="zsplit").pvalue)
 
 
 def test_plots_of_a_comparison(three, tmp_path):

@@ -198,7 +198,7 @@ def _label(by, key) -> str:
     return ", ".join(parts)
 
 
-def _check_table(table, by, value, blocks):
+def _check_table(table, by, value, blocks, pairing=None):
     if not isinstance(table, pd.DataFrame):
         raise JacoError(f"compare takes a results table (a DataFrame), got {type(table).__name__}")
     from .tables import normalise
@@ -217,7 +217,14 @@ def _check_table(table, by, value, blocks):
         raise JacoError(f"compare: blocks must be 'run' or 'query', got {blocks!r}")
     if table[value].isna().any():
         raise JacoError(f"compare: column {value!r} has empty (NaN) values; a failed run is +inf")
-    pairing = [c for c in PAIRING if c in table.columns and c not in by]
+    if pairing is None:
+        pairing = [c for c in PAIRING if c in table.columns and c not in by]
+    else:
+        pairing = [pairing] if isinstance(pairing, str) else list(pairing)
+        for name in pairing:
+            if name not in table.columns or name in by:
+                raise JacoError(f"compare: pairing column {name!r} is not a column of the table outside by "
+                                f"(columns: {', '.join(map(str, table.columns))})")
     if not pairing:
         raise JacoError("compare: the table has no pairing column (a query or 'seed') to pair the runs by")
     keys = table[by + pairing]
@@ -244,6 +251,7 @@ def compare(
     n_boot: int = 2000,
     seed: int = 0,
     ratio_of: str | None = None,
+    pairing=None,
 ) -> Comparison:
     """Compare the configurations of a results table (module docstring: what, and how ties and
     failed runs are handled). ``by``: the column (or list of columns) naming a configuration, e.g.
@@ -253,10 +261,12 @@ def compare(
     verdicts and of the critical difference; ``confidence`` and ``n_boot``: the bootstrap
     interval of the median; ``seed``: the bootstrap's random generator (the same seed, the same
     interval); ``ratio_of``: the positive column of the performance ratios (default ``length``
-    when the table has it, else ``value``)."""
+    when the table has it, else ``value``); ``pairing``: the columns that name a pair (default the
+    query columns and ``seed`` the table has; e.g. ``["map", "query", "seed"]`` for a table that
+    numbers its queries)."""
     from scipy.stats import friedmanchisquare, rankdata
 
-    table, by, pairing = _check_table(table, by, value, blocks)
+    table, by, pairing = _check_table(table, by, value, blocks, pairing)
     for name, x, ok in (("alpha", alpha, 0 < alpha < 1), ("confidence", confidence, 0 < confidence < 1)):
         if isinstance(x, bool) or not isinstance(x, (int, float)) or not ok:
             raise JacoError(f"compare: {name} must be a number in (0, 1), got {x!r}")
@@ -293,7 +303,7 @@ def compare(
     if blocks == "query":
         query = [c for c in pairing if c != "seed"]
         if not query:
-            raise JacoError("compare: blocks='query' needs query columns (map, start_row, ...) in the table")
+            raise JacoError("compare: blocks='query' needs query columns (map, start_row, ...) in the pairing")
         block_values = values.groupby(level=query).agg(lambda s: float(quantile(s.to_numpy(), 0.5)))
     complete = block_values.dropna()
     notes = []
