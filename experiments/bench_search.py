@@ -68,6 +68,14 @@ def loop(jaco, optuna, grid, start, goal, trials, seeds, sizes):
     return wall, sampler_s[0]
 
 
+def verdict(rows, batch) -> str:
+    """The issue's target in words: at least 20× the loop's trials per second at the largest batch."""
+    got = {r[0].split(" (")[0]: r[7] for r in rows if r[2] == batch}
+    met = all(float(x.rstrip("×")) >= 20 for x in got.values())
+    return (f"Target: at least 20× the loop's rate at batch {batch}; " + ("met" if met else "**not met** on this machine")
+            + ": " + ", ".join(f"{m} {x}" for m, x in got.items()) + ".")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--smoke", action="store_true", help="the 32×32 map, 16 trials, 5 ants × 5 iterations")
@@ -83,7 +91,7 @@ def main(argv=None):
     batches = (8, 16) if args.smoke else (64, 256)
     rows = []
     for label, grid, start, goal in queries(jaco, args.smoke):
-        trials = 16 if args.smoke else (512 if "32" in label else 256)
+        trials = 16 if args.smoke else 512
         kw = dict(variant="acs", seeds=args.seeds, sampler="tpe", progress=False, **sizes)
         compile_s = {}
         for batch in batches:  # warm-up: compile every program the timed search uses
@@ -123,10 +131,13 @@ def main(argv=None):
         "first solve of each seed); *sampler s*: Optuna's ask and tell inside it. The loop ran fewer trials on "
         "Berlin_1_256 (its rate is per trial all the same).\n\n"
         + table(header, rows)
-        + "\n\nThe speed-up is bounded by what one trial costs: at 50 ants × 100 iterations each run is mostly the "
+        + "\n\n" + verdict(rows, batches[-1])
+        + " The speed-up is bounded by what one trial costs: at 50 ants × 100 iterations each run is mostly the "
         "ant walk itself (a compiled run of 30×30 takes 9.7 ms of its 10 ms `jaco.solve`), which batching cannot "
         "shrink; it spreads the runs over the cores and removes the per-call overhead (validation, the exact "
-        "optimum, dispatch). The sampler's time grows with the trials told (TPE refits its densities on every ask).\n"
+        "optimum, dispatch), so on this machine it can give at most about the number of cores plus that overhead; "
+        "on Berlin_1_256 a run takes about 0.17 s, the overhead nothing, and both ways keep the two cores busy. "
+        "The sampler's time grows with the trials told (TPE refits its densities on every ask).\n"
     )
     print(body)
     if args.out is not None or not args.smoke:

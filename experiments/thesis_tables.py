@@ -85,7 +85,8 @@ def main(argv=None):
     args.out = output_dir(args.out, args.smoke)
     maps = RANDOM + TRAPS + SPARSE
     if args.smoke:
-        maps, args.runs, args.ants, args.iters, args.steplimit = ["random-20-10", "utrap-15"], 2, 8, 4, 120
+        # two maps of one shape: with one step limit each planner's programs serve both
+        maps, args.runs, args.ants, args.iters, args.steplimit = ["random-20-10", "utrap-20"], 2, 8, 4, 120
     args.out.mkdir(parents=True, exist_ok=True)
     figdir = args.out / "figures"
     figdir.mkdir(exist_ok=True)

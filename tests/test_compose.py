@@ -98,6 +98,7 @@ def test_a_composition_is_recorded_and_reruns_bit_for_bit(tmp_path):
     assert jaco.load_run(tmp_path / "run.json").rerun().matched
 
 
+@pytest.mark.slow  # a program per planner (tests/test_sweeps.py and test_cli.py sweep several planners in the normal run)
 def test_a_sweep_over_planners_is_a_categorical_axis(tmp_path):
     planners = ["mmas", compose(construct="backtrack", rule="mmas"), "compose(heuristic=iaaco, rule=acs)"]
     table = jaco.sweep(GRID, *ENDS, planners, params={"beta": [2.0, 6.0]}, seeds=2, **TINY)

@@ -18,7 +18,7 @@ def test_thesis_tables_smoke(tmp_path):
     )
     assert out.returncode == 0, out.stderr[-2000:]
     text = (tmp_path / "results_thesis_smoke.md").read_text()
-    for name in ("random-20-10", "utrap-15"):
+    for name in ("random-20-10", "utrap-20"):
         row = next(line for line in text.splitlines() if line.startswith(f"| {name} | "))
         optimum = float(row.split("|")[2])
         assert optimum > 0
@@ -28,7 +28,7 @@ def test_thesis_tables_smoke(tmp_path):
             assert best == "–" or float(best) >= optimum - 1e-6
     assert re.search(r"\| ACA best \| ACA gap %", text)
     pngs = sorted(p.name for p in (tmp_path / "figures").glob("*.png"))
-    assert "thesis_paths_utrap-15.png" in pngs and "thesis_convergence_random-20-10.png" in pngs
+    assert "thesis_paths_utrap-20.png" in pngs and "thesis_convergence_random-20-10.png" in pngs
     assert all((tmp_path / "figures" / p).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in pngs)
 
 

@@ -175,19 +175,20 @@ def maps_():
     return [jaco.maps.random_map(12, 0.2, seed=3), jaco.maps.named("utrap-15")]
 
 
-#: One planner per construct (dying, backtracking, two colonies) in the normal run; every
-#: registered planner with the slow checks.
-QUICK = ["acs", "iaca", "idaca"]
+#: A dying construct in the normal run (backtracking ants with local search are in the other tests
+#: here); every registered planner with the slow checks.
+QUICK = ["acs"]
 
 
 @pytest.mark.parametrize("name", [n if n in QUICK else pytest.param(n, marks=pytest.mark.slow) for n in sorted(jaco.VARIANTS)])
 def test_every_planner_with_local_search_keeps_the_contract(name, maps_):
     """Valid paths; in the first iteration (the same walks with and without: nothing has been
     deposited yet) the best is never longer with local search; the same key gives the same run;
-    the native kernel gives the JAX definition's run bit for bit."""
+    the native kernel gives the JAX definition's run bit for bit. The normal run's planner on both
+    maps, the others on the U-trap (each map is a program of its own)."""
     v = with_local_search(name)
     assert v.name == f"{name}+shortcut" and get_variant(v.name) is v and jaco.VARIANTS[name].local_search is None
-    for grid in maps_:
+    for grid in maps_ if name in QUICK else maps_[1:]:
         start, goal = grid.meta["start"], grid.meta["goal"]
         plain = jaco.solve(grid, start, goal, name, seed=0, **SMALL)
         a = jaco.solve(grid, start, goal, v, seed=0, **SMALL)
@@ -237,6 +238,7 @@ def test_each_candidate_of_an_iteration_is_never_longer_after_the_search(maps_):
     np.testing.assert_array_equal(cells[:, failed], np.asarray(colony.cells)[:, failed])
 
 
+@pytest.mark.slow  # one program per k
 def test_the_best_k_are_searched_and_a_cost_that_would_rise_keeps_the_walk(maps_):
     """``best=2`` touches at most the two cheapest candidates; with the multi-objective cost a
     shorter path whose cost J would be higher is not taken (the cost never rises)."""
@@ -287,6 +289,7 @@ def test_names_resolve_to_one_object_and_published_planners_have_no_local_search
         with_local_search(get_variant("iaca+shortcut+multi"))
 
 
+@pytest.mark.slow  # two planners, their sweep and solves and a record rerun
 def test_a_sweep_takes_local_search_as_a_categorical_axis_and_its_record_reruns(tmp_path, maps_):
     grid = maps_[0]
     ends = grid.meta["start"], grid.meta["goal"]

@@ -58,7 +58,7 @@ def test_every_notebook_is_found():
 
 
 # the notebooks that take more than ten seconds run with the slow checks (pytest -m slow, .ci/run)
-SLOW = {"02_planners_gallery", "04_tuning", "05_paper_table", "06_search", "07_comparing_planners"}
+SLOW = {"02_planners_gallery", "03_hyperparameter_sweep", "04_tuning", "05_paper_table", "06_search", "07_comparing_planners", "08_local_search"}
 
 
 @pytest.mark.parametrize("path", [pytest.param(p, marks=pytest.mark.slow) if p.stem in SLOW else p for p in NOTEBOOKS],

@@ -1,6 +1,5 @@
 """jaco.search: spaces, samplers, multi-fidelity, durable studies that resume after SIGKILL."""
 
-import json
 import math
 import os
 import signal
@@ -150,6 +149,7 @@ def test_a_failed_run_counts_as_the_documented_penalty_never_nan():
     assert (given.trials["gap"] == 2.5).all()
 
 
+@pytest.mark.slow  # several objectives: each trial at its own ants and iterations
 def test_sizes_in_the_space_and_a_pareto_front_over_gap_and_budget():
     study = jaco.search(GRID, *ENDS, {"beta": (1.0, 8.0), "n_ants": [3, 6]}, variant="acs", trials=8, batch=4,
                         sampler="nsga2", objective=["gap", "budget"], seeds=2, n_iters=8, progress=False)
@@ -203,6 +203,7 @@ def test_halving_rungs_promote_the_best_third_and_rerun_at_the_larger_budget():
 
 
 # -- evosax ---------------------------------------------------------------------------------------
+@pytest.mark.slow  # evosax strategies compile their own programs
 def test_evosax_strategy_searches_and_replays_after_an_interruption(tmp_path, monkeypatch):
     pytest.importorskip("evosax")
     kw = dict(variant="acs", trials=12, batch=4, sampler="evosax:SNES", **SMALL)

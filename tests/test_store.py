@@ -37,6 +37,7 @@ def test_a_stored_sweep_equals_the_plain_one_and_the_second_call_runs_nothing(tm
     assert other.attrs["sweep"]["resumed_runs"] == 0 and other.equals(jaco.sweep(GRID, *ENDS, "acs", {"beta": [1.0, 2.0]}, **KW))
 
 
+@pytest.mark.slow  # a second chunk size is a second program
 def test_a_resumed_sweep_may_cut_its_chunks_differently(tmp_path):
     store = tmp_path / "s.db"
     plain = jaco.sweep(GRID, *ENDS, ["acs", "mmas"], {"beta": [1.0, 2.0, 4.0]}, **KW)

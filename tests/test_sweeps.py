@@ -325,6 +325,7 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
+@pytest.mark.slow  # two processes joined by jax.distributed
 def test_two_processes_with_jax_distributed_equal_one_process(reference, tmp_path):
     worker, port = _worker(tmp_path), _free_port()
     outs = [tmp_path / f"tables{i}.pkl" for i in range(2)]

@@ -39,7 +39,6 @@ IAACO):
 
 from __future__ import annotations
 
-import jax
 import jax.numpy as jnp
 
 from ..engine import pheromone as ph

@@ -186,7 +186,6 @@ def _check_storage_path(path: Path | None) -> None:
 @contextmanager
 def _opened(storage, lock_path):
     """The storage object, with its file locked while the search runs."""
-    import optuna
 
     lock = None
     if lock_path is not None:

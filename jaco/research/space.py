@@ -28,7 +28,7 @@ import numpy as np
 
 from ..engine.params import ORDERED, SPECS, check_values
 from ..engine.variant import Variant
-from ..errors import JacoError, ParamError
+from ..errors import ParamError
 
 #: Sizes a search may choose (static shapes: each distinct value compiles its own program, so a
 #: categorical of a few values is the usual choice).
