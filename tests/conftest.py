@@ -36,3 +36,16 @@ def _forget_compiled_programs():
 
         jaco.engine.run.clear_compiled()
         jax.clear_caches()
+
+
+#: The longest test files first. A file runs whole in one process (``--dist loadfile``), so a long
+#: one that starts last leaves the other processes idle at the end; started first, the short files
+#: fill the gaps around it (longest processing time first).
+LONGEST = ("test_native.py", "test_notebooks.py", "test_variants.py", "test_local_search.py",
+           "test_experiments.py", "test_quality.py", "test_bench.py", "test_signals.py", "test_search.py",
+           "test_sweeps.py")
+
+
+def pytest_collection_modifyitems(items):
+    rank = {name: i for i, name in enumerate(LONGEST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(LONGEST)))  # stable: the rest keep their order

@@ -143,6 +143,7 @@ def test_no_perturbation_when_no_path_is_above_the_mean():
     np.testing.assert_allclose(amounts, [1 / x, 1 / x, 1 / x, 0.0], rtol=1e-6)
 
 
+@pytest.mark.slow  # a sweep of its own parameters (chaos-aco runs the contract in the slow checks)
 def test_chaos_aco_is_registered_and_sweeps_its_own_parameters():
     v = jaco.VARIANTS["chaos-aco"]
     assert {"gamma", "chaos_iters", "chaos_mu"} <= set(v.params)

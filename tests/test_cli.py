@@ -196,6 +196,7 @@ def test_sweep_writes_tidy_csv_and_prints_best(tmp_path, capsys):
     assert "top 2 of 2 configurations" in out
 
 
+@pytest.mark.slow  # a program per planner (test_sweeps.py sweeps several planners in the normal run)
 def test_sweep_over_several_planners_and_a_composition(tmp_path, capsys):
     """Repeated --variant: the planners are a categorical column; beta applies to each, the rows
     of each planner equal a sweep of that planner alone."""

@@ -57,6 +57,7 @@ def test_pheromone_on_cells_within_bounds(variant, maps_):
         assert tau.min() < tau.max()  # the trail did move away from τmax
 
 
+@pytest.mark.slow  # a sweep of both double-colony planners
 def test_schedule_constants_sweep_like_any_parameter(maps_):
     grid = maps_[1]
     axes = {"break_iter": [3.0, 83.0], "rho": [0.5, 0.7]}

@@ -220,7 +220,7 @@ def test_bad_parameters_are_clear_errors():
 
 
 # -- quality ---------------------------------------------------------------------------------
-@pytest.mark.parametrize("name", ["iaaco", "iaaco-printed"])
+@pytest.mark.parametrize("name", ["iaaco", pytest.param("iaaco-printed", marks=pytest.mark.slow)])
 def test_near_the_exact_optimum_on_small_random_maps(name):
     grids = [jaco.maps.random_map(16, p, seed=s) for p, s in ((0.1, 1), (0.2, 2), (0.2, 3), (0.3, 4))]
     gaps = []

@@ -128,6 +128,7 @@ _EDGES = [dict(h=1, w=1, shape=(1, 1), density=0.0, seed=0, n_ants=4, steplimit=
           dict(h=2, w=1, shape=(2, 1), density=0.0, seed=7, n_ants=1, steplimit=40, exploit=False, connectivity=4)]
 
 
+@pytest.mark.slow  # the normal run compares whole runs of ACS and IACA with both walks (below)
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(walk_cases())
 @example(_EDGES[0])
@@ -177,6 +178,7 @@ def _apf_tables(problems):
     return [np.asarray(_APF[kind](batch)) for kind in ("jax", "native")]
 
 
+@pytest.mark.slow  # the normal run compares the tables on two real maps (below)
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.integers(1, 12), st.integers(1, 12), st.sampled_from([0.0, 0.15, 0.3, 0.45]), st.integers(0, 2**31 - 1),
        st.sampled_from([4, 8]))
@@ -194,6 +196,7 @@ def test_native_apf_table_equals_the_jax_table(h, w, density, seed, connectivity
     np.testing.assert_array_equal(ours, theirs)
 
 
+@pytest.mark.slow  # with the random tables above; apf-aco runs with both walks in the slow parity test
 def test_native_apf_table_equals_the_jax_table_on_real_maps():
     """Two bundled MovingAI maps (rooms, a maze), two goals each: every cell's next cell agrees,
     and the walkers that reach a target are many (the comparison is not all −1)."""

@@ -49,6 +49,7 @@ def _log_prob(theta, grid, problem, eta_beta, path):
     return total
 
 
+@pytest.mark.slow  # jax.grad of the whole walk compiles a program of its own
 def test_score_function_equals_jax_grad_of_the_log_probability():
     grid = jaco.Grid.from_rows(GRID_ROWS)
     problem = to_device(make_problem(grid, (0, 0), (2, 3)))

@@ -289,6 +289,7 @@ def test_a_resumed_study_must_be_the_same_search(tmp_path):
     assert len(more.trials) == 4  # more trials extend the study
 
 
+@pytest.mark.slow  # the CLI test reruns a stored trial in the normal run
 def test_a_stored_trial_reruns_to_its_stored_value(tmp_path):
     db = str(tmp_path / "s.journal")
     jaco.search(GRID, *ENDS, {"variant": ["acs", "iaca"], **SPACE}, trials=4, batch=4, sampler="random", storage=db, **SMALL)

@@ -25,6 +25,7 @@ def _chunks(path) -> int:
         return con.execute("SELECT COUNT(*) FROM chunks").fetchone()[0]
 
 
+@pytest.mark.slow  # a sweep three ways (the kill test below checks the same bit for bit)
 def test_a_stored_sweep_equals_the_plain_one_and_the_second_call_runs_nothing(tmp_path):
     plain = jaco.sweep(GRID, *ENDS, "acs", AXES, **KW)
     store = tmp_path / "sweep.db"

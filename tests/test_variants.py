@@ -23,7 +23,7 @@ def _ends(grid):
 
 #: Compositions of components across the sources (jaco.compose), beyond the registered planners'
 #: own: each construct with another source's heuristic and rule. They pass the same contract;
-#: two in the normal run, all with the slow checks.
+#: one in the normal run, all with the slow checks.
 COMPOSITIONS = [
     jaco.compose(**kw).name  # the full name, as results, records and TRACES know it
     for kw in (
@@ -37,11 +37,11 @@ COMPOSITIONS = [
 ]
 
 
-#: One planner per walk and colony structure (dying ants with the q0 rule, backtracking ants, two
-#: colonies) and a composition in the normal run; every other registered planner and composition
-#: with the slow checks (``pytest -m slow``, run by CI), so that the default suite stays within
-#: five minutes on two cores.
-QUICK = ["acs", "idaca", "iaca", COMPOSITIONS[0]]
+#: Dying ants with the q0 rule, backtracking ants and a composition in the normal run (two
+#: colonies: tests/test_double.py); every other registered planner and composition with the slow
+#: checks (``pytest -m slow``, run by CI), so that the default suite stays within five minutes on
+#: two cores.
+QUICK = ["acs", "iaca", COMPOSITIONS[0]]
 EVERY = sorted(jaco.VARIANTS) + COMPOSITIONS
 
 

@@ -28,7 +28,7 @@ def _visits_in_order(path, targets):
     return found
 
 
-@pytest.mark.parametrize("name", ["mmas", "iaca"] + [pytest.param(n, marks=pytest.mark.slow) for n in ("idaca", "chaos-aco")])
+@pytest.mark.parametrize("name", ["iaca"] + [pytest.param(n, marks=pytest.mark.slow) for n in ("mmas", "idaca", "chaos-aco")])
 def test_path_visits_every_waypoint_in_order_and_is_valid(grid, name):
     r = jaco.solve(grid, START, GOAL, name, seed=0, waypoints=VIA, **SMALL)
     assert r.success
