@@ -38,6 +38,32 @@ def _forget_compiled_programs():
         jax.clear_caches()
 
 
+@pytest.fixture
+def kill_after():
+    """:func:`_kill_after`, for the tests that kill a process in the middle of its work."""
+    return _kill_after
+
+
+def _kill_after(proc, count, at_least: int, what: str, timeout: float = 120.0) -> None:
+    """SIGKILL ``proc`` once ``count()`` (a query of the database it writes) reaches ``at_least``;
+    fails if the process ends first. A database still locked or not yet created counts as not yet."""
+    import signal
+    import sqlite3
+    import time
+
+    deadline = time.time() + timeout
+    while time.time() < deadline and proc.poll() is None:
+        time.sleep(0.1)
+        try:
+            if count() >= at_least:
+                break
+        except sqlite3.Error:
+            continue
+    assert proc.poll() is None, f"the {what} ended before it could be killed"
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+
+
 #: The longest test files first. A file runs whole in one process (``--dist loadfile``), so a long
 #: one that starts last leaves the other processes idle at the end; started first, the short files
 #: fill the gaps around it (longest processing time first).

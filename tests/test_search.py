@@ -1,13 +1,10 @@
 """jaco.search: spaces, samplers, multi-fidelity, durable studies that resume after SIGKILL."""
 
 import math
-import os
-import signal
 import sqlite3
 import subprocess
 import sys
 import textwrap
-import time
 
 import numpy as np
 import pytest
@@ -331,24 +328,16 @@ KILLED = textwrap.dedent("""
 
 
 @pytest.mark.slow
-def test_resume_after_sigkill_loses_nothing_and_duplicates_nothing(tmp_path):
+def test_resume_after_sigkill_loses_nothing_and_duplicates_nothing(tmp_path, kill_after):
     db = tmp_path / "k.db"
     script = KILLED.format(rows=GRID.to_rows(), start=ENDS[0], goal=ENDS[1], space=SPACE)
     proc = subprocess.Popen([sys.executable, "-c", script, str(db)], cwd=tmp_path)
-    deadline = time.time() + 120
-    done = 0
-    while time.time() < deadline and proc.poll() is None:
-        time.sleep(0.2)
-        try:
-            with sqlite3.connect(db, timeout=0.1) as con:
-                done = con.execute("SELECT COUNT(*) FROM trials WHERE state = 'COMPLETE'").fetchone()[0]
-        except sqlite3.Error:
-            continue
-        if done >= 8:
-            break
-    assert proc.poll() is None, "the search ended before it could be killed"
-    os.kill(proc.pid, signal.SIGKILL)
-    proc.wait()
+
+    def complete():
+        with sqlite3.connect(db, timeout=0.1) as con:
+            return con.execute("SELECT COUNT(*) FROM trials WHERE state = 'COMPLETE'").fetchone()[0]
+
+    kill_after(proc, complete, 8, "search")
     killed = {t.number: (t.state.name, t.values) for t in jaco.load_study(str(db)).study.trials}
     assert 8 <= sum(s == "COMPLETE" for s, _ in killed.values()) < 60
     study = jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=60, batch=4, seeds=2, n_ants=6, n_iters=40,

@@ -1,13 +1,10 @@
 """jaco.sweep(..., store=PATH): finished chunks survive a kill; the resumed table equals an
 uninterrupted sweep bit for bit."""
 
-import os
-import signal
 import sqlite3
 import subprocess
 import sys
 import textwrap
-import time
 
 import pytest
 
@@ -82,23 +79,12 @@ KILLED = textwrap.dedent("""
 
 
 @pytest.mark.slow
-def test_a_killed_sweep_resumes_to_the_uninterrupted_table_bit_for_bit(tmp_path):
+def test_a_killed_sweep_resumes_to_the_uninterrupted_table_bit_for_bit(tmp_path, kill_after):
     store = tmp_path / "k.db"
     axes = {"beta": [1.0, 2.0, 3.0, 4.0, 6.0, 8.0], "rho": [0.1, 0.3]}
     script = KILLED.format(rows=GRID.to_rows(), start=ENDS[0], goal=ENDS[1], axes=axes)
     proc = subprocess.Popen([sys.executable, "-c", script, str(store)], cwd=tmp_path)
-    deadline, done = time.time() + 120, 0
-    while time.time() < deadline and proc.poll() is None:
-        time.sleep(0.1)
-        try:
-            done = _chunks(store)
-        except sqlite3.Error:
-            continue
-        if done >= 2:
-            break
-    assert proc.poll() is None, "the sweep ended before it could be killed"
-    os.kill(proc.pid, signal.SIGKILL)
-    proc.wait()
+    kill_after(proc, lambda: _chunks(store), 2, "sweep")
     stored = _chunks(store)
     assert 2 <= stored < 12
     kw = dict(seeds=2, n_ants=20, n_iters=400, progress=False)
