@@ -5,14 +5,41 @@ with :func:`make_variant`; the registry (:mod:`jaco.planners.registry`) collects
 
 from __future__ import annotations
 
-from types import MappingProxyType
-from typing import Callable, Mapping, NamedTuple
+from typing import Callable, Iterator, Mapping, NamedTuple
 
 from . import heuristics
 from . import pheromone as ph
 from .colony import eta_factor, single_colony
 from .cost import path_length
 from .params import Params, param_names
+
+
+class FrozenMap(Mapping):
+    """A read-only, hashable mapping (a planner's defaults), so that a :class:`Variant` is hashable
+    and compiled programs are cached by the planner itself."""
+
+    __slots__ = ("_items",)
+
+    def __init__(self, items=()):
+        object.__setattr__(self, "_items", dict(items))
+
+    def __getitem__(self, key):
+        return self._items[key]
+
+    def __iter__(self) -> Iterator:
+        return iter(self._items)
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def __hash__(self) -> int:
+        return hash(tuple(self._items.items()))
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, Mapping) and dict(self._items) == dict(other)
+
+    def __repr__(self) -> str:
+        return f"FrozenMap({self._items!r})"
 
 
 def constant(params: Params, t, n_iters) -> Params:
@@ -64,7 +91,7 @@ def make_variant(name, source, doc, params, defaults, rule, **kw) -> Variant:
         source=source,
         doc=doc,
         params=tuple(params),
-        defaults=MappingProxyType(dict(defaults)),
+        defaults=FrozenMap(defaults),
         heuristic=kw.pop("heuristic", heuristics.inverse_goal_distance),
         rule=rule,
         **kw,

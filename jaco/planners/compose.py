@@ -45,7 +45,6 @@ registered planner is which composition.
 from __future__ import annotations
 
 import re
-from types import MappingProxyType
 from typing import NamedTuple
 
 from ..engine import cost as costs
@@ -54,7 +53,7 @@ from ..engine import local_search as ls
 from ..engine import pheromone as ph
 from ..engine import schedules as sch
 from ..engine.colony import eta_factor, single_colony
-from ..engine.variant import Variant, constant
+from ..engine.variant import FrozenMap, Variant, constant
 from ..errors import JacoError
 from ..potential import apf_distance, classic_distance
 from . import apf_guided, chaos, classic, double, iaaco, iaca, pg
@@ -290,7 +289,7 @@ def _build(c: dict) -> Variant:
         source=source,
         doc=doc,
         params=tuple(defaults),
-        defaults=MappingProxyType(defaults),
+        defaults=FrozenMap(defaults),
         rule=rule,
         pheromone_on="cells" if cells else "moves",
         schedule=sch.compose(*schedules_) if len(schedules_) > 1 else (schedules_[0] if schedules_ else constant),
