@@ -21,6 +21,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .engine.params import INF, Param, declare
 from .moves import MOVES
 
 __all__ = [
@@ -42,6 +43,12 @@ __all__ = [
 K_ATT = 1.0
 K_REP = 100.0
 D0 = 3.0
+#: The classic field's parameters (PF-ACO's, and the classic APF planner's).
+K_REP_PARAM, D0_PARAM = declare(
+    Param("k_rep", K_REP, 0, INF, "classic APF: repulsion gain k_rep, U_rep = ½k_rep(1/d − 1/d0)² (attraction ½ρ²)",
+          hi_open=True),
+    Param("d0", D0, 0, INF, "classic APF: range d0 (cells) of the repulsion", lo_open=True, hi_open=True),
+)
 
 _SQRT2 = np.float32(np.sqrt(2.0))
 #: |e_k| of the eight moves, float32 (the local-move scores are computed alike in numpy and JAX).

@@ -14,7 +14,14 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
+from .params import Param, declare
 from .walk import walk
+
+ALPHA, BETA, Q0 = declare(
+    Param("alpha", 1.0, 0, 20, "pheromone exponent α of a move's weight τ^α·η^β (thesis eq. 2-1)"),
+    Param("beta", 2.0, 0, 20, "heuristic exponent β of a move's weight τ^α·η^β (thesis eq. 2-1)"),
+    Param("q0", 0.9, 0, 1, "exploitation probability q0 of the pseudo-random proportional rule (thesis eq. 2-14)"),
+)
 
 
 class Colony(NamedTuple):
@@ -95,7 +102,9 @@ def single_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: i
 def walk_colony(variant, problem, weights, params, key, *, n_ants: int, steplimit: int) -> Colony:
     """The :class:`Colony` of ``n_ants`` ants walking start → goal on the move weights ``weights``
     (``(N, 8)``, 0 exactly on forbidden moves), with the variant's transition rule and cost."""
-    tours = walk(problem, weights, key, params.q0, n_ants=n_ants, steplimit=steplimit, exploit=variant.transition == "pseudo-random")
+    exploit = variant.transition == "pseudo-random"
+    # q0 is read only by the q0 rule (a roulette planner has no q0; the walk ignores the value then)
+    tours = walk(problem, weights, key, params.q0 if exploit else 0.0, n_ants=n_ants, steplimit=steplimit, exploit=exploit)
     cost = jnp.where(tours.arrived, variant.cost(tours, problem, params), jnp.inf)
     targets = step_targets(variant.pheromone_on, tours.cells, tours.moves, problem.start, problem.nbr.shape[0])
     return Colony(tours.cells, targets, tours.step_len, cost, tours.length, tours.n_steps, tours.visited)

@@ -1,97 +1,39 @@
-"""Hyperparameters as one frozen dataclass of traced floats (the second of the five concepts).
+"""Hyperparameters: each component declares its own (:class:`Param`); a planner's are the union
+of its components' (the second of the five concepts).
 
-Every field is a pytree leaf, so a search grid is simply a ``Params`` whose leaves carry a
-leading axis, and ``jax.vmap`` runs the whole grid in one compiled call. Shapes (ants,
-iterations, step limit) are never here: they are static arguments of
-:func:`jaco.engine.run.make_run`.
-Each variant uses a subset of the fields (``Variant.params``) and overrides some defaults.
+A :class:`Params` is a pytree of traced floats, one leaf per parameter of the planner, so a search
+grid is simply a ``Params`` whose leaves carry a leading axis and ``jax.vmap`` runs the whole grid
+in one compiled call. Shapes (ants, iterations, step limit) are never here: they are static
+arguments of :func:`jaco.engine.run.make_run`.
+
+Nothing here lists the planners' parameters: the module that holds a component's equations
+declares them (:func:`declare`), e.g. :data:`jaco.engine.pheromone.RHO`, so a new component with a
+new hyperparameter touches no engine file. :data:`SPECS` is every parameter declared so far (the
+name's range and meaning; a name is declared once with one range, and every component that reads
+it brings its own default).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, replace
+from typing import Any, Iterable, Iterator, Mapping
 
 import jax
 import numpy as np
 
-from ..errors import ParamError, did_you_mean
+from ..errors import JacoError, ParamError, did_you_mean
 
 INF = math.inf
 
 
-@jax.tree_util.register_dataclass
 @dataclass(frozen=True)
-class Params:
-    """All hyperparameters of all planners; see :data:`SPECS` for meaning and valid ranges."""
+class Param:
+    """One hyperparameter of a component: its name, default, valid range ``[lo, hi]`` (ends open
+    where marked) and what it is, citing the equation it comes from."""
 
-    alpha: float = 1.0
-    beta: float = 2.0
-    rho: float = 0.1
-    q: float = 1.0
-    tau0: float = 0.1
-    q0: float = 0.9
-    xi: float = 0.1
-    sigma: float = 5.0
-    w: float = 6.0
-    p_best: float = 0.05
-    # Fixed MMAS-style bounds (IDACA 3.4.2, IACA 4.2.3)
-    tau_min: float = 0.01
-    tau_max: float = 20.0
-    # IDACA schedules (thesis eqs. 3-8, 3-9, 3-10)
-    alpha_slope: float = 0.03
-    alpha_end: float = 2.5
-    beta_start: float = 3.0
-    beta_slope: float = 0.015
-    beta_end: float = 2.0
-    break_iter: float = 83.0
-    rho_min: float = 0.3
-    rho_decay: float = 2.0
-    # IACA (thesis chapter 4)
-    k_init: float = 10.0
-    rho_local: float = 0.1
-    q1: float = 1.0
-    q2: float = 5.0
-    q3: float = 15.0
-    rho1: float = 0.7
-    rho2: float = 0.2
-    q_step: float = 0.5
-    # Chaos ACO (the Xi'an Technological University paper; docs/algorithms.md §7)
-    gamma: float = 4.0
-    chaos_iters: float = 10.0
-    chaos_mu: float = 4.0
-    # IAACO (Miao et al. 2021; docs/algorithms.md §5) and the multi-objective cost
-    sigma1: float = 0.1
-    sigma2: float = 0.9
-    lam: float = 1.0
-    mu_min: float = 0.1
-    rs: float = 0.5
-    delta0: float = 0.15
-    k_rho: float = 0.3
-    k_len: float = 0.7
-    k_safe: float = 0.1
-    k_energy: float = 0.2
-    rs_cost: float = 1.0
-    # Policy-gradient ACO (pg-aco, Meuleau & Dorigo 2002; docs/algorithms.md §8; jaco.planners.pg)
-    penalty: float = 0.3
-    # PF-ACO baseline of APF-ACO (Dong & Zhao 2021; docs/algorithms.md §6; jaco.planners.apf_guided): classic APF repulsion
-    k_rep: float = 100.0
-    d0: float = 3.0
-
-    def replace(self, **changes) -> "Params":
-        return replace(self, **changes)
-
-    def to_dict(self) -> dict:
-        return {f.name: _plain(getattr(self, f.name)) for f in fields(self)}
-
-
-def _plain(v):
-    a = np.asarray(v)
-    return a.item() if a.ndim == 0 else a.tolist()
-
-
-@dataclass(frozen=True)
-class Spec:
+    name: str
+    default: float
     lo: float
     hi: float
     doc: str
@@ -108,65 +50,108 @@ class Spec:
         right = ")" if self.hi_open else "]"
         return f"{left}{self.lo:g}, {self.hi:g}{right}"
 
+    def with_default(self, default: float) -> "Param":
+        """The same parameter with another component's default."""
+        return replace(self, default=float(default))
 
-SPECS: dict[str, Spec] = {
-    "alpha": Spec(0, 20, "pheromone exponent α"),
-    "beta": Spec(0, 20, "heuristic exponent β"),
-    "rho": Spec(0, 1, "evaporation rate ρ: τ ← (1−ρ)τ + Δτ", lo_open=True),
-    "q": Spec(0, INF, "deposit constant Q", lo_open=True, hi_open=True),
-    "tau0": Spec(0, INF, "initial pheromone τ0 (ACS: also the local-update target)", lo_open=True, hi_open=True),
-    "q0": Spec(0, 1, "exploitation probability q0 of the pseudo-random proportional rule"),
-    "xi": Spec(0, 1, "ACS local evaporation ξ: τ ← (1−ξ)τ + ξτ0"),
-    "sigma": Spec(0, 1000, "elitist weight σ (number of elite ants) on the best-so-far path"),
-    "w": Spec(1, 1000, "rank-based AS: the w−1 best ants deposit, plus the best-so-far with weight w"),
-    "p_best": Spec(0, 1, "MMAS: probability of building the best path at convergence (sets τmin)", lo_open=True, hi_open=True),
-    "tau_min": Spec(0, INF, "lower pheromone bound τmin (fixed bounds)", hi_open=True),
-    "tau_max": Spec(0, INF, "upper pheromone bound τmax (fixed bounds)", lo_open=True, hi_open=True),
-    "alpha_slope": Spec(0, 10, "IDACA eq. 3-8: α(i) = alpha_slope·i up to break_iter"),
-    "alpha_end": Spec(0, 20, "IDACA eq. 3-8: α after break_iter"),
-    "beta_start": Spec(0, 20, "IDACA eq. 3-9: β(0)"),
-    "beta_slope": Spec(0, 10, "IDACA eq. 3-9: β(i) = beta_start − beta_slope·i up to break_iter"),
-    "beta_end": Spec(0, 20, "IDACA eq. 3-9: β after break_iter"),
-    "break_iter": Spec(0, 1e6, "IDACA eqs. 3-8, 3-9: iteration where α and β switch to their plateaus"),
-    "rho_min": Spec(0, 1, "IDACA eq. 3-10: floor of the decaying evaporation rate", lo_open=True),
-    "rho_decay": Spec(1, 1000, "IDACA eq. 3-10: ρ(t+1) = ρ(t)·a^(−t/Nc), a = rho_decay > 1"),
-    "k_init": Spec(0, INF, "IACA 4.2.3: initial pheromone K·η_goal(j)", lo_open=True, hi_open=True),
-    "rho_local": Spec(0, 1, "IACA eqs. 4-2..4-4: local update τ ← (1−ρ)τ + Q/d_ij while walking"),
-    "q1": Spec(0, INF, "IACA eq. 4-6: threshold Q1", hi_open=True),
-    "q2": Spec(0, INF, "IACA eq. 4-6: threshold Q2 (> Q1)", hi_open=True),
-    "q3": Spec(0, INF, "IACA eq. 4-6: threshold Q3 (> Q2)", hi_open=True),
-    "rho1": Spec(0, 1, "IACA eq. 4-6: factor for Q1 < P ≤ Q2 (ρ1 > ρ2)", lo_open=True),
-    "rho2": Spec(0, 1, "IACA eq. 4-6: factor for Q2 < P ≤ Q3", lo_open=True),
-    "q_step": Spec(0, INF, "IACA eq. 4-6: increment q for P ≤ Q1, decrement for P > Q3", hi_open=True),
-    # Chaos ACO (the Xi'an Technological University paper; docs/algorithms.md §7)
-    "gamma": Spec(0, 20, "chaos ACO eq. 11: exponent γ of the selection function (P_free·P_θ)^γ"),
-    "chaos_iters": Spec(0, 1000, "chaos ACO eq. 14: Logistic iterations i_c (rounded to an integer)"),
-    "chaos_mu": Spec(0, 4, "chaos ACO: Logistic control parameter μ (4 = fully chaotic; ≤ 4 keeps h in [0, 1])"),
-    # IAACO (Miao et al. 2021; docs/algorithms.md §5) and the multi-objective cost
-    "sigma1": Spec(0, INF, "IAACO eq. 1: weight σ1 of the step length d_ij in η", hi_open=True),
-    "sigma2": Spec(0, INF, "IAACO eq. 1: weight σ2 of the goal distance d_jG in η", hi_open=True),
-    "lam": Spec(0, 20, "IAACO eq. 3: exponent λ of the angle guidance μ"),
-    "mu_min": Spec(0, 1, "IAACO eq. 4: floor of the angle guidance μ (keeps every move possible)", lo_open=True),
-    "rs": Spec(0, INF, "IAACO eq. 5: safety radius Rs (cells) of the obstacle exclusion ξ", lo_open=True, hi_open=True),
-    "delta0": Spec(0, 1, "IAACO eq. 7: q0 = δ0·exp(−½(Nc/Nmax)²); the paper uses δ0 ∈ [0.1, 0.5]"),
-    "k_rho": Spec(0, 1, "IAACO eq. 10: adaptive evaporation ρ = k·L_SG/J_best, k < 1", lo_open=True, hi_open=True),
-    "k_len": Spec(0, INF, "multi-objective cost J = kL·L + kS·S + kE·E: weight kL of the length", lo_open=True, hi_open=True),
-    "k_safe": Spec(0, INF, "multi-objective cost: weight kS of the safety cost S", hi_open=True),
-    "k_energy": Spec(0, INF, "multi-objective cost: weight kE of the heading change E (radians)", hi_open=True),
-    "rs_cost": Spec(0, INF, "multi-objective cost: radius (cells) of S = Σ max(0, 2r − d_b)/(2r)", lo_open=True, hi_open=True),
-    # Policy-gradient ACO (pg-aco, Meuleau & Dorigo 2002; docs/algorithms.md §8; jaco.planners.pg)
-    "penalty": Spec(0, INF, "pg-aco: a failed ant costs (1 + penalty)·L̄, L̄ the mean cost of the iteration's successful ants", hi_open=True),
-    # PF-ACO baseline of APF-ACO (Dong & Zhao 2021; docs/algorithms.md §6; jaco.planners.apf_guided)
-    "k_rep": Spec(0, INF, "pf-aco: repulsion gain k_rep of the classic APF, U_rep = ½k_rep(1/d − 1/d0)² (attraction ½ρ²)", hi_open=True),
-    "d0": Spec(0, INF, "pf-aco: range d0 (cells) of the classic APF's repulsion", lo_open=True, hi_open=True),
-}
+    def same_range(self, other: "Param") -> bool:
+        return (self.lo, self.hi, self.lo_open, self.hi_open) == (other.lo, other.hi, other.lo_open, other.hi_open)
 
-# Pairs (a, b) that must satisfy a < b (or a > b) when both are used: checked like ranges.
-ORDERED = (("tau_min", "tau_max"), ("q1", "q2"), ("q2", "q3"), ("rho2", "rho1"))
+
+#: Every parameter declared so far, by name (the first declaration's default and meaning).
+SPECS: dict[str, Param] = {}
+#: Pairs (a, b) that must satisfy a < b wherever a planner has both (τmin < τmax, Q1 < Q2 < Q3,
+#: ρ2 < ρ1), declared with the parameters.
+ORDERED: list[tuple[str, str]] = []
+
+
+def declare(*params: Param, order: Iterable[tuple[str, str]] = ()) -> tuple[Param, ...]:
+    """Make ``params`` known by name (designs, search spaces and ``jaco.tune`` check names and
+    ranges against :data:`SPECS`) and the relations ``order`` (``(a, b)``: a < b); returns the
+    parameters. Declaring a name again is harmless with the same range and an error with another."""
+    for p in params:
+        if not isinstance(p, Param):
+            raise JacoError(f"declare takes Param objects, got {type(p).__name__} {p!r}")
+        known = SPECS.get(p.name)
+        if known is None:
+            SPECS[p.name] = p
+        elif not known.same_range(p):
+            raise JacoError(f"parameter {p.name!r} is declared with range {known.describe()} already; "
+                            f"another component declares {p.describe()}: give it another name")
+    for pair in order:
+        if tuple(pair) not in ORDERED:
+            ORDERED.append((pair[0], pair[1]))
+    return params
+
+
+class Params(Mapping):
+    """The values of a planner's parameters, ``params.rho``: a pytree with one leaf per name
+    (scalars, or arrays with a leading grid axis under ``vmap``).
+
+    ``Params(**values)`` holds exactly ``values``; a planner's defaults are
+    ``planner.default_params()``. Reading a name it does not hold is an :class:`AttributeError`
+    that lists the names it has, so a component that reads a parameter its planner did not
+    declare fails when the run is traced, not with a silent default."""
+
+    __slots__ = ("_values",)
+
+    def __init__(self, **values: Any) -> None:
+        object.__setattr__(self, "_values", dict(values))
+
+    def __getattr__(self, name: str) -> Any:
+        values = object.__getattribute__(self, "_values")
+        try:
+            return values[name]
+        except KeyError:
+            if name.startswith("__"):
+                raise AttributeError(name) from None
+            raise AttributeError(f"no parameter {name!r} here{did_you_mean(name, values)}; "
+                                 f"these Params hold: {', '.join(sorted(values)) or 'none'}") from None
+
+    def __setattr__(self, name, value):
+        raise AttributeError("Params are immutable: use params.replace(name=value)")
+
+    def __getitem__(self, name: str) -> Any:
+        return self._values[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._values)
+
+    def __len__(self) -> int:
+        return len(self._values)
+
+    def __repr__(self) -> str:
+        return "Params(" + ", ".join(f"{k}={v!r}" for k, v in self._values.items()) + ")"
+
+    def replace(self, **changes: Any) -> "Params":
+        """A copy with ``changes`` (a schedule's α, β or ρ of one iteration; new names are added)."""
+        return Params(**{**self._values, **changes})
+
+    def to_dict(self) -> dict:
+        """Plain Python floats (or lists, for grid axes)."""
+        return {k: _plain(v) for k, v in self._values.items()}
+
+
+def _flatten(p: Params):
+    keys = tuple(sorted(p._values))
+    return [(jax.tree_util.GetAttrKey(k), p._values[k]) for k in keys], keys
+
+
+def _unflatten(keys, leaves) -> Params:
+    return Params(**dict(zip(keys, leaves)))
+
+
+jax.tree_util.register_pytree_with_keys(Params, _flatten, _unflatten)
+
+
+def _plain(v):
+    a = np.asarray(v)
+    return a.item() if a.ndim == 0 else a.tolist()
 
 
 def param_names() -> tuple[str, ...]:
-    return tuple(f.name for f in fields(Params))
+    """Every declared parameter name."""
+    return tuple(SPECS)
 
 
 def unknown_parameter(name, allowed, where: str, keywords=(), call: str = "") -> str:
@@ -177,14 +162,15 @@ def unknown_parameter(name, allowed, where: str, keywords=(), call: str = "") ->
             f"valid: {', '.join(sorted(allowed))}{also}")
 
 
-def check_values(values: dict, allowed: tuple[str, ...], where: str) -> dict:
-    """Validate user values (names, NaN, ranges) with numpy; returns float arrays.
+def check_values(values: Mapping, allowed: Iterable[str], where: str) -> dict:
+    """Validate user values (names, NaN, ranges of :data:`SPECS`) with numpy; returns float arrays.
 
     Values may be scalars or 1-D sequences (a sweep axis). Raises :class:`ParamError`.
     """
+    allowed = tuple(allowed)
     out = {}
     for name, v in values.items():
-        if name not in allowed:
+        if name not in allowed or name not in SPECS:
             raise ParamError(unknown_parameter(name, allowed, where))
         try:
             if v is None or isinstance(v, (str, bytes)) or np.asarray(v).dtype.kind not in "iuf":
@@ -207,9 +193,10 @@ def check_values(values: dict, allowed: tuple[str, ...], where: str) -> dict:
     return out
 
 
-def check_order(values: dict, used: tuple[str, ...]) -> None:
-    """Relations between parameters (τmin < τmax, Q1 < Q2 < Q3, ρ2 < ρ1) on the
-    merged values of a variant; values may be sweep axes (checked for every combination)."""
+def check_order(values: Mapping, used: Iterable[str]) -> None:
+    """Relations between parameters (:data:`ORDERED`) on the merged values of a planner; values
+    may be sweep axes (checked for every combination)."""
+    used = tuple(used)
     for lo, hi in ORDERED:
         if lo in used and hi in used:
             a, b = np.atleast_1d(values[lo]), np.atleast_1d(values[hi])

@@ -13,20 +13,49 @@ example, is ``chain(init_mmas(), evaporate(), deposit_iteration_best(), mmas_bou
 
 from __future__ import annotations
 
-from typing import Callable, NamedTuple
+from typing import Any, Callable, Mapping, NamedTuple, Protocol
 
 import jax
 import jax.numpy as jnp
 
 from . import native
+from .params import INF, Param, declare
+
+RHO, Q, TAU0, XI, SIGMA, W, P_BEST, TAU_MIN, TAU_MAX = declare(
+    Param("rho", 0.1, 0, 1, "evaporation rate ρ: τ ← (1−ρ)τ + Δτ (thesis eq. 2-2)", lo_open=True),
+    Param("q", 1.0, 0, INF, "deposit constant Q (thesis eqs. 2-4..2-6)", lo_open=True, hi_open=True),
+    Param("tau0", 0.1, 0, INF, "initial pheromone τ0 (ACS: also the local-update target)", lo_open=True, hi_open=True),
+    Param("xi", 0.1, 0, 1, "ACS local evaporation ξ: τ ← (1−ξ)τ + ξτ0 (thesis eq. 2-16)"),
+    Param("sigma", 5.0, 0, 1000, "elitist weight σ (number of elite ants) on the best-so-far path (thesis eq. 2-13)"),
+    Param("w", 6.0, 1, 1000, "rank-based AS: the w−1 best ants deposit, plus the best-so-far with weight w"),
+    Param("p_best", 0.05, 0, 1, "MMAS: probability of building the best path at convergence (sets τmin)",
+          lo_open=True, hi_open=True),
+    Param("tau_min", 0.01, 0, INF, "lower pheromone bound τmin (fixed bounds)", hi_open=True),
+    Param("tau_max", 20.0, 0, INF, "upper pheromone bound τmax (fixed bounds)", lo_open=True, hi_open=True),
+    order=[("tau_min", "tau_max")],
+)
 
 
 class Trail(NamedTuple):
-    """Pheromone ``tau (M,)`` and its current bounds (``lo = 0``, ``hi = inf`` when unbounded)."""
+    """Pheromone ``tau (M,)``, its current bounds (``lo = 0``, ``hi = inf`` when unbounded) and
+    the components' own state by component (``state["pg"]``: a learning rule's logits and
+    optimiser state; ``state["apf"]``: a potential-field table), so that components with state
+    combine: each reads and writes only its own entry (:func:`own`, :func:`with_own`)."""
 
     tau: jax.Array
     lo: jax.Array
     hi: jax.Array
+    state: Mapping[str, Any] = {}  # never mutated: with_own builds a new dict
+
+
+def own(trail: Trail, key: str) -> Any:
+    """The state component ``key`` keeps in the trail."""
+    return trail.state[key]
+
+
+def with_own(trail: Trail, key: str, value: Any) -> Trail:
+    """``trail`` with component ``key``'s state set to ``value`` (the others' kept)."""
+    return trail._replace(state={**trail.state, key: value})
 
 
 class Walks(NamedTuple):
@@ -46,16 +75,33 @@ class Walks(NamedTuple):
     best_cost: jax.Array
 
 
+class RuleInit(Protocol):
+    """``init(trail, problem, params) -> trail``: once per run, inside the run."""
+
+    def __call__(self, trail: Trail, problem: Any, params: Any) -> Trail: ...
+
+
+class RuleUpdate(Protocol):
+    """``update(trail, walks, problem, params) -> trail``: after every iteration's walks."""
+
+    def __call__(self, trail: Trail, walks: Walks, problem: Any, params: Any) -> Trail: ...
+
+
 class Rule(NamedTuple):
+    """A pheromone rule or a piece of one: ``init`` and ``update`` (:class:`RuleInit`,
+    :class:`RuleUpdate`); :func:`chain` combines pieces."""
+
     init: Callable
     update: Callable
 
 
-def _keep_init(trail, problem, params):
+def keep_init(trail: Trail, problem: Any, params: Any) -> Trail:
+    """The ``init`` of a piece that only updates."""
     return trail
 
 
-def _keep_update(trail, walks, problem, params):
+def keep_update(trail: Trail, walks: Walks, problem: Any, params: Any) -> Trail:
+    """The ``update`` of a piece that only initialises."""
     return trail
 
 
@@ -101,8 +147,8 @@ def deposit(tau, targets, amounts):
     return native.dispatch(native.deposit, xla, tau, targets, amounts)
 
 
-def _on_path(tau, targets):
-    """Mask ``(M,)`` of the elements a path uses."""
+def on_path(tau: jax.Array, targets: jax.Array) -> jax.Array:
+    """Mask ``(M,)`` of the elements a path (``targets``, :attr:`Walks.targets`' column) uses."""
     return deposit(jnp.zeros(tau.shape, jnp.float32), targets, 1.0) > 0
 
 
@@ -119,7 +165,7 @@ def init_constant() -> Rule:
     def init(trail, problem, params):
         return trail._replace(tau=jnp.full_like(trail.tau, params.tau0))
 
-    return Rule(init, _keep_update)
+    return Rule(init, keep_update)
 
 
 def init_mmas() -> Rule:
@@ -129,7 +175,7 @@ def init_mmas() -> Rule:
         hi = params.q / (params.rho * jnp.maximum(octile(problem), 1.0))
         return trail._replace(tau=jnp.full_like(trail.tau, hi), lo=hi * 0.0, hi=hi)
 
-    return Rule(init, _keep_update)
+    return Rule(init, keep_update)
 
 
 # -- evaporation and deposits --------------------------------------------------------------
@@ -139,7 +185,7 @@ def evaporate() -> Rule:
     def update(trail, walks, problem, params):
         return trail._replace(tau=(1.0 - params.rho) * trail.tau)
 
-    return Rule(_keep_init, update)
+    return Rule(keep_init, update)
 
 
 def deposit_all(amount: Callable) -> Rule:
@@ -148,7 +194,7 @@ def deposit_all(amount: Callable) -> Rule:
     def update(trail, walks, problem, params):
         return trail._replace(tau=deposit(trail.tau, walks.targets, amount(walks, params)))
 
-    return Rule(_keep_init, update)
+    return Rule(keep_init, update)
 
 
 def ant_cycle(walks, params):
@@ -174,7 +220,7 @@ def deposit_best_so_far(weight: Callable = lambda params: 1.0) -> Rule:
         amount = weight(params) * params.q * inverse(walks.best_cost)
         return trail._replace(tau=deposit(trail.tau, walks.best_targets, amount))
 
-    return Rule(_keep_init, update)
+    return Rule(keep_init, update)
 
 
 def deposit_iteration_best() -> Rule:
@@ -184,7 +230,7 @@ def deposit_iteration_best() -> Rule:
         b = jnp.argmin(walks.cost)
         return trail._replace(tau=deposit(trail.tau, walks.targets[:, b], params.q * inverse(walks.cost[b])))
 
-    return Rule(_keep_init, update)
+    return Rule(keep_init, update)
 
 
 def deposit_ranked() -> Rule:
@@ -198,7 +244,7 @@ def deposit_ranked() -> Rule:
         tau = deposit(tau, walks.best_targets, params.w * params.q * inverse(walks.best_cost))
         return trail._replace(tau=tau)
 
-    return Rule(_keep_init, update)
+    return Rule(keep_init, update)
 
 
 # -- ACS -------------------------------------------------------------------------------------
@@ -216,18 +262,18 @@ def acs_local() -> Rule:
         decay = jnp.exp(k * jnp.log1p(-params.xi))  # (1 − ξ)^k; pow costs 8x as much on CPU
         return trail._replace(tau=params.tau0 + decay * (trail.tau - params.tau0))
 
-    return Rule(_keep_init, update)
+    return Rule(keep_init, update)
 
 
 def acs_global() -> Rule:
     """ACS global update on the global-best path only: τ ← (1−ρ)τ + ρ·Q/L_gb (thesis eq. 2-15)."""
 
     def update(trail, walks, problem, params):
-        on = _on_path(trail.tau, walks.best_targets) & jnp.isfinite(walks.best_cost)
+        on = on_path(trail.tau, walks.best_targets) & jnp.isfinite(walks.best_cost)
         new = (1.0 - params.rho) * trail.tau + params.rho * params.q * inverse(walks.best_cost)
         return trail._replace(tau=jnp.where(on, new, trail.tau))
 
-    return Rule(_keep_init, update)
+    return Rule(keep_init, update)
 
 
 # -- bounds ----------------------------------------------------------------------------------
@@ -246,7 +292,7 @@ def mmas_bounds() -> Rule:
         lo = jnp.minimum(hi * (1.0 - root) / ((avg - 1.0) * root), hi)
         return trail._replace(lo=jnp.where(found, lo, trail.lo), hi=hi)
 
-    return Rule(_keep_init, update)
+    return Rule(keep_init, update)
 
 
 def clamp() -> Rule:
@@ -255,4 +301,4 @@ def clamp() -> Rule:
     def update(trail, walks, problem, params):
         return trail._replace(tau=jnp.clip(trail.tau, trail.lo, trail.hi))
 
-    return Rule(_keep_init, update)
+    return Rule(keep_init, update)

@@ -10,10 +10,11 @@ The sources count iterations from 1, so every schedule below uses ``i = t + 1``.
 
 >>> import jax.numpy as jnp
 >>> from jaco.engine.params import Params
->>> p = alpha_beta(Params(), jnp.int32(9), 100)           # iteration i = 10
+>>> defaults = Params(**{p.name: p.default for p in IDACA_PARAMS})
+>>> p = alpha_beta(defaults, jnp.int32(9), 100)           # iteration i = 10
 >>> round(float(p.alpha), 4), round(float(p.beta), 4)
 (0.3, 2.85)
->>> p = alpha_beta(Params(), jnp.int32(99), 100)          # i = 100 > break_iter = 83
+>>> p = alpha_beta(defaults, jnp.int32(99), 100)          # i = 100 > break_iter = 83
 >>> float(p.alpha), float(p.beta)
 (2.5, 2.0)
 """
@@ -24,7 +25,19 @@ from typing import Callable
 
 import jax.numpy as jnp
 
-from .params import Params
+from .params import Param, Params, declare
+
+#: IDACA's schedule parameters (thesis eqs. 3-8..3-10).
+IDACA_PARAMS = declare(
+    Param("alpha_slope", 0.03, 0, 10, "IDACA eq. 3-8: α(i) = alpha_slope·i up to break_iter"),
+    Param("alpha_end", 2.5, 0, 20, "IDACA eq. 3-8: α after break_iter"),
+    Param("beta_start", 3.0, 0, 20, "IDACA eq. 3-9: β(0)"),
+    Param("beta_slope", 0.015, 0, 10, "IDACA eq. 3-9: β(i) = beta_start − beta_slope·i up to break_iter"),
+    Param("beta_end", 2.0, 0, 20, "IDACA eq. 3-9: β after break_iter"),
+    Param("break_iter", 83.0, 0, 1e6, "IDACA eqs. 3-8, 3-9: iteration where α and β switch to their plateaus"),
+    Param("rho_min", 0.3, 0, 1, "IDACA eq. 3-10: floor of the decaying evaporation rate", lo_open=True),
+    Param("rho_decay", 2.0, 1, 1000, "IDACA eq. 3-10: ρ(t+1) = ρ(t)·a^(−t/Nc), a = rho_decay > 1"),
+)
 
 
 def _iteration(t):
@@ -37,7 +50,7 @@ def alpha_beta(params: Params, t, n_iters) -> Params:
 
     For ``0 < i ≤ break_iter``: ``α = alpha_slope·i`` and ``β = beta_start − beta_slope·i``;
     for ``i > break_iter``: ``α = alpha_end`` and ``β = beta_end``. The thesis prints
-    α = 3i/100, β = 3 − 1.5i/100, then 2.5 and 2 (the :class:`Params` defaults, with the break
+    α = 3i/100, β = 3 − 1.5i/100, then 2.5 and 2 (the defaults of :data:`IDACA_PARAMS`, with the break
     at i = 83 where α reaches its plateau). β is floored at 0 so a long ramp never turns negative.
     """
     i = _iteration(t)

@@ -33,19 +33,17 @@ Interpretations of the ACO part (equations in ``docs/algorithms.md`` §6; also i
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from ..engine import pheromone as ph
-from ..engine.variant import make_variant
-from ..potential import D0, K_REP, apf_distance, classic_distance
+from ..engine.colony import ALPHA, BETA
+from ..potential import D0_PARAM, K_REP_PARAM, apf_distance, classic_distance
+from .compose import component, compose
 
 __all__ = [
     "apf_eta",
-    "APFTrail",
     "apf_init",
     "apf_table",
     "deposit_best_half",
@@ -74,24 +72,14 @@ def _heuristic(table):
     return heuristic
 
 
-class APFTrail(NamedTuple):
-    """:class:`jaco.engine.pheromone.Trail`'s ``(tau, lo, hi)`` plus the APF distance ``r (N,)``,
-    computed once per run by :func:`apf_init` and carried unchanged through the iterations."""
-
-    tau: jax.Array
-    lo: jax.Array
-    hi: jax.Array
-    r: jax.Array
-
-
 def apf_table(table) -> ph.Rule:
-    """Carry ``r = table(problem, params)`` in the trail (an :class:`APFTrail`), computed once per
-    run inside the run; the pheromone itself is left to the other pieces."""
+    """Keep the APF distance ``r = table(problem, params) (N,)`` in the trail (its state ``"apf"``),
+    computed once per run inside the run; the pheromone itself is left to the other pieces."""
 
     def init(trail, problem, params):
-        return APFTrail(trail.tau, trail.lo, trail.hi, table(problem, params).astype(jnp.float32))
+        return ph.with_own(trail, "apf", table(problem, params).astype(jnp.float32))
 
-    return ph.Rule(init, ph._keep_update)
+    return ph.Rule(init, ph.keep_update)
 
 
 def apf_init(table) -> ph.Rule:
@@ -114,21 +102,35 @@ def deposit_best_half() -> ph.Rule:
         s = fit / jnp.maximum(jnp.sum(fit), 1e-30)
         return trail._replace(tau=ph.deposit(trail.tau, walks.targets, s * params.q * fit))
 
-    return ph.Rule(ph._keep_init, update)
+    return ph.Rule(ph.keep_init, update)
 
 
 def apf_factor(variant, trail, problem, params, t, n_iters) -> jax.Array:
     """The factor of rule (6) besides τ^α, in log space: ``β·log η`` ``(N, 8)`` with η of eq. (10)
-    from the table the rule's init stored in the trail (``trail.r``, computed once per run). The
+    from the table the heuristic's init stored in the trail (its state ``"apf"``, once per run). The
     engine scales each cell's weights to a top of 1, so large β cannot underflow."""
-    eta = apf_eta(problem, trail.r, t, n_iters)
+    eta = apf_eta(problem, ph.own(trail, "apf"), t, n_iters)
     return params.beta * jnp.log(jnp.maximum(eta, _TINY))
 
 
 _TINY = float(np.finfo(np.float32).tiny)
 
 
-_APF_BASE = ("alpha", "beta", "rho", "q", "tau0")
+def _no_double(chosen) -> str | None:
+    if chosen["construct"] == "double":
+        return (f"construct 'double' walks a second colony from the goal to the start, but the "
+                f"'{chosen['heuristic']}' table holds distances to the goal only")
+    return None
+
+
+component("heuristic", "apf", heuristic=_heuristic(apf_distance), factor=apf_factor, rule=apf_table(apf_distance),
+          params=(BETA.with_default(20.0),), why_not=_no_double, source="Dong & Zhao 2021 eqs. 4, 5, 10")
+component("heuristic", "pf", heuristic=_heuristic(classic_distance), factor=apf_factor, rule=apf_table(classic_distance),
+          params=(BETA.with_default(20.0), K_REP_PARAM, D0_PARAM), why_not=_no_double, source="classic APF (Khatib)")
+component("rule", "apf", rule=ph.chain(ph.init_constant(), ph.evaporate(), deposit_best_half()),
+          params=(ALPHA.with_default(2.0), ph.RHO.with_default(0.3), ph.Q.with_default(1.0), ph.TAU0.with_default(1.0)),
+          source="Dong & Zhao 2021 eqs. 11, 12")
+
 #: The paper prints α = 2, β = 6, ρ = 0.7, Q = 1 (``PAPER_PARAMS``). The defaults move β to 20 and
 #: ρ to 0.3: with β = 6 no ant of 50 × 100 ever reached the goal on two dense 30 % maps and the
 #: maze of tests/test_quality.py (before the first arrival only β steers), and ρ = 0.7 locks in
@@ -136,10 +138,10 @@ _APF_BASE = ("alpha", "beta", "rho", "q", "tau0")
 PAPER_PARAMS = dict(alpha=2.0, beta=6.0, rho=0.7, q=1.0)
 _APF_DEFAULTS = dict(alpha=2.0, beta=20.0, rho=0.3, q=1.0, tau0=1.0)
 
-APF_ACO = make_variant(
+APF_ACO = compose(heuristic="apf", rule="apf").named(
     "apf-aco",
-    "Dong & Zhao 2021: 3.1, 3.2, eqs. 4, 5, 6, 10, 11, 12",
-    "Dong & Zhao 2021, Machinery Design & Manufacture 2021(6):169–173, eqs. 4, 5 (improved APF), "
+    source="Dong & Zhao 2021: 3.1, 3.2, eqs. 4, 5, 6, 10, 11, 12",
+    doc="Dong & Zhao 2021, Machinery Design & Manufacture 2021(6):169–173, eqs. 4, 5 (improved APF), "
     "6, 10, 11, 12: ACO guided by the improved artificial potential field. η_ij = 1/(d_ij + r_jg)·"
     "(Nmax − Nc + 1)/Nmax with r_jg the length of the improved APF's path from j to the goal "
     "(intermediate points beside the last obstacle the straight line crosses, attraction-only "
@@ -147,23 +149,17 @@ APF_ACO = make_variant(
     "rule; no deposit while walking; after each iteration τ ← (1−ρ)τ and the best half of the "
     "successful ants deposit (fit_i/Σfit)·Q/L_i. Pheromone on moves. Interpretations: jaco.apf "
     "and docs/variants.md (APF-ACO).",
-    _APF_BASE,
-    _APF_DEFAULTS,
-    ph.chain(apf_init(apf_distance), ph.evaporate(), deposit_best_half()),
-    heuristic=_heuristic(apf_distance),
-    factor=apf_factor,
+    **_APF_DEFAULTS,
 )
 
-PF_ACO = make_variant(
+PF_ACO = compose(heuristic="pf", rule="apf").named(
     "pf-aco",
-    "Dong & Zhao 2021, baseline of its ref. 10 (Wang, Yang & Zhang 2018)",
-    "The PF-ACO baseline of Dong & Zhao 2021 (their ref. 10): APF-ACO with r_jg from the classic "
+    source="Dong & Zhao 2021, baseline of its ref. 10 (Wang, Yang & Zhang 2018)",
+    doc="The PF-ACO baseline of Dong & Zhao 2021 (their ref. 10): APF-ACO with r_jg from the classic "
     "artificial potential field, U = ½ρ_g² + ½k_rep(1/d − 1/d0)² within d0 (descent to the lowest "
     "neighbour; Euclidean where it ends in a local minimum). Everything else as apf-aco "
     "(eqs. 6, 10, 11, 12). Interpretations: jaco.apf and docs/variants.md (APF-ACO).",
-    _APF_BASE + ("k_rep", "d0"),
-    dict(_APF_DEFAULTS, k_rep=K_REP, d0=D0),
-    ph.chain(apf_init(classic_distance), ph.evaporate(), deposit_best_half()),
-    heuristic=_heuristic(classic_distance),
-    factor=apf_factor,
+    **_APF_DEFAULTS, k_rep=K_REP_PARAM.default, d0=D0_PARAM.default,
 )
+
+PLANNERS = (APF_ACO, PF_ACO)

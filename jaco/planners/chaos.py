@@ -31,9 +31,17 @@ import jax
 import jax.numpy as jnp
 
 from ..engine import pheromone as ph
-from ..engine.colony import eta_factor
-from ..engine.variant import make_variant
+from ..engine import heuristics
+from ..engine.colony import ALPHA, BETA, eta_factor
+from ..engine.params import Param, declare
 from ..moves import MOVES
+from .compose import component, compose
+
+GAMMA, CHAOS_ITERS, CHAOS_MU = declare(
+    Param("gamma", 4.0, 0, 20, "chaos ACO eq. 11: exponent γ of the selection function (P_free·P_θ)^γ"),
+    Param("chaos_iters", 10.0, 0, 1000, "chaos ACO eq. 14: Logistic iterations i_c (rounded to an integer)"),
+    Param("chaos_mu", 4.0, 0, 4, "chaos ACO: Logistic control parameter μ (4 = fully chaotic; ≤ 4 keeps h in [0, 1])"),
+)
 
 # A successful path is "above the mean" only when longer by more than this relative margin, so
 # that equal lengths never count as above through the round-off of the float32 mean.
@@ -169,11 +177,11 @@ def chaos_perturb() -> ph.Rule:
         targets = jnp.where(on_long, walks.targets, m)  # only the N_L paths write
         total = ph.deposit(jnp.zeros_like(tau), targets, new)
         count = ph.deposit(jnp.zeros_like(tau), targets, 1.0)
-        protected = ph._on_path(tau, jnp.where(used & below[None, :], walks.targets, m))
+        protected = ph.on_path(tau, jnp.where(used & below[None, :], walks.targets, m))
         hit = (count > 0) & ~protected
         return trail._replace(tau=jnp.where(hit, total / jnp.maximum(count, 1.0), tau))
 
-    return ph.Rule(ph._keep_init, update)
+    return ph.Rule(ph.keep_init, update)
 
 
 def at_or_below_mean_cycle(walks, params):
@@ -189,21 +197,25 @@ def deposit_at_or_below_mean() -> ph.Rule:
     return ph.deposit_all(at_or_below_mean_cycle)
 
 
-CHAOS_ACO = make_variant(
+component("heuristic", "chaos", heuristic=heuristics.inverse_goal_distance, factor=selection_factor,
+          params=(BETA.with_default(8.0), GAMMA), source="Xi'an Technological University, rule (11)")
+component("rule", "chaos", rule=ph.chain(ph.init_constant(), chaos_perturb(), ph.evaporate(), deposit_at_or_below_mean()),
+          params=(ALPHA.with_default(1.0), ph.RHO.with_default(0.3), ph.Q.with_default(1.0), ph.TAU0.with_default(0.1),
+                  CHAOS_ITERS, CHAOS_MU), source="Xi'an Technological University, updates (14), (15)")
+
+CHAOS_ACO = compose(heuristic="chaos", rule="chaos").named(
     "chaos-aco",
-    "Xi'an Technological University paper: transition (11), chaos update (14), "
-    "global update (15)",
-    "Chaos ACO: transition p ∝ τ^α η^β (P_free·P_θ)^γ with the free-cell share P_free and the angle "
+    source="Xi'an Technological University paper: transition (11), chaos update (14), global update (15)",
+    doc="Chaos ACO: transition p ∝ τ^α η^β (P_free·P_θ)^γ with the free-cell share P_free and the angle "
     "share P_θ of each move (a per-move constant folded into the weight table once per iteration); "
     "after each iteration the paths above the mean length get their pheromone re-drawn by i_c steps "
     "of the Logistic map (μ = 4) between the smallest and largest pheromone on those paths, then "
     "τ ← (1−ρ)τ + Σ Q/L_k over the paths at or below the mean. η = 1/(distance to the goal) "
     "(thesis eq. 3-7) as for the classic variants; pheromone on moves (τ_ij). See docs/variants.md.",
-    ("alpha", "beta", "rho", "q", "tau0", "gamma", "chaos_iters", "chaos_mu"),
-    dict(alpha=1.0, beta=8.0, rho=0.3, q=1.0, tau0=0.1, gamma=4.0, chaos_iters=10.0, chaos_mu=4.0),
-    ph.chain(ph.init_constant(), chaos_perturb(), ph.evaporate(), deposit_at_or_below_mean()),
-    factor=selection_factor,
+    alpha=1.0, beta=8.0, rho=0.3, q=1.0, tau0=0.1, gamma=4.0, chaos_iters=10.0, chaos_mu=4.0,
 )
+
+PLANNERS = (CHAOS_ACO,)
 
 __all__ = [
     "CHAOS_ACO",

@@ -33,13 +33,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..engine import heuristics
 from ..engine import pheromone as ph
-from ..engine import schedules
-from ..engine.colony import Colony, move_weights, step_targets
-from ..engine.variant import make_variant as _variant
+from ..engine.colony import ALPHA, Colony, move_weights, step_targets
 from ..engine.walk import Tours, walk
 from ..moves import MOVES
+from .compose import component, compose
 
 SQRT2 = np.float32(np.sqrt(2.0))
 
@@ -201,7 +199,7 @@ def double_walk(variant, problem, trail, params, t, n_iters, key, *, n_ants: int
     def colony(start, goal, k):
         prob = dataclasses.replace(problem, start=start, goal=goal)
         weights = move_weights(variant, trail, prob, params, t, n_iters)
-        return walk(prob, weights, k, params.q0, n_ants=n_ants, steplimit=steplimit, exploit=exploit)
+        return walk(prob, weights, k, params.q0 if exploit else 0.0, n_ants=n_ants, steplimit=steplimit, exploit=exploit)
 
     # Both colonies in one vmapped walk (one loop, one compiled body): colony 1 start → goal,
     # colony 2 goal → start, each with its own key and its heuristic toward its own goal.
@@ -274,7 +272,7 @@ def daca_rule() -> ph.Rule:
     return ph.chain(ph.init_constant(), ph.evaporate(), ph.deposit_all(ph.ant_cycle))
 
 
-# -- the variants ----------------------------------------------------------------------------
+# -- the components and planners ----------------------------------------------------------------------------
 _DOUBLE_NOTE = (
     " Two colonies of n_ants ants each walk start→goal and goal→start (dead at a dead end or the "
     "step limit); complete crossover splices, for every colony-1 walk, the shortest start→x→goal "
@@ -283,40 +281,35 @@ _DOUBLE_NOTE = (
     "is the iteration's candidates. Pheromone on cells (node pheromone)."
 )
 
-IDACA = _variant(
+component("construct", "double", construct=double_colony, source="thesis ch. 3: two colonies, crossover")
+component("rule", "daca", rule=daca_rule(), pheromone_on="cells",
+          params=(ALPHA.with_default(1.0), ph.RHO.with_default(0.6), ph.Q.with_default(10.0), ph.TAU0.with_default(0.1)),
+          source="Sun, Lin, Lou et al. 2008 (thesis ref. 58); thesis eqs. 3-4..3-6")
+component("rule", "idaca", rule=idaca_rule(), pheromone_on="cells",
+          params=(ALPHA.with_default(1.0), ph.RHO.with_default(0.7), ph.Q.with_default(20.0),
+                  ph.TAU_MIN.with_default(0.01), ph.TAU_MAX.with_default(20.0)),
+          source="Hua Lu 2011 thesis 3.4.2, 3.5")
+
+IDACA = compose(construct="double", rule="idaca", schedule="idaca").named(
     "idaca",
-    "Hua Lu 2011, MSc thesis ch. 3 (3.4, 3.5); eqs. 3-7, 3-8, 3-9, 3-10; crossover of ref. 58",
-    "IDACA (thesis ch. 3; eqs. 3-7..3-10): improved double ant colony. Heuristic η = 1/L_B, L_B the "
+    source="Hua Lu 2011, MSc thesis ch. 3 (3.4, 3.5); eqs. 3-7, 3-8, 3-9, 3-10; crossover of ref. 58",
+    doc="IDACA (thesis ch. 3; eqs. 3-7..3-10): improved double ant colony. Heuristic η = 1/L_B, L_B the "
     "distance from the candidate to the colony's own goal (eq. 3-7); α, β ramp linearly up to "
     "break_iter then plateau (eqs. 3-8, 3-9); ρ decays as ρ0·a^(−i(i−1)/(2Nc)) down to ρmin "
     "(eq. 3-10); MMAS-style update of 3.4.2: τ initialised to τmax, every feasible candidate of the "
     "best population deposits, τ ← (1−ρ)τ + ρ·Σ Q/L_k, clamped to [τmin, τmax]." + _DOUBLE_NOTE,
-    (
-        "alpha_slope", "alpha_end", "beta_start", "beta_slope", "beta_end", "break_iter",
-        "rho", "rho_min", "rho_decay", "q", "tau_min", "tau_max",
-    ),
-    dict(
-        alpha_slope=0.03, alpha_end=2.5, beta_start=3.0, beta_slope=0.015, beta_end=2.0, break_iter=83.0,
-        rho=0.7, rho_min=0.3, rho_decay=2.0, q=20.0, tau_min=0.01, tau_max=20.0,
-    ),
-    idaca_rule(),
-    heuristic=heuristics.inverse_goal_distance,
-    pheromone_on="cells",
-    schedule=schedules.idaca,
-    construct=double_colony,
+    alpha_slope=0.03, alpha_end=2.5, beta_start=3.0, beta_slope=0.015, beta_end=2.0, break_iter=83.0,
+    rho=0.7, rho_min=0.3, rho_decay=2.0, q=20.0, tau_min=0.01, tau_max=20.0,
 )
 
-DACA = _variant(
+DACA = compose(construct="double", heuristic="step", rule="daca").named(
     "daca",
-    "Sun, Lin, Lou et al. 2008, Trans. CSAM 39(7) (thesis ref. 58); thesis eqs. 3-3..3-6",
-    "DACA (ref. 58; thesis eqs. 3-3..3-6): double ant colony with complete crossover, the thesis's "
+    source="Sun, Lin, Lou et al. 2008, Trans. CSAM 39(7) (thesis ref. 58); thesis eqs. 3-3..3-6",
+    doc="DACA (ref. 58; thesis eqs. 3-3..3-6): double ant colony with complete crossover, the thesis's "
     "baseline for IDACA. Classic heuristic η = 1/d_ij (eq. 3-3), Ant System update on cells "
     "τ ← (1−ρ)τ + Σ_k Q/L_k over the best population's feasible candidates (eqs. 3-4..3-6), "
     "τ0 constant, no schedules. Ref. 58's own heuristic is not given in the thesis." + _DOUBLE_NOTE,
-    ("alpha", "beta", "rho", "q", "tau0"),
-    dict(alpha=1.0, beta=1.0, rho=0.6, q=10.0, tau0=0.1),
-    daca_rule(),
-    heuristic=heuristics.inverse_step,
-    pheromone_on="cells",
-    construct=double_colony,
+    alpha=1.0, beta=1.0, rho=0.6, q=10.0, tau0=0.1,
 )
+
+PLANNERS = (DACA, IDACA)

@@ -42,9 +42,10 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from ..engine import pheromone as ph
-from ..engine.cost import COST_PARAMS, multi_objective
+from ..engine.colony import ALPHA, BETA
 from ..engine.heuristics import goal_distance
-from ..engine.variant import make_variant
+from ..engine.params import INF, Param, declare
+from .compose import component, compose
 
 __all__ = [
     "adaptive_eps",
@@ -61,6 +62,17 @@ __all__ = [
     "IAACO",
     "IAACO_PRINTED",
 ]
+
+SIGMA1, SIGMA2, LAM, MU_MIN, RS, DELTA0, K_RHO = declare(
+    Param("sigma1", 0.1, 0, INF, "IAACO eq. 1: weight σ1 of the step length d_ij in η", hi_open=True),
+    Param("sigma2", 0.9, 0, INF, "IAACO eq. 1: weight σ2 of the goal distance d_jG in η", hi_open=True),
+    Param("lam", 1.0, 0, 20, "IAACO eq. 3: exponent λ of the angle guidance μ"),
+    Param("mu_min", 0.1, 0, 1, "IAACO eq. 4: floor of the angle guidance μ (keeps every move possible)", lo_open=True),
+    Param("rs", 0.5, 0, INF, "IAACO eq. 5: safety radius Rs (cells) of the obstacle exclusion ξ",
+          lo_open=True, hi_open=True),
+    Param("delta0", 0.15, 0, 1, "IAACO eq. 7: q0 = δ0·exp(−½(Nc/Nmax)²); the paper uses δ0 ∈ [0.1, 0.5]"),
+    Param("k_rho", 0.3, 0, 1, "IAACO eq. 10: adaptive evaporation ρ = k·L_SG/J_best, k < 1", lo_open=True, hi_open=True),
+)
 
 
 def _ratio(t, n_iters):
@@ -164,7 +176,7 @@ def init_floor() -> ph.Rule:
         tau = jnp.full_like(trail.tau, jnp.maximum(params.tau0, params.tau_min))
         return trail._replace(tau=tau, lo=lo, hi=jnp.float32(jnp.inf))
 
-    return ph.Rule(init, ph._keep_update)
+    return ph.Rule(init, ph.keep_update)
 
 
 def best_worst() -> ph.Rule:
@@ -180,21 +192,29 @@ def best_worst() -> ph.Rule:
         rho = adaptive_rho(problem, j_b, params)  # Eq. (10)
         reward = params.q * ph.inverse(j_b) * (j_b + j_w) / 2.0
         tau = trail.tau
-        tau = jnp.where(ph._on_path(tau, walks.targets[:, b]), (1.0 - rho) * tau + rho * reward, tau)  # Eq. (8)
+        tau = jnp.where(ph.on_path(tau, walks.targets[:, b]), (1.0 - rho) * tau + rho * reward, tau)  # Eq. (8)
         penalty = params.q * ph.inverse(j_w)
-        tau = jnp.where(ph._on_path(tau, walks.targets[:, w]), (1.0 - rho) * tau - rho * penalty, tau)  # Eq. (9)
+        tau = jnp.where(ph.on_path(tau, walks.targets[:, w]), (1.0 - rho) * tau - rho * penalty, tau)  # Eq. (9)
         tau = jnp.maximum(tau, trail.lo)
         return trail._replace(tau=jnp.where(jnp.any(ok), tau, trail.tau))
 
-    return ph.Rule(ph._keep_init, update)
+    return ph.Rule(ph.keep_init, update)
 
 
-# -- the variants ----------------------------------------------------------------------------
-IAACO_PARAMS = (
-    "alpha", "beta", "lam", "q", "tau0", "tau_min", "rho", "k_rho", "delta0",
-    "sigma1", "sigma2", "mu_min", "rs",
-) + COST_PARAMS
+# -- the components and planners -------------------------------------------------------------
+_HEURISTIC = (BETA.with_default(20.0), LAM.with_default(3.0), SIGMA1, SIGMA2, MU_MIN.with_default(0.3), RS)
+component("heuristic", "iaaco", heuristic=iaaco_heuristic, factor=guided_factor(mu_robust), params=_HEURISTIC,
+          source="Miao et al. 2021 eqs. 1-5")
+component("heuristic", "iaaco-printed", heuristic=iaaco_heuristic, factor=guided_factor(mu_printed), params=_HEURISTIC,
+          source="Miao et al. 2021 eqs. 1-5 as printed")
+component("rule", "iaaco", rule=ph.chain(init_floor(), best_worst()), default_transition="adaptive-q0",
+          params=(ALPHA.with_default(1.0), ph.Q.with_default(2.5), ph.TAU0.with_default(0.01),
+                  ph.TAU_MIN.with_default(0.01), ph.RHO.with_default(0.9), K_RHO.with_default(0.6)),
+          source="Miao et al. 2021 eqs. 8-10")
+component("transition", "adaptive-q0", transition="pseudo-random", schedule=q0_schedule, params=(DELTA0,),
+          source="Miao et al. 2021 eqs. 6-7")
 
+#: IAACO's defaults, in the order its tables show them.
 IAACO_DEFAULTS = dict(
     alpha=1.0, beta=20.0, lam=3.0, q=2.5, tau0=0.01, tau_min=0.01, rho=0.9, k_rho=0.6, delta0=0.15,
     sigma1=0.1, sigma2=0.9, mu_min=0.3, rs=0.5, k_len=0.7, k_safe=0.1, k_energy=0.2, rs_cost=1.0,
@@ -208,22 +228,18 @@ _DOC = (
     "clipped to [0, rho] (10); τ ≥ τmin; cost J = kL·L + kS·S + kE·E. Pheromone on moves."
 )
 
-IAACO = make_variant(
+IAACO = compose(heuristic="iaaco", rule="iaaco", cost="multi").named(
     "iaaco",
-    "Miao et al. 2021, eqs. 1–10",
-    _DOC + " Angle guidance μ = max(μ_min, cos∠(j→G, S→G)) (robust form of eq. 4).",
-    IAACO_PARAMS,
-    IAACO_DEFAULTS,
-    ph.chain(init_floor(), best_worst()),
-    heuristic=iaaco_heuristic,
-    transition="pseudo-random",
-    schedule=q0_schedule,
-    cost=multi_objective,
-    factor=guided_factor(mu_robust),
+    source="Miao et al. 2021, eqs. 1–10",
+    doc=_DOC + " Angle guidance μ = max(μ_min, cos∠(j→G, S→G)) (robust form of eq. 4).",
+    **IAACO_DEFAULTS,
 )
 
-IAACO_PRINTED = IAACO._replace(
-    name="iaaco-printed",
+IAACO_PRINTED = compose(heuristic="iaaco-printed", rule="iaaco", cost="multi").named(
+    "iaaco-printed",
+    source="Miao et al. 2021, eqs. 1–10",
     doc=_DOC + " Angle guidance as printed in eq. 4: μ = max(μ_min, |y_j − y_G|/d_jG), y the row.",
-    factor=guided_factor(mu_printed),
+    **IAACO_DEFAULTS,
 )
+
+PLANNERS = (IAACO, IAACO_PRINTED)

@@ -63,11 +63,24 @@ import numpy as np
 from ..engine import native
 from ..engine import pheromone as ph
 from ..engine.bitexact import power, rounded
-from ..engine.colony import Colony, scaled, step_targets
+from ..engine.colony import ALPHA, BETA, Q0, Colony, eta_factor, scaled, step_targets
 from ..engine.heuristics import goal_distance
-from ..engine.variant import make_variant
+from ..engine.params import INF, Param, declare
 from ..engine.walk import CHUNK, Tours, choose, key_words, step_uniforms
 from ..moves import MOVE_LENGTHS, MOVES
+from .compose import component, compose
+
+K_INIT, RHO_LOCAL, Q1, Q2, Q3, RHO1, RHO2, Q_STEP = declare(
+    Param("k_init", 10.0, 0, INF, "IACA 4.2.3: initial pheromone K·η_goal(j)", lo_open=True, hi_open=True),
+    Param("rho_local", 0.1, 0, 1, "IACA eqs. 4-2..4-4: local update τ ← (1−ρ)τ + Q/d_ij while walking"),
+    Param("q1", 1.0, 0, INF, "IACA eq. 4-6: threshold Q1", hi_open=True),
+    Param("q2", 5.0, 0, INF, "IACA eq. 4-6: threshold Q2 (> Q1)", hi_open=True),
+    Param("q3", 15.0, 0, INF, "IACA eq. 4-6: threshold Q3 (> Q2)", hi_open=True),
+    Param("rho1", 0.7, 0, 1, "IACA eq. 4-6: factor for Q1 < P ≤ Q2 (ρ1 > ρ2)", lo_open=True),
+    Param("rho2", 0.2, 0, 1, "IACA eq. 4-6: factor for Q2 < P ≤ Q3", lo_open=True),
+    Param("q_step", 0.5, 0, INF, "IACA eq. 4-6: increment q for P ≤ Q1, decrement for P > Q3", hi_open=True),
+    order=[("q1", "q2"), ("q2", "q3"), ("rho2", "rho1")],
+)
 
 ETA_FLOOR = 1e-6
 
@@ -102,6 +115,11 @@ def iaca_heuristic(problem, params, t, n_iters) -> jax.Array:
     return eta_45(detour(problem), problem.nbr >= 0)
 
 
+# Backtracking ants see their tabu list: with this heuristic they recompute eq. (4-5) at every step
+# over the allowed moves (backtrack_colony), instead of weighing a fixed table.
+iaca_heuristic.per_step = True  # type: ignore[attr-defined]
+
+
 # -- pheromone pieces ------------------------------------------------------------------------
 def goal_closeness(problem) -> jax.Array:
     """``η_goal(j) = 1 − d_jE / max_j d_jE`` over free cells (Euclidean; 4.2.3), 0 on obstacles."""
@@ -119,7 +137,7 @@ def iaca_init() -> ph.Rule:
         tau = jnp.clip(params.k_init * goal_closeness(problem), lo, hi).astype(trail.tau.dtype)
         return trail._replace(tau=tau, lo=lo, hi=hi)
 
-    return ph.Rule(init, ph._keep_update)
+    return ph.Rule(init, ph.keep_update)
 
 
 def infeasible_update(tau, params):
@@ -203,7 +221,7 @@ def backtrack_walk(
     table = factors is not None
     factors = jnp.zeros(rows.shape, jnp.float32) if factors is None else jnp.asarray(factors, jnp.float32)
     scalars = jnp.stack([jnp.asarray(v, jnp.float32) for v in (
-        params.q0, params.alpha, params.beta, trail.lo, trail.hi, params.rho_local, params.q)])
+        params.q0 if exploit else 0.0, params.alpha, params.beta, trail.lo, trail.hi, params.rho_local, params.q)])
     args = (trail.tau, rows, factors, words, problem.start, problem.goal, scalars, problem.offsets)
     kw = dict(n_ants=n_ants, steplimit=steplimit, exploit=bool(exploit), table=table)
     return Backtracked(*native.dispatch(functools.partial(native.backtrack_walk, **kw),
@@ -319,19 +337,17 @@ def infeasible_cells(stack, arrived, tabu) -> jax.Array:
     return bad & ~good
 
 
-def iaca_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
-    """One IACA iteration (thesis 4.4, Steps 2–5): backtracking walks with the local update, then
-    the infeasible-path update (4-6). Returns the updated trail and the final stacks as a
-    :class:`~jaco.engine.colony.Colony`; the variant's ``rule.update`` (global update) follows."""
-    return _backtrack(variant, problem, trail, params, key, None, n_ants=n_ants, steplimit=steplimit)
-
-
 def backtrack_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
-    """:func:`iaca_colony` with another planner's heuristic: IACA's backtracking ants, local update
-    and infeasible-path update, a move weighing τ_j^α times the variant's ``factor`` (once per
-    iteration, each cell's factors scaled to a top of 1) instead of η^β of eq. (4-5). Pheromone
-    on cells."""
-    factors = scaled(variant.factor(variant, trail, problem, params, t, n_iters), problem.nbr >= 0)
+    """One iteration of IACA's backtracking ants (thesis 4.4, Steps 2–5): walks with the local
+    update (4-2..4-4), then the infeasible-path update (4-6); returns the updated trail and the
+    final stacks as a :class:`~jaco.engine.colony.Colony` (the rule's update follows). With IACA's
+    heuristic (``per_step``) a move weighs τ_j^α·η^β of eq. (4-5) over the ant's allowed moves;
+    with another one, τ_j^α times the variant's ``factor`` (once per iteration, each cell's factors
+    scaled to a top of 1). Pheromone on cells."""
+    if getattr(variant.heuristic, "per_step", False):
+        factors = None
+    else:
+        factors = scaled(variant.factor(variant, trail, problem, params, t, n_iters), problem.nbr >= 0)
     return _backtrack(variant, problem, trail, params, key, factors, n_ants=n_ants, steplimit=steplimit)
 
 
@@ -349,19 +365,23 @@ def _backtrack(variant, problem, trail, params, key, factors, *, n_ants: int, st
 
 
 # Back-steps count against the step limit: these ants get twice the default (jaco.engine.run.default_steplimit).
-iaca_colony.back_steps = backtrack_colony.back_steps = True
+backtrack_colony.back_steps = True  # type: ignore[attr-defined]
 
 
-IACA_PARAMS = (
-    "alpha", "beta", "rho", "q", "sigma", "q0", "tau_min", "tau_max", "k_init", "rho_local",
-    "q1", "q2", "q3", "rho1", "rho2", "q_step",
-)
+component("construct", "backtrack", construct=backtrack_colony, pheromone_on="cells",
+          params=(RHO_LOCAL, Q1, Q2, Q3, RHO1, RHO2, Q_STEP), source="Hua Lu 2011 thesis 4.3, eqs. 4-2..4-4, 4-6")
+component("heuristic", "iaca", heuristic=iaca_heuristic, factor=eta_factor, params=(BETA.with_default(8.0),),
+          source="thesis eq. 4-5")
+component("rule", "iaca", rule=ph.chain(iaca_init(), ph.evaporate(), ph.deposit_best_so_far(lambda p: p.sigma), ph.clamp()),
+          pheromone_on="cells", default_transition="q0",
+          params=(ALPHA.with_default(1.0), ph.RHO.with_default(0.05), ph.Q.with_default(0.1),
+                  ph.SIGMA.with_default(1000.0), ph.TAU_MIN.with_default(0.01), ph.TAU_MAX.with_default(20.0), K_INIT),
+          source="Hua Lu 2011 thesis 4.2.3, 4.4")
 
-
-IACA = make_variant(
+IACA = compose(construct="backtrack", heuristic="iaca", rule="iaca").named(
     "iaca",
-    "Hua Lu 2011 thesis, chapter 4: eqs. 4-1..4-6, 4.2.2, 4.2.3, 4.3",
-    "Hua Lu 2011, MSc thesis, chapter 4 (eqs. 4-1..4-6, sections 4.2.2, 4.2.3, 4.3, 4.4): improved "
+    source="Hua Lu 2011 thesis, chapter 4: eqs. 4-1..4-6, 4.2.2, 4.2.3, 4.3",
+    doc="Hua Lu 2011, MSc thesis, chapter 4 (eqs. 4-1..4-6, sections 4.2.2, 4.2.3, 4.3, 4.4): improved "
     "ACO with backtracking ants. Pheromone on cells, initialised to K·(1 − d_jE/max d) (4.2.3) "
     "within [τmin, τmax]; heuristic (4-5) η_B = 1 − (d_AB + d_BE)/Σ_{C∈M_A}(d_AC + d_CE) over the "
     "allowed, non-tabu neighbours (η = 1 for a single one); ranked selection = argmax with "
@@ -370,15 +390,9 @@ IACA = make_variant(
     "along their path (4.3), back-steps count toward the step limit and the path is the stack "
     "without dead branches; after the walks, the piecewise rule (4-6) on the cells of failed "
     "ants and of popped dead branches; then, MMAS-style, evaporation (1−ρ), a deposit σ·Q/L* on "
-    "the best-so-far path and the clamp to [τmin, τmax]. See jaco.iaca for every interpretation.",
-    IACA_PARAMS,
-    dict(
-        alpha=1.0, beta=8.0, rho=0.05, q=0.1, sigma=1000.0, q0=0.9, tau_min=0.01, tau_max=20.0, k_init=10.0,
-        rho_local=0.1, q1=1.0, q2=5.0, q3=15.0, rho1=0.7, rho2=0.2, q_step=0.5,
-    ),
-    ph.chain(iaca_init(), ph.evaporate(), ph.deposit_best_so_far(lambda p: p.sigma), ph.clamp()),
-    heuristic=iaca_heuristic,
-    pheromone_on="cells",
-    transition="pseudo-random",
-    construct=iaca_colony,
+    "the best-so-far path and the clamp to [τmin, τmax]. See jaco.planners.iaca for every interpretation.",
+    alpha=1.0, beta=8.0, rho=0.05, q=0.1, sigma=1000.0, q0=0.9, tau_min=0.01, tau_max=20.0, k_init=10.0,
+    rho_local=0.1, q1=1.0, q2=5.0, q3=15.0, rho1=0.7, rho2=0.2, q_step=0.5,
 )
+
+PLANNERS = (IACA,)

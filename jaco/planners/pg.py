@@ -80,31 +80,24 @@ is somewhat worse with the same budget (docs/variants.md).
 
 from __future__ import annotations
 
-from typing import Any, NamedTuple
-
 import jax
 import jax.numpy as jnp
 import optax
 
 from ..engine import pheromone as ph
 from ..engine.colony import move_weights, single_colony
-from ..engine.variant import make_variant
+from ..engine.params import INF, Param, declare
+from ..engine.variant import Variant
 from ..errors import JacoError
+from .compose import component, compose
+
+(PENALTY,) = declare(
+    Param("penalty", 0.3, 0, INF, "pg-aco: a failed ant costs (1 + penalty)·L̄, L̄ the mean cost of the "
+          "iteration's successful ants", hi_open=True),
+)
 
 #: Bound on the logits |θ| (τ ∈ [e^−20, e^20]): a policy can still be all but deterministic.
 LOGIT_MAX = 20.0
-
-
-class PGTrail(NamedTuple):
-    """The pheromone trail of ``pg-aco``: :class:`jaco.engine.pheromone.Trail`'s ``(tau, lo, hi)`` with
-    ``tau = exp(theta)`` and fixed bounds ``[e^−θmax, e^θmax]``, plus the logits ``theta (8N,)``
-    and the optax optimiser's state ``opt``."""
-
-    tau: jax.Array
-    lo: jax.Array
-    hi: jax.Array
-    theta: jax.Array
-    opt: Any
 
 
 def first_visit(problem, cells) -> jax.Array:
@@ -188,41 +181,66 @@ def make_pg_colony(optimizer: optax.GradientTransformation, baseline: str = "all
         moves = jnp.where(took, colony.targets % 8, -1)
         adv = advantages(colony.cost, params.penalty, baseline)
         g = score(problem, weights, colony.cells, moves, adv) / colony.cost.shape[0]  # Eq. (3)
-        updates, opt = optimizer.update(g, trail.opt, trail.theta)
-        theta = (1.0 - params.rho) * trail.theta + params.q * updates  # Eq. (4)
+        theta, opt = ph.own(trail, "pg")
+        updates, opt = optimizer.update(g, opt, theta)
+        theta = (1.0 - params.rho) * theta + params.q * updates  # Eq. (4)
         theta = jnp.clip(theta, -LOGIT_MAX, LOGIT_MAX)
-        return trail._replace(tau=jnp.exp(theta), theta=theta, opt=opt), colony
+        return ph.with_own(trail._replace(tau=jnp.exp(theta)), "pg", (theta, opt)), colony
 
     return pg_colony
 
 
 def pg_init(optimizer: optax.GradientTransformation) -> ph.Rule:
     """θ = 0 (τ = 1, the policy is the heuristic alone), fixed bounds [e^−θmax, e^θmax], the
-    optimiser's initial state. The update is a no-op: :func:`make_pg_colony` has applied it."""
+    optimiser's initial state; the logits and the optimiser's state are the trail's state ``"pg"``. The update is a no-op: :func:`make_pg_colony` has applied it."""
 
     def init(trail, problem, params):
         theta = jnp.zeros_like(trail.tau)
         lo, hi = jnp.exp(jnp.float32(-LOGIT_MAX)), jnp.exp(jnp.float32(LOGIT_MAX))
-        return PGTrail(jnp.exp(theta), lo, hi, theta, optimizer.init(theta))
+        return ph.with_own(trail._replace(tau=jnp.exp(theta), lo=lo, hi=hi), "pg", (theta, optimizer.init(theta)))
 
-    return ph.Rule(init, ph._keep_update)
+    return ph.Rule(init, ph.keep_update)
 
 
 BASELINES = ("all", "successful")
-PG_PARAMS = ("beta", "rho", "q", "penalty")
 PG_DEFAULTS = dict(beta=4.0, rho=0.03, q=0.2, penalty=0.3)
+_DOC = (
+    "Policy-gradient ACO (Meuleau & Dorigo 2002; eqs. (1)-(4) of jaco.planners.pg): τ = exp(θ), the "
+    "logits θ of the ants' policy p_ij ∝ exp(θ_ij)·η_ij^β over the allowed non-tabu moves "
+    "(α ≡ 1); after each iteration one optax step (default adam, lr 1, scaled by Q) on the "
+    "REINFORCE estimate (1/A)Σ_k ((C_k − b)/L̄)·∇ log p(path_k): L̄ = mean cost of the "
+    "successful ants, a failed ant costs (1 + penalty)·L̄, baseline b = mean cost over all "
+    "ants; then θ ← clip((1−ρ)θ + Q·u, ±20): ρ shrinks the logits toward the uniform policy. "
+    "Heuristic η = 1/(distance of the candidate to the goal) (thesis eq. 3-7). Pheromone on "
+    "moves (τ_ij)."
+)
+
+
+def _needs_dying_ants(chosen) -> str | None:
+    if chosen["construct"] != "dying":
+        return "rule 'pg' steps the logits of ants that die at dead ends: it needs construct 'dying'"
+    if chosen["schedule"] != "constant":
+        return "rule 'pg' learns with a fixed step: schedule must be 'constant'"
+    return None
+
+
+_ADAM = optax.adam(1.0)
+component("rule", "pg", rule=pg_init(_ADAM), construct=make_pg_colony(_ADAM), pheromone_on="moves", fixes=("alpha",),
+          params=(ph.RHO.with_default(0.03), ph.Q.with_default(0.2), PENALTY), why_not=_needs_dying_ants,
+          source="Meuleau & Dorigo 2002 (Artificial Life 8(2)); REINFORCE, Williams 1992")
 
 
 def make_pg_aco(
     optimizer: optax.GradientTransformation | None = None, *, baseline: str = "all", name: str = "pg-aco"
-):
-    """A policy-gradient ACO :class:`~jaco.engine.variant.Variant` stepped by ``optimizer``.
+) -> Variant:
+    """A policy-gradient ACO planner stepped by ``optimizer``: the composition
+    ``compose(rule="pg")`` with this optimiser and baseline.
 
     ``optimizer`` is an optax ``GradientTransformation`` built with learning rate 1 (default
     ``optax.adam(1.0)``); the step size is the traced parameter ``q``. ``baseline`` is ``"all"``
     (mean cost over all ants, failed ones at their penalty cost; the default) or
-    ``"successful"`` (mean cost of the successful ants). Build the variant once and keep it: the
-    compiled-run cache is keyed by the variant object.
+    ``"successful"`` (mean cost of the successful ants). Build the planner once and keep it: the
+    compiled-run cache is keyed by the planner.
 
     >>> import optax, jaco
     >>> sgd = make_pg_aco(optax.sgd(1.0), name="pg-aco-sgd")
@@ -231,27 +249,18 @@ def make_pg_aco(
     >>> r.success, r.length == r.optimal == 5.0
     (True, True)
     """
-    optimizer = optax.adam(1.0) if optimizer is None else optimizer
-    if not (callable(getattr(optimizer, "init", None)) and callable(getattr(optimizer, "update", None))):
-        raise JacoError(f"optimizer must be an optax GradientTransformation, got {type(optimizer).__name__}")
-    if baseline not in BASELINES:
-        raise JacoError(f"baseline must be one of {', '.join(BASELINES)}, got {baseline!r}")
-    return make_variant(
-        name,
-        "Meuleau & Dorigo 2002 (Artificial Life 8(2)); REINFORCE, Williams 1992",
-        "Policy-gradient ACO (Meuleau & Dorigo 2002; eqs. (1)-(4) of jaco.pg): τ = exp(θ), the "
-        "logits θ of the ants' policy p_ij ∝ exp(θ_ij)·η_ij^β over the allowed non-tabu moves "
-        "(α ≡ 1); after each iteration one optax step (default adam, lr 1, scaled by Q) on the "
-        "REINFORCE estimate (1/A)Σ_k ((C_k − b)/L̄)·∇ log p(path_k): L̄ = mean cost of the "
-        "successful ants, a failed ant costs (1 + penalty)·L̄, baseline b = mean cost over all "
-        "ants; then θ ← clip((1−ρ)θ + Q·u, ±20): ρ shrinks the logits toward the uniform policy. "
-        "Heuristic η = 1/(distance of the candidate to the goal) (thesis eq. 3-7). Pheromone on "
-        "moves (τ_ij).",
-        PG_PARAMS,
-        PG_DEFAULTS,
-        pg_init(optimizer),
-        construct=make_pg_colony(optimizer, baseline),
-    )
+    if optimizer is None and baseline == "all":
+        base = compose(rule="pg")
+    else:
+        optimizer = optax.adam(1.0) if optimizer is None else optimizer
+        if not (callable(getattr(optimizer, "init", None)) and callable(getattr(optimizer, "update", None))):
+            raise JacoError(f"optimizer must be an optax GradientTransformation, got {type(optimizer).__name__}")
+        if baseline not in BASELINES:
+            raise JacoError(f"baseline must be one of {', '.join(BASELINES)}, got {baseline!r}")
+        base = compose(rule="pg")._replace(rule=pg_init(optimizer), construct=make_pg_colony(optimizer, baseline))
+    return base.named(name, source="Meuleau & Dorigo 2002 (Artificial Life 8(2)); REINFORCE, Williams 1992",
+                      doc=_DOC, **PG_DEFAULTS)
 
 
 PG_ACO = make_pg_aco()
+PLANNERS = (PG_ACO,)

@@ -8,28 +8,24 @@ a planner added to the folder and listed below is checked with no other edit
 
 from __future__ import annotations
 
-from ..engine.cost import COST_PARAMS, COSTS
-from ..engine.variant import Variant
+from ..engine.cost import COSTS, MULTI_PARAMS
+from ..engine.variant import FrozenMap, Variant
 from ..errors import JacoError, ParamError
-from .apf_guided import APF_ACO, PF_ACO  # APF-ACO and its PF-ACO baseline (Dong & Zhao 2021)
-from .chaos import CHAOS_ACO  # chaos ACO (the Xi'an Technological University paper)
-from .classic import ACS, AS, AS_DENSITY, AS_QUANTITY, EAS, MMAS, RAS  # docs/algorithms.md §2
-from .double import DACA, IDACA  # thesis chapter 3
-from .iaaco import IAACO, IAACO_PRINTED  # IAACO (Miao et al. 2021)
-from .iaca import IACA  # thesis chapter 4
+from . import apf_guided  # APF-ACO and its PF-ACO baseline (Dong & Zhao 2021)
+from . import chaos  # chaos ACO (the Xi'an Technological University paper)
+from . import classic  # docs/algorithms.md §2
+from . import double  # thesis chapter 3
+from . import iaaco  # IAACO (Miao et al. 2021)
+from . import iaca  # thesis chapter 4
+from . import pg  # policy-gradient ACO (Meuleau & Dorigo 2002)
 from .compose import LOCAL_SEARCHES, parse
-from .pg import PG_ACO  # policy-gradient ACO (Meuleau & Dorigo 2002)
 
 __all__ = ["VARIANTS", "get_variant", "register", "with_cost", "with_local_search"]
 
+#: Every planner the modules define (their ``PLANNERS``), by name: the classic family, the thesis's,
+#: the papers' and pg-aco (docs/algorithms.md §2–§8).
 VARIANTS: dict[str, Variant] = {
-    v.name: v
-    for v in (
-        AS, AS_DENSITY, AS_QUANTITY, EAS, RAS, ACS, MMAS,  # the classic family (docs/algorithms.md §2)
-        DACA, IDACA, IACA,  # the thesis (docs/algorithms.md §3, §4)
-        IAACO, IAACO_PRINTED, APF_ACO, PF_ACO, CHAOS_ACO,  # the papers (docs/algorithms.md §5, §6, §7)
-        PG_ACO,  # beyond the sources (docs/algorithms.md §8)
-    )
+    v.name: v for module in (classic, double, iaca, iaaco, apf_guided, chaos, pg) for v in module.PLANNERS
 }
 
 
@@ -102,9 +98,10 @@ def with_cost(variant, cost: str = "multi") -> Variant:
         if base.cost is COSTS[cost]:
             new = base
         else:
-            extra = COST_PARAMS if cost == "multi" else ()
-            params = base.params + tuple(p for p in extra if p not in base.params)
-            new = base._replace(name=f"{base.name}+{cost}", cost=COSTS[cost], params=params)
+            extra = [p for p in (MULTI_PARAMS if cost == "multi" else ()) if p.name not in base.params]
+            params = base.params + tuple(p.name for p in extra)
+            defaults = FrozenMap({**base.defaults, **{p.name: p.default for p in extra}})
+            new = base._replace(name=f"{base.name}+{cost}", cost=COSTS[cost], params=params, defaults=defaults)
         hit = (base, new)  # keep the base alive so its id is not reused
         _WITH_COST[key] = hit
     return hit[1]

@@ -27,6 +27,7 @@ import numpy as np
 
 from ..engine.params import SPECS, check_values, param_names
 from ..errors import ParamError
+from .. import planners  # noqa: F401 (its modules declare every component's parameters)
 
 
 class Design:

@@ -29,6 +29,7 @@ import numpy as np
 from ..engine.params import ORDERED, SPECS, check_values
 from ..engine.variant import Variant
 from ..errors import ParamError
+from .. import planners  # noqa: F401 (its modules declare every component's parameters)
 
 #: Sizes a search may choose (static shapes: each distinct value compiles its own program, so a
 #: categorical of a few values is the usual choice).

@@ -54,8 +54,12 @@ from ..planners.registry import get_variant
 
 #: Parameters that can be tuned: every parameter with a range, except those in an order relation
 #: (τmin < τmax, Q1 < Q2 < Q3, ρ2 < ρ1), which one-parameter-at-a-time transforms cannot keep.
-ORDERED_NAMES = frozenset(name for pair in ORDERED for name in pair)
-TUNABLE = tuple(name for name in SPECS if name not in ORDERED_NAMES)
+def tunable(name: str) -> bool:
+    """Whether ``name`` is a declared parameter outside every order relation."""
+    return name in SPECS and not any(name in pair for pair in ORDERED)
+
+
+TUNABLE = tuple(name for name in SPECS if tunable(name))  # the parameters declared by jaco's own components
 
 FRAC_EPS = 1e-6  # the sigmoid stays in [FRAC_EPS, 1 − FRAC_EPS]
 LOG_Z = 20.0  # the log transform's z stays in [−LOG_Z, LOG_Z]
@@ -192,14 +196,14 @@ def _names(variant: Variant, tune) -> tuple[str, ...]:
         raise ParamError(f"tune: expected parameter names, got {tune!r}") from None
     if not names:
         raise ParamError("tune: name at least one parameter to tune")
-    usable = [n for n in variant.params if n in TUNABLE]
+    usable = [n for n in variant.params if tunable(n)]
     for name in names:
         if not isinstance(name, str):
             raise ParamError(f"tune: parameter names must be strings, got {name!r}")
         if name not in param_names():
             raise ParamError(f"unknown parameter {name!r}{did_you_mean(name, usable)}; tunable for {variant.name!r}: "
                              f"{', '.join(usable)}")
-        if name not in TUNABLE:
+        if not tunable(name):
             pairs = " and ".join(f"{a} < {b}" for a, b in ORDERED if name in (a, b))
             raise ParamError(
                 f"parameter {name!r} cannot be tuned: it is ordered ({pairs}), which independent "
