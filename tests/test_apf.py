@@ -287,7 +287,7 @@ def test_best_half_fitness_weighted_deposit_by_hand():
     tau = np.asarray(apf_guided.deposit_best_half().update(trail, one, None, jaco.Params(q=3.0)).tau)
     assert tau[2] == pytest.approx(1.5) and tau[6] == pytest.approx(1.5) and tau.sum() == pytest.approx(3.0)
     none = walks._replace(cost=jnp.full(5, jnp.inf))
-    assert not np.asarray(apf_guided.deposit_best_half().update(trail, none, None, jaco.Params()).tau).any()
+    assert not np.asarray(apf_guided.deposit_best_half().update(trail, none, None, jaco.Params(q=1.0)).tau).any()
 
 
 def test_weights_give_the_probabilities_of_eq6_without_underflow():

@@ -137,7 +137,7 @@ def test_no_perturbation_when_no_path_is_above_the_mean():
     x = np.float32(0.17985597)
     walks = _walks([x, x, x, math.inf], [[0, 1, 2, 3], [4, -1, -1, 5]])
     tau = jnp.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
-    out = chaos.chaos_perturb().update(ph.Trail(tau, 0.0, jnp.inf), walks, None, jaco.Params())
+    out = chaos.chaos_perturb().update(ph.Trail(tau, 0.0, jnp.inf), walks, None, jaco.VARIANTS["chaos-aco"].default_params())
     np.testing.assert_array_equal(np.asarray(out.tau), np.asarray(tau))
     amounts = np.asarray(chaos.at_or_below_mean_cycle(walks, jaco.Params(q=1.0)))  # one per ant
     np.testing.assert_allclose(amounts, [1 / x, 1 / x, 1 / x, 0.0], rtol=1e-6)

@@ -1,47 +1,119 @@
-"""Planners composed from components by name: every registered planner is a composition, the
+"""Planners composed from components by name: every registered planner is a composition (and gives
+the bits it gave before it was one), the
 combinations that cannot work are clear errors, compositions are found by name (records rerun
 them) and a sweep takes several planners as a categorical axis."""
+
+import hashlib
+import itertools
+import json
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 
 import jaco
-from jaco.planners.compose import COMPONENTS, KINDS, REGISTERED, compose, parse
+from jaco.planners.compose import COMPONENTS, KINDS, compose, parse
 
 GRID = jaco.maps.random_map(12, 0.2, seed=3)
 ENDS = (GRID.meta["start"], GRID.meta["goal"])
 TINY = dict(n_ants=10, n_iters=6)
 
 
-@pytest.mark.parametrize(
-    "name", [n if n in ("as", "iaca", "iaaco") else pytest.param(n, marks=pytest.mark.slow) for n in sorted(REGISTERED)]
-)
-def test_every_registered_planner_is_its_composition_bit_for_bit(name):
-    """With the planner's own defaults, the composition of its components runs exactly the
-    registered planner: the same path, history and pheromone."""
-    planner, composed = jaco.VARIANTS[name], compose(**REGISTERED[name])
-    assert set(composed.params) == set(planner.params) and composed.pheromone_on == planner.pheromone_on
-    a = jaco.solve(GRID, *ENDS, planner, seed=4, keep_pheromone=True, **TINY)
-    b = jaco.solve(GRID, *ENDS, composed, seed=4, keep_pheromone=True, **TINY, **dict(planner.defaults))
-    np.testing.assert_array_equal(a.path, b.path)
-    np.testing.assert_array_equal(a.pheromone, b.pheromone)
-    for k in a.history:
-        np.testing.assert_array_equal(a.history[k], b.history[k])
+PARTS = ("construct", "heuristic", "factor", "rule", "schedule", "cost", "transition", "pheromone_on", "local_search")
 
 
-def test_every_component_comes_from_a_registered_planner():
-    used = {kind: set() for kind in KINDS}
-    for kw in REGISTERED.values():
-        for kind, value in _kinds(compose(**kw).name).items():
-            used[kind].add(value)
-    for kind in KINDS:
-        assert used[kind] == set(COMPONENTS[kind]), (kind, set(COMPONENTS[kind]) - used[kind])
+@pytest.mark.parametrize("name", sorted(jaco.VARIANTS))
+def test_every_registered_planner_is_a_composition(name):
+    """A registered planner is defined as ``compose(...)`` plus its own name and defaults: the
+    composition it records has the very same functions and the same parameters."""
+    planner = jaco.VARIANTS[name]
+    composed = parse(planner.composition)
+    assert composed is not None and composed.name == planner.composition
+    for part in PARTS:
+        assert getattr(planner, part) is getattr(composed, part), (name, part)
+    assert set(planner.params) == set(composed.params)
 
 
 def _kinds(name):
     inner = name[len("compose("):-1]
     return dict(part.strip().split("=") for part in inner.split(","))
+
+
+def test_the_docs_table_of_registered_planners_is_their_compositions():
+    text = (Path(__file__).resolve().parents[1] / "docs" / "compose.md").read_text(encoding="utf-8")
+    rows = {}
+    for line in text.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) == 1 + len(KINDS) and cells[0].startswith("`"):
+            rows[cells[0].strip("`")] = dict(zip(KINDS, cells[1:]))
+    assert rows == {name: _kinds(v.composition) for name, v in jaco.VARIANTS.items()}
+
+
+def fingerprint(name: str) -> dict:
+    """Hashes of one planner's runs (tests/data/planner-fingerprints.json): a solve on the demo map
+    (path, history, pheromone) and a small sweep (every column but wall times)."""
+
+    def h(*arrays):
+        m = hashlib.sha256()
+        for a in arrays:
+            a = np.asarray(a)
+            m.update(str(a.dtype).encode())
+            m.update(a.tobytes())
+        return m.hexdigest()[:16]
+
+    g = jaco.maps.named("demo")
+    start, goal = g.meta["start"], g.meta["goal"]
+    r = jaco.solve(g, start, goal, name, seed=0, n_ants=10, n_iters=12, keep_pheromone=True)
+    out = {f"{name}/solve/0": [h(r.path, *[r.history[k] for k in sorted(r.history)], r.pheromone), float(r.length)]}
+    t = jaco.sweep(g, start, goal, variant=name, seeds=2, n_ants=8, n_iters=6)
+    cols = sorted(c for c in t.columns if c not in ("wall_s", "seconds", "time"))
+    out[f"{name}/sweep"] = [h(*[t[c].to_numpy().astype(str) if t[c].dtype == object else t[c].to_numpy() for c in cols]),
+                            cols]
+    return out
+
+
+OLD = json.loads((Path(__file__).parent / "data" / "planner-fingerprints.json").read_text())["fingerprints"]
+
+
+@pytest.mark.slow  # a solve and a sweep program per planner
+@pytest.mark.parametrize("name", sorted({k.split("/")[0] for k in OLD}))
+def test_every_planner_equals_its_self_before_it_became_a_composition(name):
+    """The fingerprints were taken at the commit before planners were compositions of components
+    owning their parameters and state: every registered planner, a cost and local-search variant
+    and three cross-source compositions give the same bits."""
+    new = fingerprint(name)
+    assert new == {k: v for k, v in OLD.items() if k.split("/")[0] == name}
+
+
+def test_every_combination_composes_or_says_why_in_one_line():
+    """Every choice of components either builds a planner or is refused with a one-line reason about
+    the algorithm (no combination is refused for lack of room in the trail)."""
+    reasons = ("needs construct 'dying'", "schedule must be 'constant'", "distances to the goal only",
+               "one needs pheromone on cells, another on moves")
+    built = refused = 0
+    for combo in itertools.product(*(COMPONENTS[k] for k in KINDS)):
+        kw = dict(zip(KINDS, combo))
+        try:
+            v = compose(**kw)
+        except jaco.JacoError as e:
+            assert "\n" not in str(e) and any(r in str(e) for r in reasons), str(e)
+            refused += 1
+        else:
+            assert v.name == "compose(" + ", ".join(f"{k}={kw[k]}" for k in KINDS) + ")"
+            built += 1
+    assert built > 5 * refused > 0
+
+
+def test_apf_guidance_with_policy_gradient_pheromone_works():
+    """Two components with state of their own (the APF table, the logits and adam's moments) in one
+    trail: the composition runs, finds a valid path, and its pheromone is the learned policy."""
+    v = compose(heuristic="apf", rule="pg")
+    assert "apf" in v.source and "pg" in v.name and "alpha" not in v.params
+    r = jaco.solve(GRID, *ENDS, v, seed=0, keep_pheromone=True, **TINY)
+    assert r.success and jaco.metrics.validate_path(GRID, r.path, *ENDS) == []
+    lo, hi = np.exp(-jaco.planners.pg.LOGIT_MAX), np.exp(jaco.planners.pg.LOGIT_MAX)
+    assert (r.pheromone >= lo * (1 - 1e-6)).all() and (r.pheromone <= hi).all() and not (r.pheromone == 1.0).all()
 
 
 def test_names_defaults_and_the_same_object_for_the_same_arguments():
@@ -66,14 +138,13 @@ def test_names_defaults_and_the_same_object_for_the_same_arguments():
 @pytest.mark.parametrize(
     "kw, match",
     [
-        (dict(construct="sideways"), "unknown construct 'sideways'; constructs: dying, backtrack, double"),
+        (dict(construct="sideways"), "unknown construct 'sideways'; constructs: dying, double, backtrack"),
         (dict(heuristic="exact"), "unknown heuristic 'exact'"),
         (dict(rule="tsp"), "unknown rule 'tsp'"),
         (dict(transition="greedy"), "unknown transition 'greedy'"),
         (dict(cost=["length"]), "unknown cost"),
         (dict(construct="backtrack", rule="pg"), "rule 'pg' .* needs construct 'dying'"),
         (dict(construct="double", heuristic="apf"), "distances to the goal only"),
-        (dict(rule="pg", heuristic="pf"), "its own trail"),
         (dict(rule="pg", schedule="idaca"), "schedule must be 'constant'"),
         (dict(construct="backtrack", rule="pg", heuristic="distance"), "needs construct 'dying'"),
     ],

@@ -10,6 +10,7 @@ import pytest
 import jaco
 from jaco.engine import schedules
 from jaco.engine.params import Params
+from jaco.engine.schedules import IDACA_PARAMS
 from jaco.engine.pheromone import Trail
 from jaco.engine.problem import make_problem
 from jaco.metrics import validate_path
@@ -185,8 +186,11 @@ def _path_on(grid, start, cells):
 
 
 # -- schedules -----------------------------------------------------------------------------------
+IDACA_DEFAULTS = Params(**{p.name: p.default for p in IDACA_PARAMS})  # the thesis's printed values
+
+
 def _at(schedule, i, params=None, n_iters=100):
-    return schedule(params or Params(), jnp.int32(i - 1), n_iters)  # the sources count from i = 1
+    return schedule(params or IDACA_DEFAULTS, jnp.int32(i - 1), n_iters)  # the sources count from i = 1
 
 
 def test_alpha_beta_schedule_hand_values():
@@ -197,7 +201,7 @@ def test_alpha_beta_schedule_hand_values():
     assert float(_at(schedules.alpha_beta, 84).alpha) == pytest.approx(2.5)
     assert float(_at(schedules.alpha_beta, 100).alpha) == pytest.approx(2.5)
     assert float(_at(schedules.alpha_beta, 100).beta) == pytest.approx(2.0)
-    p = Params(alpha_slope=0.1, beta_start=1.0, beta_slope=0.2, break_iter=50.0)
+    p = IDACA_DEFAULTS.replace(alpha_slope=0.1, beta_start=1.0, beta_slope=0.2, break_iter=50.0)
     assert float(_at(schedules.alpha_beta, 10, p).beta) == 0.0  # β never turns negative
 
 

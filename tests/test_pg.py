@@ -14,7 +14,7 @@ from jaco.engine.pheromone import Trail
 from jaco.engine.problem import make_problem, to_device
 from jaco.engine.run import params_from, resolve_params
 from jaco.moves import MOVES
-from jaco.planners.pg import LOGIT_MAX, PG_ACO, PGTrail, advantages, make_pg_aco, score, step_probabilities
+from jaco.planners.pg import LOGIT_MAX, PG_ACO, advantages, make_pg_aco, score, step_probabilities
 
 GRID_ROWS = ["....", ".#..", "...."]
 # A hand path on the 3×4 map above: right, right, down-right, down. At (0, 1) the start is tabu.
@@ -99,7 +99,8 @@ def _construct(variant):
 def test_sgd_step_is_eq_4_and_adam_state_is_carried():
     sgd = make_pg_aco(optax.sgd(1.0), name="pg-aco-sgd-test")
     problem, params, trail = _one_iteration_setup(sgd)
-    assert isinstance(trail, PGTrail) and (trail.tau == 1.0).all() and (trail.theta == 0.0).all()
+    theta0, _ = trail.state["pg"]  # the logits and the optimiser's state: the rule's own state in the trail
+    assert (trail.tau == 1.0).all() and (theta0 == 0.0).all()
     new, colony = _construct(sgd)(problem, trail, params, 0, jax.random.key(7))
     # θ1 = (1 − ρ)·0 − Q·g, g = (1/A)Σ_k adv_k ∇ log p_k with the weights of θ0 = 0 (α ≡ 1).
     weights = move_weights(sgd, trail, problem, params.replace(alpha=1.0), 0, 5)
@@ -107,15 +108,17 @@ def test_sgd_step_is_eq_4_and_adam_state_is_carried():
     moves = jnp.where(colony.targets < 8 * n, colony.targets % 8, -1)
     g = score(problem, weights, colony.cells, moves, advantages(colony.cost, params.penalty)) / 6
     assert np.abs(np.asarray(g)).max() > 0  # the ants took different paths: something to learn
-    np.testing.assert_allclose(np.asarray(new.theta), np.asarray(-0.5 * g), atol=1e-7)
-    np.testing.assert_allclose(np.asarray(new.tau), np.exp(np.asarray(new.theta)), rtol=1e-6)
+    theta1, _ = new.state["pg"]
+    np.testing.assert_allclose(np.asarray(theta1), np.asarray(-0.5 * g), atol=1e-7)
+    np.testing.assert_allclose(np.asarray(new.tau), np.exp(np.asarray(theta1)), rtol=1e-6)
     # adam's moments and step count live in the trail and advance with every iteration.
     problem, params, trail = _one_iteration_setup(PG_ACO)
     step = _construct(PG_ACO)
     for it in range(3):
         trail, _ = step(problem, trail, params, it, jax.random.key(it))
-    assert int(trail.opt[0].count) == 3
-    assert np.abs(np.asarray(trail.theta)).max() <= LOGIT_MAX
+    theta, opt = trail.state["pg"]
+    assert int(opt[0].count) == 3
+    assert np.abs(np.asarray(theta)).max() <= LOGIT_MAX
 
 
 def test_the_colony_learns_shorter_paths():

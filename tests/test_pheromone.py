@@ -24,7 +24,7 @@ def _trail(v=1.0):
     return ph.Trail(jnp.full(M, v, jnp.float32), jnp.float32(0), jnp.float32(np.inf))
 
 
-P = Params(rho=0.25, q=2.0, tau0=0.5, xi=0.1, sigma=3.0, w=3.0)
+P = Params(rho=0.25, q=2.0, tau0=0.5, xi=0.1, sigma=3.0, w=3.0, p_best=0.05)
 
 
 def test_evaporate_then_ant_cycle_deposit():

@@ -105,8 +105,16 @@ def keep_update(trail: Trail, walks: Walks, problem: Any, params: Any) -> Trail:
     return trail
 
 
+_CHAINS: dict = {}
+
+
 def chain(*rules: Rule) -> Rule:
-    """Apply rules one after the other, at initialisation and at every update."""
+    """Apply rules one after the other, at initialisation and at every update. The same pieces
+    give the same rule object, so planners built from the same components are equal (and share
+    their compiled programs)."""
+    hit = _CHAINS.get(rules)
+    if hit is not None:
+        return hit
 
     def init(trail, problem, params):
         for r in rules:
@@ -118,7 +126,7 @@ def chain(*rules: Rule) -> Rule:
             trail = r.update(trail, walks, problem, params)
         return trail
 
-    return Rule(init, update)
+    return _CHAINS.setdefault(rules, Rule(init, update))
 
 
 def inverse(cost):

@@ -120,6 +120,7 @@ class Variant(NamedTuple):
     construct: Callable = single_colony
     factor: Callable = eta_factor
     local_search: Callable | None = None
+    composition: str = ""  # the name of the composition it is (``compose(...)``), "" when built from functions
 
     def default_params(self) -> Params:
         """The planner's parameters at their defaults."""
@@ -138,7 +139,7 @@ class Variant(NamedTuple):
         if unknown:
             raise JacoError(f"{name!r}: {unknown[0]!r} is not a parameter of {self.name!r} ({', '.join(self.params)})")
         order = tuple(defaults) + tuple(k for k in self.params if k not in defaults)
-        return self._replace(name=name, source=source, doc=doc, params=order,
+        return self._replace(name=name, source=source, doc=doc, params=order, composition=self.composition,
                              defaults=FrozenMap({k: float(defaults.get(k, self.defaults[k])) for k in order}))
 
 

@@ -194,7 +194,8 @@ def compose(construct: str = "dying", heuristic: str = "distance", rule: str = "
 def _searching(base: Variant, local_search: str) -> Variant:
     """``base`` (a composition) with a local search: its name gets ``local_search=...``."""
     source = f"{base.source}; local_search {local_search}: {LOCAL_SEARCH_SOURCES[local_search]}"
-    return base._replace(name=base.name[:-1] + f", local_search={local_search})", source=source,
+    name = base.name[:-1] + f", local_search={local_search})"
+    return base._replace(name=name, composition=name, source=source,
                          doc=f"{base.doc} Local search: {LOCAL_SEARCH_SOURCES[local_search]}.",
                          local_search=LOCAL_SEARCHES[local_search])
 
@@ -241,6 +242,7 @@ def _build(c: dict) -> Variant:
         defaults=FrozenMap(defaults),
         rule=rules[0] if len(rules) == 1 else ph.chain(*rules),
         pheromone_on="cells" if cells else "moves",
+        composition=name,
         schedule=sch.compose(*schedules_) if len(schedules_) > 1 else (schedules_[0] if schedules_ else constant),
         **parts,
     )
