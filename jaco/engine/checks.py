@@ -84,7 +84,7 @@ def check_seed(seed: int, what: str = "seed") -> int:
     return int(seed)
 
 
-def check_seeds(seeds) -> np.ndarray:
+def check_seeds(seeds: int | list[int]) -> np.ndarray:
     """A sweep's seeds: a count (``range(seeds)``) or a non-empty list of :func:`check_seed` seeds,
     as uint32."""
     if isinstance(seeds, (int, np.integer)) and not isinstance(seeds, bool):
@@ -103,7 +103,7 @@ def check_seeds(seeds) -> np.ndarray:
     return np.array(out, np.uint32)
 
 
-def check_keep_pheromone(keep_pheromone) -> bool | str:
+def check_keep_pheromone(keep_pheromone: bool | str) -> bool | str:
     """``False``, ``True`` or ``"history"``."""
     if keep_pheromone not in KEEP_PHEROMONE:
         raise JacoError(f"keep_pheromone must be False, True or 'history', got {keep_pheromone!r}")
@@ -117,7 +117,7 @@ def check_shape(shape: RunShape) -> RunShape:
     return shape
 
 
-def check_relations(table: dict, names) -> None:
+def check_relations(table: dict, names: tuple[str, ...]) -> None:
     """The order relations (τmin < τmax, Q1 < Q2 < Q3, ρ2 < ρ1) on every row of a configuration
     table (name -> one value per configuration) among the planner's parameter ``names``; the first
     bad row is named."""
@@ -151,8 +151,8 @@ def check_grid(grid) -> Grid:
     return grid
 
 
-def prepare(grid: Grid, variant: Variant, *, seed, n_ants, n_iters, steplimit, params: dict, runs: int = 1,
-            keep_pheromone=False) -> tuple[int, dict]:
+def prepare(grid: Grid, variant: Variant, *, seed: int, n_ants: int, n_iters: int, steplimit: int | None, params: dict,
+            runs: int = 1, keep_pheromone: bool | str = False) -> tuple[int, dict]:
     """Validate one call with numpy before anything compiles: the map's type, the sizes and their
     memory estimate (``runs`` runs at once), the seed and every parameter (unknown names list the
     valid ones). Returns the step limit (the default when ``steplimit`` is None) and the parameter
