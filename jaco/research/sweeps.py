@@ -299,7 +299,7 @@ class Queries(NamedTuple):
 def prepare_queries(grid, start, goal, *, n_ants, n_iters, steplimit, connectivity, variant=None) -> tuple[Queries, int]:
     """Validate the maps, queries and sizes (before anything compiles) and build the problems;
     returns them and the step limit (when ``steplimit`` is None, the map's default for ``variant``:
-    :func:`jaco.engine.run.default_steplimit`)."""
+    :func:`jaco.engine.checks.default_steplimit`)."""
     queries = _queries(grid, start, goal)
     shapes = {g.shape for g, _, _ in queries}
     if len(shapes) != 1:
