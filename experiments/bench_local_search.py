@@ -106,12 +106,14 @@ def solve_ratio(jaco, name, n_scen, seeds, ants, iters, reps):
 
 def step_limit_cost(jaco, name, n_scen, ants, iters):
     """Rows of measurement 3."""
+    from jaco.engine import checks as jc
     from jaco.engine import run as jr
+    from jaco.engine.shape import RunShape
     from jaco.engine.problem import make_problem
 
     grid = _grid(jaco, name)
     scen = scenarios(jaco, name, n_scen)
-    old, new = jr.legacy_steplimit(grid), jr.default_steplimit(grid, jaco.VARIANTS["iaca"])
+    old, new = jc.legacy_steplimit(grid), jc.default_steplimit(grid, jaco.VARIANTS["iaca"])
     rows = []
     for planner in ("iaca", jaco.compose(**CHAOS, local_search="shortcut")):
         v = jaco.planners.registry.get_variant(planner)
@@ -124,10 +126,10 @@ def step_limit_cost(jaco, name, n_scen, ants, iters):
                 r = jaco.solve(grid, s.start, s.goal, v, seed=1, n_ants=ants, n_iters=iters, steplimit=limit, progress=False)
                 times.append(time.perf_counter() - t0)
                 gaps.append(r.gap)
-            run = jr.compiled_run(v, ants, iters, limit, False, batched=False)
+            run = jr.compiled_run(v, RunShape(ants, iters, limit), batched=False)
             problem = make_problem(grid, scen[0].start, scen[0].goal)
-            values = jr.resolve_params(v, {}, where="bench")
-            mem = run.lower(jaco.engine.run.jax.random.key(0), problem, jr.params_from(values)).compile().memory_analysis()
+            values = jc.resolve_params(v, {}, where="bench")
+            mem = run.lower(jaco.engine.run.jax.random.key(0), problem, jc.params_from(values)).compile().memory_analysis()
             total = sum(getattr(mem, k, 0) for k in ("argument_size_in_bytes", "output_size_in_bytes", "temp_size_in_bytes"))
             label = "old default, 4·(H + W)" if limit == old else "new default for backtracking ants"
             rows.append([jaco.planners.registry.get_variant(planner).name if planner == "iaca" else "backtrack+chaos+iaca+shortcut",
@@ -149,7 +151,7 @@ def longest(jaco, k, ants, iters, maps=None):
         t0 = time.perf_counter()
         tab = jaco.sweep(grid, [s.start for s in scen], [s.goal for s in scen], "iaca", seeds=[0], n_ants=ants,
                          n_iters=iters, progress=False)
-        limit = jaco.engine.run.default_steplimit(grid, jaco.VARIANTS["iaca"])
+        limit = jaco.engine.checks.default_steplimit(grid, jaco.VARIANTS["iaca"])
         rows.append([m.removesuffix(".map"), f"{grid.height}x{grid.width}", str(limit), fixed(scen[0].optimal, 1),
                      fixed(scen[-1].optimal, 1), f"{int(tab.success.sum())} of {len(tab)}",
                      fixed(100 * float(np.median(tab.gap)), 1), fixed(time.perf_counter() - t0, 0)])

@@ -84,7 +84,7 @@ def estimates(variants) -> list[dict]:
     rows = []
     for name in variants:
         plan = jaco.research.sweeps.plan_sweep(grid, (0, 0), (31, 31), name, seeds=64, n_ants=50, n_iters=100, devices=1)
-        s = pad_steps(jaco.engine.run.default_steplimit(grid))
+        s = pad_steps(jaco.engine.checks.default_steplimit(grid))
         old = 2 * (50 * grid.n_cells + 5 * 4 * s * 50 + 4 * 4 * 8 * grid.n_cells + 16 * 100)
         rows.append(dict(variant=name, old=old, estimate=plan["bytes_per_config_estimate"],
                          measured=plan["bytes_per_config_measured"], chunk_bytes=plan["bytes_per_chunk"]))

@@ -187,7 +187,9 @@ def run_benchmark(args) -> dict:
     import numpy as np
 
     import jaco
+    import jaco.engine.checks as jc
     import jaco.engine.run as jr
+    from jaco.engine.shape import RunShape
     from jaco.engine.problem import stack
 
     import native_reference as nr
@@ -201,12 +203,12 @@ def run_benchmark(args) -> dict:
     side, n_ants, n_iters = cfg["side"], cfg["n_ants"], cfg["n_iters"]
     grid = jaco.maps.random_map(side, cfg["p"], seed=cfg["map_seed"])
     start, goal = (0, 0), (side - 1, side - 1)
-    steplimit = jr.default_steplimit(grid)
+    steplimit = jc.default_steplimit(grid)
     axes = cfg["axes"]
     names = list(axes)
     combos = np.array(list(itertools.product(*(axes[k] for k in names))), np.float64)
     n_cfg = len(combos)
-    base = jr.resolve_params(variant, {}, where="as")
+    base = jc.resolve_params(variant, {}, where="as")
     q, tau0 = float(base["q"]), float(base["tau0"])
     R["workload"] = dict(map=grid.name, side=side, n_free=int(grid.n_free), n_configs=n_cfg, n_ants=n_ants,
                          n_iters=n_iters, steplimit=steplimit, axes=axes, q=q, tau0=tau0)
@@ -250,8 +252,8 @@ def run_benchmark(args) -> dict:
             equal[f"{walk}, {n_dev} devices"] = bool(sharded.equals(tables[walk]))
             engines[f"{walk}_{n_dev}"] = on(walk, lambda: sweep(n_dev))
         with walking(walk):  # the real step count, from the compiled program jaco.sweep used
-            run_b = jr.compiled_run(variant, n_ants, n_iters, steplimit, False, batched=True)
-            out = jax.device_get(run_b(keys, problems, jr.params_from(tab, (n_cfg,))))
+            run_b = jr.compiled_run(variant, RunShape(n_ants, n_iters, steplimit), batched=True)
+            out = jax.device_get(run_b(keys, problems, jc.params_from(tab, (n_cfg,))))
         if not np.array_equal(np.asarray(out.best_cost)[0], tables[walk]["cost"].to_numpy(np.float32)):
             raise SystemExit(f"the batched compiled run does not reproduce jaco.sweep's table ({walk} walk)")
         R.setdefault("jaco_steps", int(np.sum(np.asarray(out.steps, np.int64))))
@@ -315,7 +317,7 @@ def run_benchmark(args) -> dict:
 
     # -- one solve: latency after compile, compile time -----------------------------------------
     problem = jaco.make_problem(grid, start, goal)
-    p1 = jr.params_from(base)
+    p1 = jc.params_from(base)
     R["solve"] = {}
     for walk in R["walks"]:
         with walking(walk):
@@ -324,7 +326,7 @@ def run_benchmark(args) -> dict:
 
             w_first, _, _ = timed(solve)
             lat = [timed(solve)[0] for _ in range(cfg["latency_calls"])]
-            run_1 = jr.compiled_run(variant, n_ants, n_iters, steplimit, False, batched=False)
+            run_1 = jr.compiled_run(variant, RunShape(n_ants, n_iters, steplimit), batched=False)
             raw = [timed(lambda: run_1(jax.random.key(0), problem, p1))[0] for _ in range(cfg["latency_calls"])]
             t0 = time.perf_counter()
             lowered = jax.jit(jr.make_run(variant, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit)).lower(
@@ -392,16 +394,19 @@ def compile_s(first, steady):
 
 
 def scaling(cfg, jax, np, jaco, jr, nr, variant, base, stack, walk_list) -> dict:
+    import jaco.engine.checks as jc
+    from jaco.engine.shape import RunShape
+
     it, reps = cfg["scale_iters"], cfg["scale_reps"]
     q, tau0 = float(base["q"]), float(base["tau0"])
-    p1 = jr.params_from(base)
+    p1 = jc.params_from(base)
     alpha, beta, rho = (float(base[k]) for k in ("alpha", "beta", "rho"))
     out = {}
 
     def one(grid, n_ants):
         side = grid.height
         start, goal = (0, 0), (side - 1, side - 1)
-        steplimit = jr.default_steplimit(grid)
+        steplimit = jc.default_steplimit(grid)
         problem = jaco.make_problem(grid, start, goal)
         cols, steps = [steplimit], None
         for walk in walk_list:
@@ -411,7 +416,7 @@ def scaling(cfg, jax, np, jaco, jr, nr, variant, base, stack, walk_list) -> dict
 
                 w_first = timed(solve)[0]
                 w, _, _ = best_of(solve, reps)
-                run_1 = jr.compiled_run(variant, n_ants, it, steplimit, False, batched=False)
+                run_1 = jr.compiled_run(variant, RunShape(n_ants, it, steplimit), batched=False)
                 steps = int(run_1(jax.random.key(0), problem, p1).steps)
             cols += [compile_s(w_first, w), 1e3 * w / it]
             cols.append(steps / w)
@@ -445,7 +450,7 @@ def scaling(cfg, jax, np, jaco, jr, nr, variant, base, stack, walk_list) -> dict
 
     # batch: one configuration (AS defaults), B seeds, one jaco.sweep call on one device
     start, goal = (0, 0), (cfg["side"] - 1, cfg["side"] - 1)
-    steplimit = jr.default_steplimit(grid)
+    steplimit = jc.default_steplimit(grid)
     n_ants = cfg["n_ants"]
     nbr, eta, s, g = nr.problem_arrays(grid, start, goal)
     problems = stack([jaco.make_problem(grid, start, goal)])
@@ -460,9 +465,9 @@ def scaling(cfg, jax, np, jaco, jr, nr, variant, base, stack, walk_list) -> dict
 
                 w_first = timed(sweep)[0]
                 w, _, _ = best_of(sweep, reps)
-                run_b = jr.compiled_run(variant, n_ants, it, steplimit, False, batched=True)
+                run_b = jr.compiled_run(variant, RunShape(n_ants, it, steplimit), batched=True)
                 keys = jax.vmap(jax.random.key)(np.arange(b, dtype=np.uint32))
-                steps = int(np.sum(np.asarray(run_b(keys, problems, jr.params_from(base, (b,))).steps, np.int64)))
+                steps = int(np.sum(np.asarray(run_b(keys, problems, jc.params_from(base, (b,))).steps, np.int64)))
             cols += [compile_s(w_first, w), w, steps / w]
 
         def native():

@@ -124,7 +124,9 @@ def _batch(grid, variant, seeds, n_ants, n_iters, steplimit, values=None):
     import jax
 
     from jaco.engine.problem import make_problem, stack
-    from jaco.engine.run import compiled_run, params_from, resolve_params
+    from jaco.engine.checks import params_from, resolve_params
+    from jaco.engine.run import compiled_run
+    from jaco.engine.shape import RunShape
 
     start, goal = grid.meta["start"], grid.meta["goal"]
     base = resolve_params(variant, dict(values or {}), where=variant.name)
@@ -132,7 +134,7 @@ def _batch(grid, variant, seeds, n_ants, n_iters, steplimit, values=None):
     params = params_from({k: np.full(n, v, np.float64) for k, v in base.items()}, (n,))
     keys = jax.vmap(jax.random.key)(np.asarray(seeds, np.uint32))
     problems = stack([make_problem(grid, start, goal)])
-    run = compiled_run(variant, n_ants, n_iters, steplimit, False, batched=True)
+    run = compiled_run(variant, RunShape(n_ants, n_iters, steplimit), batched=True)
     exe = run.lower(keys, problems, params).compile()
     t0 = time.perf_counter()
     out = jax.block_until_ready(exe(keys, problems, params))
@@ -147,6 +149,7 @@ def run_cell(grid, variant, runs, n_ants, n_iters, steplimit, values=None, rs=SA
     import jax
 
     from jaco.engine.result import path_cells, to_result
+    from jaco.engine.shape import RunShape
 
     start, goal = grid.meta["start"], grid.meta["goal"]
     seeds = list(range(runs))
@@ -163,8 +166,8 @@ def run_cell(grid, variant, runs, n_ants, n_iters, steplimit, values=None, rs=SA
     best_i = int(np.argmin(lengths))
     best = to_result(
         jax.tree.map(lambda a: a[best_i], raw), grid=grid, variant=variant, start=start, goal=goal,
-        optimal=optimal / grid.cell_size, seed=seeds[best_i], params=base, n_ants=n_ants, n_iters=n_iters,
-        steplimit=steplimit,
+        optimal=optimal / grid.cell_size, seed=seeds[best_i], params=base,
+        shape=RunShape(n_ants, n_iters, steplimit),
     )
     iters = raw.best_iteration[ok].astype(float) + 1
 
@@ -378,7 +381,7 @@ def run_table1(maps, runs, n_ants, n_iters, steplimit, with_apf=True, verbose=Tr
     rows = {}
     for name in maps:
         grid = jaco.maps.named(name)
-        limit = steplimit or jaco.engine.run.default_steplimit(grid)
+        limit = steplimit or jaco.engine.checks.default_steplimit(grid)
         cells = {label: run_cell(grid, v, runs, n_ants, n_iters, limit, values)
                  for label, (v, values) in table1_planners().items()}
         if with_apf and has_apf():
@@ -395,7 +398,7 @@ def run_compare(maps, runs, n_ants, n_iters, steplimit, labels=None, verbose=Tru
     rows = {}
     for name in maps:
         grid = jaco.maps.named(name)
-        limit = steplimit or jaco.engine.run.default_steplimit(grid)
+        limit = steplimit or jaco.engine.checks.default_steplimit(grid)
         rows[name] = {label: run_cell(grid, v, runs, n_ants, n_iters, limit) for label, v in compare_planners(labels).items()}
         if verbose:
             print(f"{name:12s} " + "  ".join(f"{k} {fmt(c['best'])}/{fmt(c['turns'], 1)}t" for k, c in rows[name].items()), flush=True)

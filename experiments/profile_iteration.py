@@ -58,6 +58,7 @@ def measure(cfg) -> dict:
     import numpy as np
 
     import jaco
+    import jaco.engine.checks as jc
     import jaco.engine.run as jr
     from jaco.engine import native
     from jaco.engine.colony import move_weights, step_targets
@@ -69,7 +70,7 @@ def measure(cfg) -> dict:
     grid = jaco.maps.random_map(30, 0.25, seed=0)
     start, goal = (0, 0), (29, 29)
     prob = to_device(make_problem(grid, start, goal))
-    steplimit = jr.default_steplimit(grid)
+    steplimit = jc.default_steplimit(grid)
     var = jaco.VARIANTS["as"]
     betas = jnp.asarray(np.resize([1.0, 2.0, 4.0, 8.0], B), jnp.float32)
     P = jax.vmap(lambda b: var.default_params().replace(beta=b))(betas)

@@ -68,8 +68,9 @@ import numpy as np
 
 from .engine.params import check_values
 from .engine.problem import make_problem
-from .engine.result import Result, gap
+from .engine.result import Result
 from .errors import JacoError, ParamError
+from .metrics import gap
 from .moves import MOVES
 from .potential import D0, K_REP, MOVE_LEN, classic_next
 

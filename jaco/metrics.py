@@ -324,14 +324,26 @@ def any_angle_length(grid, path, cell_size: float = 1.0) -> float:
 
 
 # -- quality against the optimum ---------------------------------------------------------------
-def gap(length: float, optimal: float) -> float:
-    """Relative gap ``(length - optimal) / optimal``; 0 when both are 0, inf when ``length`` is inf.
+def gap(length: float | np.ndarray, optimal: float) -> float | np.ndarray:
+    """Relative gap ``(length - optimal) / optimal``: the one gap of jaco (results, waypoint trips,
+    the APF planner, records, sweep tables).
 
-    ``optimal`` must be finite and >= 0; a positive ``length`` over ``optimal = 0`` gives inf.
+    The convention: inf when ``length`` is inf (a failed run); when ``optimal`` is 0 (start on
+    the goal), 0 when ``length`` is 0 too and inf for any positive length. ``length`` may be an
+    array (a sweep's column of lengths over one optimum): the gap of each, as float64.
+    ``optimal`` must be finite and >= 0, ``length`` >= 0 or inf (a ParamError otherwise).
     """
-    length, optimal = float(length), float(optimal)
+    optimal = float(optimal)
     if not (np.isfinite(optimal) and optimal >= 0):
         raise ParamError(f"optimal length must be finite and >= 0, got {optimal!r}")
+    if np.ndim(length):
+        lengths = np.asarray(length, np.float64)
+        if np.any(np.isnan(lengths) | (lengths < 0)):
+            raise ParamError("lengths must be >= 0 (or inf for a failed run)")
+        if optimal == 0:
+            return np.where(lengths == 0, 0.0, math.inf)
+        return np.where(np.isinf(lengths), math.inf, (lengths - optimal) / optimal)
+    length = float(length)
     if math.isnan(length) or length < 0:
         raise ParamError(f"length must be >= 0 (or inf for a failed run), got {length!r}")
     if math.isinf(length):

@@ -312,6 +312,16 @@ def _apf_next_cell(problem, m: _Map, i):
 _WALKERS = 256
 
 
+def native_apf_next(free, nbr, goal, offsets) -> jax.Array:
+    """The C++ kernel's table of the improved APF's next cells (``jaco_apf_next`` of
+    ``jaco/engine/walk.cc``, through :func:`jaco.engine.native.ffi_call`); same result as
+    :func:`jax_apf_next` (``free (N,)``, ``nbr (N, 8)``, -1 where not allowed)."""
+    from .engine import native
+
+    call = native.ffi_call("jaco_apf_next", jax.ShapeDtypeStruct(free.shape, jnp.int32))
+    return call(free, nbr, goal, offsets, jnp.asarray(MOVES, jnp.int32))
+
+
 def apf_next(problem) -> jax.Array:
     """``next (N,)`` of the improved APF for every cell: the cell it moves to, −1 where it is
     stuck or blocked, the goal at the goal. On CPU with the native walk active
@@ -319,7 +329,7 @@ def apf_next(problem) -> jax.Array:
     :func:`jax_apf_next` (which defines it) walker for walker, on the threads of XLA's pool."""
     from .engine import native
 
-    return native.dispatch(native.apf_next, lambda *a: jax_apf_next(problem),
+    return native.dispatch(native_apf_next, lambda *a: jax_apf_next(problem),
                            problem.clearance > 0, problem.nbr, problem.goal, problem.offsets)
 
 

@@ -34,12 +34,16 @@ import jax.numpy as jnp
 import numpy as np
 
 from .engine.problem import _as_cell, make_problem, stack
-from .engine.result import Result, gap, to_result
-from .engine.run import cached, make_run, params_from, prepare
+from .engine.cache import cached
+from .engine.checks import params_from, prepare
+from .engine.result import Result, to_result
+from .engine.run import make_run
+from .engine.shape import RunShape
 from .engine.variant import Variant
 from .errors import ProblemError
 from .exact import distance_field, shortest_path
 from .grid import Grid
+from .metrics import gap
 from .progress import run_interruptibly
 
 
@@ -79,24 +83,22 @@ def leg_keys(seed: int, n_legs: int) -> jax.Array:
     return jnp.stack([base] + [jax.random.fold_in(base, i) for i in range(1, n_legs)])
 
 
-def compiled_legs(variant, n_ants: int, n_iters: int, steplimit: int, keep_pheromone):
+def compiled_legs(variant: Variant, shape: RunShape):
     """``jit(vmap(run))`` over (key, problem) pairs with shared params, cached like
-    :func:`jaco.engine.run.compiled_run` (by variant identity and sizes; the variant is kept alive)."""
+    :func:`jaco.engine.run.compiled_run` (by the variant and :attr:`RunShape.program`)."""
     def build():
-        run = make_run(variant, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, keep_pheromone=keep_pheromone)
+        run = make_run(variant, **shape.sizes, keep_pheromone=shape.keep_pheromone)
         return jax.jit(jax.vmap(run, in_axes=(0, 0, None)))
 
-    return cached(("legs", id(variant), n_ants, n_iters, steplimit, keep_pheromone), build, variant)
+    return cached(("legs", variant, *shape.program), build)
 
 
-def run_legs(
-    grid, points, variant, *, seed, n_ants, n_iters, steplimit, connectivity, keep_pheromone, values
-) -> list[Result]:
+def run_legs(grid: Grid, points: list, variant: Variant, *, seed: int, shape: RunShape, values: dict) -> list[Result]:
     """One :class:`Result` per leg ``points[i] → points[i+1]``, all legs in one batched call.
     ``points`` come from :func:`check_waypoints`; ``values`` are validated parameter values."""
     legs = list(zip(points[:-1], points[1:]))
-    problems = [make_problem(grid, a, b, connectivity=connectivity) for a, b in legs]
-    run = compiled_legs(variant, n_ants, n_iters, steplimit, keep_pheromone)
+    problems = [make_problem(grid, a, b, connectivity=shape.connectivity) for a, b in legs]
+    run = compiled_legs(variant, shape)
     out = run_interruptibly(lambda: jax.device_get(run(leg_keys(seed, len(legs)), stack(problems), params_from(values))))
     return [
         to_result(
@@ -108,10 +110,7 @@ def run_legs(
             optimal=problems[i].optimal,
             seed=seed,
             params=values,
-            n_ants=n_ants,
-            n_iters=n_iters,
-            steplimit=steplimit,
-            connectivity=connectivity,
+            shape=shape,
         )
         for i, (a, b) in enumerate(legs)
     ]
@@ -150,10 +149,8 @@ def solve_waypoints(grid: Grid, start, goal, variant: Variant, waypoints, *, see
     points = check_waypoints(grid, start, goal, waypoints, connectivity=connectivity)
     steplimit, values = prepare(grid, variant, seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, params=params,
                                 runs=len(points) - 1, keep_pheromone=keep_pheromone)
-    legs = run_legs(
-        grid, points, variant, seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,
-        connectivity=connectivity, keep_pheromone=keep_pheromone, values=values,
-    )
+    shape = RunShape(n_ants, n_iters, steplimit, connectivity, keep_pheromone)
+    legs = run_legs(grid, points, variant, seed=seed, shape=shape, values=values)
     return dataclasses.replace(combine(legs), waypoints=tuple(tuple(p) for p in points[1:-1]))
 
 

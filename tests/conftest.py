@@ -32,9 +32,9 @@ def _forget_compiled_programs():
     yield
     maps = _memory_maps()
     if maps is None or maps > MAP_BUDGET:
-        import jaco.engine.run
+        import jaco.engine.cache
 
-        jaco.engine.run.clear_compiled()
+        jaco.engine.cache.clear_compiled()
         jax.clear_caches()
 
 

@@ -26,7 +26,8 @@ from jaco import maps
 from jaco.cli import main
 from jaco.engine.params import SPECS
 from jaco.engine.problem import make_problem
-from jaco.engine.run import memory_budget, prepare
+from jaco.engine.checks import prepare
+from jaco.engine.memory import memory_budget
 from jaco.planners.registry import get_variant
 from jaco.research.records import RecordError, load_run
 

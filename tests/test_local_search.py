@@ -20,7 +20,8 @@ import jaco
 from jaco.engine import local_search as ls
 from jaco.engine import native
 from jaco.engine.problem import make_problem
-from jaco.engine.run import TRACES, default_steplimit, legacy_steplimit
+from jaco.engine.checks import default_steplimit, legacy_steplimit
+from jaco.engine.run import TRACES
 from jaco.metrics import validate_path
 from jaco.moves import MOVE_LENGTHS, MOVES, neighbour_table
 from jaco.planners.registry import get_variant, with_local_search
@@ -220,7 +221,7 @@ def test_each_candidate_of_an_iteration_is_never_longer_after_the_search(maps_):
     start, goal = grid.meta["start"], grid.meta["goal"]
     v = jaco.VARIANTS["iaca"]
     problem = jax.tree.map(jnp.asarray, make_problem(grid, start, goal))
-    params = jaco.engine.run.params_from(jaco.engine.run.resolve_params(v, {}, where="test"))
+    params = jaco.engine.checks.params_from(jaco.engine.checks.resolve_params(v, {}, where="test"))
     trail = v.rule.init(jaco.engine.pheromone.Trail(jnp.zeros(grid.n_cells), jnp.float32(0), jnp.float32(jnp.inf)),
                         problem, params)
     _, colony = v.construct(v, problem, trail, params, 0, 5, jax.random.key(1), n_ants=20, steplimit=200)
@@ -247,7 +248,7 @@ def test_the_best_k_are_searched_and_a_cost_that_would_rise_keeps_the_walk(maps_
     for name in ("iaca", "iaaco"):
         v = get_variant(name)
         problem = jax.tree.map(jnp.asarray, make_problem(grid, start, goal))
-        params = jaco.engine.run.params_from(jaco.engine.run.resolve_params(v, {}, where="test"))
+        params = jaco.engine.checks.params_from(jaco.engine.checks.resolve_params(v, {}, where="test"))
         trail = v.rule.init(jaco.engine.pheromone.Trail(jnp.zeros(8 * grid.n_cells if v.pheromone_on == "moves" else grid.n_cells),
                                                         jnp.float32(0), jnp.float32(jnp.inf)), problem, params)
         _, colony = v.construct(v, problem, trail, params, 0, 5, jax.random.key(2), n_ants=20, steplimit=200)

@@ -26,7 +26,7 @@ from jaco.engine import bitexact, native
 from jaco.engine.problem import make_problem, stack
 from jaco.engine.walk import jax_walk, step_uniforms
 from jaco.moves import MOVES, neighbour_table
-from jaco.planners.iaca import detour, jax_backtrack_walk
+from jaco.planners.iaca import detour, jax_backtrack_walk, native_backtrack_walk
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -114,7 +114,7 @@ def _dying(kind, n_ants, steplimit, exploit):
 
 @functools.lru_cache(maxsize=None)
 def _backtracking(kind, n_ants, steplimit, exploit, table):
-    fn = jax_backtrack_walk if kind == "jax" else native.backtrack_walk
+    fn = jax_backtrack_walk if kind == "jax" else native_backtrack_walk
     return jax.jit(jax.vmap(functools.partial(fn, n_ants=n_ants, steplimit=steplimit, exploit=exploit, table=table)))
 
 
@@ -169,7 +169,7 @@ def test_native_backtracking_walk_takes_the_jax_walks_moves_and_pheromone(case, 
 # -- the improved APF's next-cell table (apf-aco) -------------------------------------------------
 _APF = {kind: jax.jit(jax.vmap(fn)) for kind, fn in (
     ("jax", potential.jax_apf_next),
-    ("native", lambda p: native.apf_next(p.clearance > 0, p.nbr, p.goal, p.offsets)),
+    ("native", lambda p: potential.native_apf_next(p.clearance > 0, p.nbr, p.goal, p.offsets)),
 )}
 
 

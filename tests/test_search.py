@@ -168,7 +168,7 @@ def test_turns_objective_counts_heading_changes_of_the_best_path():
 
 
 def test_repeated_generations_and_searches_never_recompile():
-    jaco.engine.run.clear_compiled()
+    jaco.engine.cache.clear_compiled()
     kw = dict(variant="acs", batch=4, sampler="random", **SMALL)
     first = jaco.search(GRID, *ENDS, SPACE, trials=12, **kw)  # 3 generations of 4: one program
     assert first.timings["compiles"] == 1 and first.timings["generations"] == 3

@@ -5,7 +5,9 @@ import pytest
 
 import jaco
 from jaco import exact, waypoints
-from jaco.engine.run import TRACES, resolve_params
+from jaco.engine.checks import default_steplimit, resolve_params
+from jaco.engine.run import TRACES
+from jaco.engine.shape import RunShape
 from jaco.metrics import path_length, validate_path
 
 SMALL = dict(n_ants=8, n_iters=4)
@@ -47,8 +49,8 @@ def test_combined_result_is_the_sum_of_its_legs(grid):
     r = jaco.solve(grid, START, GOAL, "mmas", seed=4, waypoints=VIA, keep_pheromone=True, **SMALL)
     v = jaco.VARIANTS["mmas"]
     points = waypoints.check_waypoints(grid, START, GOAL, VIA)
-    legs = waypoints.run_legs(grid, points, v, seed=4, n_ants=8, n_iters=4, steplimit=jaco.engine.run.default_steplimit(grid),
-                              connectivity=8, keep_pheromone=True, values=resolve_params(v, {}, where="t"))
+    shape = RunShape(n_ants=8, n_iters=4, steplimit=default_steplimit(grid), connectivity=8, keep_pheromone=True)
+    legs = waypoints.run_legs(grid, points, v, seed=4, shape=shape, values=resolve_params(v, {}, where="t"))
     assert len(legs) == 3 and all(leg.success for leg in legs)
     assert r.length == pytest.approx(sum(leg.length for leg in legs))
     assert r.optimal == pytest.approx(sum(leg.optimal for leg in legs))

@@ -172,7 +172,7 @@ def parse_axis(name: str, value: str) -> list[float]:
             raise UsageError(
                 f"--param {name}={value}: COUNT in START:STOP:COUNT must be a positive integer"
             )
-        from ..engine.run import CONFIG_BYTES, check_memory
+        from ..engine.memory import CONFIG_BYTES, check_memory
 
         check_memory(CONFIG_BYTES * n, f"--param {name}={value} ({n} configurations)", "use fewer values")
         return [float(x) for x in np.linspace(a, b, n)]

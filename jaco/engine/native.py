@@ -7,6 +7,12 @@ anyway: the kernel takes the same moves bit for bit.
 Which walk runs: ``JACO_WALK`` in the environment (``auto``, ``native`` or ``jax``), or
 :func:`set_walk`; ``auto`` (the default) takes the native walk when it was built. The choice
 applies to programs compiled after it (it is part of every compiled program's cache key).
+
+This module is the one that loads the kernel library, registers its FFI targets and chooses
+between a kernel and its JAX form (:func:`dispatch`). The wrappers of the engine's kernels (the
+walk, the deposit, the shortcut) are here; a planner's own kernel's wrapper lives beside the
+planner and calls it through :func:`ffi_call` (IACA's backtracking walk in
+:mod:`jaco.planners.iaca`, the APF's next-cell table in :mod:`jaco.potential`).
 """
 
 from __future__ import annotations
@@ -80,6 +86,15 @@ def active_walk() -> str:
     return choice
 
 
+def ffi_call(target: str, result_shapes, **kwargs):
+    """``jax.ffi.ffi_call`` of one of the kernels (``target``, a name of walk.cc's FFI targets),
+    the library loaded and its targets registered first; the planners' own kernel wrappers
+    (:func:`jaco.planners.iaca.native_backtrack_walk`, :func:`jaco.potential.native_apf_next`)
+    call their kernels through it."""
+    _load()
+    return jax.ffi.ffi_call(target, result_shapes, vmap_method="broadcast_all", **kwargs)
+
+
 def dispatch(native_fn, jax_fn, *args):
     """``native_fn(*args)`` where the program runs on CPU with the native walk active, else
     ``jax_fn(*args)``: the one switch between a kernel and the JAX code that it equals."""
@@ -104,29 +119,6 @@ def walk(weights, words, start, goal, q0, offsets, *, n_ants: int, steplimit: in
     return call(weights, words, start, goal, q0, offsets, steplimit=np.int64(steplimit), exploit=bool(exploit))
 
 
-def backtrack_walk(
-    tau, rows, factors, words, start, goal, scalars, offsets, *, n_ants: int, steplimit: int, exploit: bool, table: bool
-):
-    """The kernel's backtracking walk; same arguments and results as
-    :func:`jaco.planners.iaca.jax_backtrack_walk`."""
-    from .bitexact import TABLES
-
-    _load()
-    n, depth = tau.shape[-1], steplimit + 1
-    out = (
-        jax.ShapeDtypeStruct((n,), jnp.float32),
-        jax.ShapeDtypeStruct((n_ants, depth), jnp.int32),
-        jax.ShapeDtypeStruct((n_ants,), jnp.int32),
-        jax.ShapeDtypeStruct((n_ants,), jnp.bool_),
-        jax.ShapeDtypeStruct((n_ants,), jnp.int32),
-        jax.ShapeDtypeStruct((n,), jnp.bool_),
-        jax.ShapeDtypeStruct((n,), jnp.bool_),
-    )
-    call = jax.ffi.ffi_call("jaco_backtrack", out, vmap_method="broadcast_all")
-    return call(tau, rows, factors, words, start, goal, scalars, offsets, jnp.asarray(TABLES),
-                steplimit=np.int64(steplimit), exploit=bool(exploit), table=bool(table))
-
-
 def deposit(tau, targets, amounts):
     """The kernel's scatter-add ``tau[targets] += amounts`` (out-of-range targets dropped), in
     XLA's order: same arguments and result as :func:`jaco.engine.pheromone.deposit`'s JAX form;
@@ -140,17 +132,6 @@ def deposit(tau, targets, amounts):
     call = jax.ffi.ffi_call("jaco_deposit", jax.ShapeDtypeStruct(tau.shape, jnp.float32), vmap_method="broadcast_all",
                             input_output_aliases={0: 0})
     return call(tau, flat, per)
-
-
-def apf_next(free, nbr, goal, offsets):
-    """The kernel's table of the improved APF's next cells; same result as
-    :func:`jaco.potential.apf_next`'s JAX form (``free (N,)``, ``nbr (N, 8)``, -1 where not
-    allowed)."""
-    from ..moves import MOVES
-
-    _load()
-    call = jax.ffi.ffi_call("jaco_apf_next", jax.ShapeDtypeStruct(free.shape, jnp.int32), vmap_method="broadcast_all")
-    return call(free, nbr, goal, offsets, jnp.asarray(MOVES, jnp.int32))
 
 
 def shortcut(cells, bits, start, offsets, diagonal, move_of, *, window: int, passes: int):

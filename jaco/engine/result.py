@@ -1,5 +1,6 @@
 """The outcome of a run as a person reads it: :class:`Result` (path, length, optimum, gap,
-history, ...), built from the engine's raw arrays by :func:`to_result`.
+history, ...), built from the engine's raw arrays by :func:`to_result`. The gap is
+:func:`jaco.metrics.gap`, the one gap of jaco.
 
 :meth:`Result.save` and :meth:`Result.save_path` are conveniences that delegate to
 :mod:`jaco.research.record_format`, which writes files and never imports the engine back.
@@ -14,6 +15,8 @@ import numpy as np
 
 from ..errors import JacoError
 from ..grid import Grid
+from ..metrics import gap
+from .shape import RunShape
 
 
 @dataclass
@@ -161,17 +164,9 @@ def path_cells(grid: Grid, start, best_cells) -> np.ndarray:
     return np.stack(np.divmod(flat, grid.width), axis=1).astype(np.int64)
 
 
-def gap(length, optimal) -> float:
-    """Relative gap to the optimum: inf for a failed run, 0 when the optimum is 0."""
-    if not math.isfinite(length):
-        return math.inf
-    return 0.0 if optimal == 0 else (length - optimal) / optimal
-
-
-def to_result(
-    out, *, grid, variant, start, goal, optimal, seed, params, n_ants, n_iters, steplimit, connectivity=8
-) -> Result:
-    """Convert one (unbatched) :class:`jaco.engine.run.RunOutput` to a :class:`Result`."""
+def to_result(out, *, grid: Grid, variant, start, goal, optimal, seed: int, params: dict, shape: RunShape) -> Result:
+    """Convert one (unbatched) :class:`jaco.engine.run.RunOutput` of a run of ``shape`` to a
+    :class:`Result`."""
     success = bool(np.isfinite(out.best_cost))
     length = float(out.best_length) * grid.cell_size if success else math.inf
     opt = float(optimal) * grid.cell_size
@@ -188,12 +183,12 @@ def to_result(
         coverage=int(out.covered) / grid.n_free,
         seed=int(seed),
         params={k: float(params[k]) for k in variant.params},
-        n_ants=n_ants,
-        n_iters=n_iters,
-        steplimit=steplimit,
+        n_ants=shape.n_ants,
+        n_iters=shape.n_iters,
+        steplimit=shape.steplimit,
         start=tuple(int(v) for v in start),
         goal=tuple(int(v) for v in goal),
         grid=grid,
         pheromone=None if out.tau is None else np.asarray(out.tau),
-        connectivity=int(connectivity),
+        connectivity=int(shape.connectivity),
     )

@@ -192,6 +192,29 @@ def step_weights(tau_nb, r, allowed, params):
 
 
 # -- the backtracking walk --------------------------------------------------------------------
+def native_backtrack_walk(
+    tau, rows, factors, words, start, goal, scalars, offsets, *, n_ants: int, steplimit: int, exploit: bool, table: bool
+) -> tuple:
+    """The C++ kernel's backtracking walk (``jaco_backtrack`` of ``jaco/engine/walk.cc``, called
+    through :func:`jaco.engine.native.ffi_call`); same arguments and results as
+    :func:`jax_backtrack_walk`."""
+    from ..engine.bitexact import TABLES
+
+    n, depth = tau.shape[-1], steplimit + 1
+    out = (
+        jax.ShapeDtypeStruct((n,), jnp.float32),
+        jax.ShapeDtypeStruct((n_ants, depth), jnp.int32),
+        jax.ShapeDtypeStruct((n_ants,), jnp.int32),
+        jax.ShapeDtypeStruct((n_ants,), jnp.bool_),
+        jax.ShapeDtypeStruct((n_ants,), jnp.int32),
+        jax.ShapeDtypeStruct((n,), jnp.bool_),
+        jax.ShapeDtypeStruct((n,), jnp.bool_),
+    )
+    call = native.ffi_call("jaco_backtrack", out)
+    return call(tau, rows, factors, words, start, goal, scalars, offsets, jnp.asarray(TABLES),
+                steplimit=np.int64(steplimit), exploit=bool(exploit), table=bool(table))
+
+
 class Backtracked(NamedTuple):
     """What one iteration's backtracking walks leave: ``tau (N,)`` after the local updates;
     ``stack (A, steplimit + 1)``: each ant's path from the start with the dead branches removed
@@ -224,7 +247,7 @@ def backtrack_walk(
         params.q0 if exploit else 0.0, params.alpha, params.beta, trail.lo, trail.hi, params.rho_local, params.q)])
     args = (trail.tau, rows, factors, words, problem.start, problem.goal, scalars, problem.offsets)
     kw = dict(n_ants=n_ants, steplimit=steplimit, exploit=bool(exploit), table=table)
-    return Backtracked(*native.dispatch(functools.partial(native.backtrack_walk, **kw),
+    return Backtracked(*native.dispatch(functools.partial(native_backtrack_walk, **kw),
                                         functools.partial(jax_backtrack_walk, **kw), *args))
 
 

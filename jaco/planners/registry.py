@@ -92,7 +92,7 @@ def with_cost(variant, cost: str = "multi") -> Variant:
     if cost not in COSTS:
         raise ParamError(f"unknown cost {cost!r}; valid: {', '.join(sorted(COSTS))}")
     base = get_variant(variant)
-    key = (id(base), cost)
+    key = (base, cost)
     hit = _WITH_COST.get(key)
     if hit is None:
         if base.cost is COSTS[cost]:
@@ -102,9 +102,8 @@ def with_cost(variant, cost: str = "multi") -> Variant:
             params = base.params + tuple(p.name for p in extra)
             defaults = FrozenMap({**base.defaults, **{p.name: p.default for p in extra}})
             new = base._replace(name=f"{base.name}+{cost}", cost=COSTS[cost], params=params, defaults=defaults)
-        hit = (base, new)  # keep the base alive so its id is not reused
-        _WITH_COST[key] = hit
-    return hit[1]
+        hit = _WITH_COST[key] = new
+    return hit
 
 
 _WITH_SEARCH: dict = {}
@@ -128,7 +127,7 @@ def with_local_search(variant, local_search: str = "shortcut") -> Variant:
     if not isinstance(local_search, str) or local_search not in LOCAL_SEARCHES:
         raise JacoError(f"unknown local search {local_search!r}; valid: {', '.join(LOCAL_SEARCHES)}")
     base = get_variant(variant)
-    key = (id(base), local_search)
+    key = (base, local_search)
     hit = _WITH_SEARCH.get(key)
     if hit is None:
         if parse(base.name) is base:  # a composition: the local search is one of its components
@@ -141,9 +140,8 @@ def with_local_search(variant, local_search: str = "shortcut") -> Variant:
             new = base._replace(name=f"{base.name}+{local_search}", local_search=LOCAL_SEARCHES[local_search],
                                 source=f"{base.source}; {LOCAL_SEARCH_SOURCES[local_search]}",
                                 doc=f"{base.doc} Local search: {LOCAL_SEARCH_SOURCES[local_search]}.")
-        hit = (base, new)  # keep the base alive so its id is not reused
-        _WITH_SEARCH[key] = hit
-    return hit[1]
+        hit = _WITH_SEARCH[key] = new
+    return hit
 
 
 def _composition_kwargs(name: str) -> dict:

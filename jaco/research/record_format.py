@@ -52,9 +52,9 @@ FORMAT = "jaco-record"
 FORMAT_VERSION = 4
 #: Why a record of an older format no longer reruns bit for bit (the file itself still loads).
 #: Formats 3 and 4 changed no rerun: a sweep record's ``steplimit: null`` (the default) means the
-#: default of the jaco that wrote it, and reruns so (:func:`jaco.engine.run.legacy_steplimit`):
+#: default of the jaco that wrote it, and reruns so (:func:`jaco.engine.checks.legacy_steplimit`):
 #: before format 3, 4·(H + W) at most the free cells for every planner; in format 3 twice that
-#: for backtracking ants; since format 4 :func:`jaco.engine.run.default_steplimit`.
+#: for backtracking ants; since format 4 :func:`jaco.engine.checks.default_steplimit`.
 FORMAT_CHANGES = {
     2: "its random numbers were drawn as one uniform table per iteration; since format 2 each "
        "uniform is Threefry of the iteration key, the ant and the step, so the rerun draws other "

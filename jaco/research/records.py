@@ -36,9 +36,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..engine.result import Result, gap
+from ..engine.result import Result
 from ..engine.variant import Variant
 from ..grid import Grid
+from ..metrics import gap
 from ..outputs import as_path, atomic_paths, check_output, write_text
 from .record_format import (
     CHECKED_VERSIONS,
@@ -355,7 +356,7 @@ class SweepRecord:
 
     def _rerun_old_default(self, kw):
         """The sweep with the default step limit of the jaco that wrote the record, each planner's."""
-        from ..engine.run import legacy_steplimit
+        from ..engine.checks import legacy_steplimit
         from ..planners.registry import get_variant
         from .sweeps import _over_variants, sweep
 

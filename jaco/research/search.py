@@ -299,6 +299,7 @@ class Evaluator:
         self.compiles = 0
 
     def _runner(self, planner, n_ants, n_iters, n_trials):
+        from ..engine.shape import RunShape
         from .sweeps import Runner
 
         width = min(_pow2(n_trials), _pow2(self.batch)) * len(self.seeds)
@@ -307,9 +308,9 @@ class Evaluator:
             def compiling():
                 self.compiles += 1
 
-            self.runners[key] = Runner(self.space.planners[planner], self.queries, n_ants=n_ants, n_iters=n_iters,
-                                       steplimit=self.steplimit[planner], mesh=self.mesh, rows=width, budget=self.budget,
-                                       on_compile=compiling, paths=self.paths)
+            shape = RunShape(n_ants, n_iters, self.steplimit[planner])  # the queries' problems hold their moves
+            self.runners[key] = Runner(self.space.planners[planner], self.queries, shape=shape, mesh=self.mesh,
+                                       rows=width, budget=self.budget, on_compile=compiling, paths=self.paths)
         return self.runners[key]
 
     def __call__(self, jobs: list[Job]) -> None:
@@ -432,8 +433,8 @@ def search(
     resumes must have been made by the same search (space, objective, queries, seeds, sizes,
     sampler, fidelity), else a one-line :class:`SearchError` names what differs.
     """
-    from ..engine.run import check_seed
-    from .sweeps import _seeds, check_budget, prepare_queries
+    from ..engine.checks import check_seed, check_seeds
+    from .sweeps import check_budget, prepare_queries
 
     require("optuna", "jaco.search")
     space = parse_space(space, variant)
@@ -459,7 +460,8 @@ def search(
     sizes = {k: space.fixed.get(k, v) for k, v in (("n_ants", n_ants), ("n_iters", n_iters))}
     largest = {k: int(max(space.dims[k].choices) if hasattr(space.dims.get(k), "choices") else space.dims[k].high)
                if k in space.dims else sizes[k] for k in SIZES}
-    from ..engine.run import check_run_memory, check_sizes, default_steplimit
+    from ..engine.checks import check_sizes, default_steplimit
+    from ..engine.memory import check_run_memory
 
     queries, _ = prepare_queries(grid, start, goal, n_ants=largest["n_ants"], n_iters=largest["n_iters"],
                                  steplimit=steplimit, connectivity=connectivity)
@@ -469,7 +471,7 @@ def search(
     check_sizes(largest["n_ants"], largest["n_iters"], max(steplimit.values()))
     check_run_memory(queries.grid.n_cells, largest["n_ants"], largest["n_iters"], max(steplimit.values()),
                      runs=len(queries.queries), what="a search chunk")
-    seed_list = _seeds(seeds)
+    seed_list = check_seeds(seeds)
     budget = check_budget(memory_budget)
     storage_obj, lock_path, storage_text = _storage(storage)
     _check_storage_path(lock_path)
@@ -608,7 +610,7 @@ class _Run:
 
     def _job(self, trial, planner, params: dict, sizes: dict) -> Job:
         """A job: every parameter of the planner (``params`` over its defaults, checked)."""
-        from ..engine.run import resolve_params
+        from ..engine.checks import resolve_params
 
         v = self.space.planners[planner]
         params = {k: x for k, x in params.items() if k in v.params}

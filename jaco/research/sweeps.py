@@ -35,15 +35,17 @@ from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from .. import progress as _progress
 from ..engine import native
-from ..engine.params import ORDERED, check_values
+from ..engine.cache import cached, is_cached
+from ..engine.checks import check_relations, check_seeds, check_sizes, default_steplimit, params_from, resolve_params
+from ..engine.memory import CONFIG_BYTES, bytes_per_run, check_memory, check_run_memory
+from ..engine.params import check_values
 from ..engine.problem import make_problem, stack
+from ..engine.run import make_run
+from ..engine.shape import RunShape
 from ..engine.variant import Variant
-from ..engine.run import (
-    CONFIG_BYTES, SEED_LIMIT, bytes_per_run, cached, check_memory, check_run_memory, check_sizes, default_steplimit, is_cached,
-    make_run, params_from, resolve_params,
-)
 from ..errors import JacoError, ParamError, check_keywords
 from ..grid import Grid
+from ..metrics import gap
 from ..planners.registry import get_variant
 from .designs import Design, as_design
 
@@ -114,18 +116,18 @@ def _devices(devices) -> list:
     return devs
 
 
-_PER_CONFIG: dict = {}  # (walk, variant id, sizes, shapes) -> measured bytes per configuration and device
+_PER_CONFIG: dict = {}  # (walk, variant, shape, batch shapes) -> measured bytes per configuration and device
 
 
-def _program(variant, n_ants, n_iters, steplimit, mesh, paths=False):
+def _program(variant: Variant, shape: RunShape, mesh: Mesh, paths: bool = False):
     """The jitted chunk program (cached): ``(seeds, problems, params) -> (cost, length, best
     iteration, covered[, best cells])``, each ``(queries, configurations)``; ``paths`` adds the
     best ant's cells (for path metrics such as turns)."""
-    key = ("sweep", id(variant), n_ants, n_iters, steplimit, tuple(d.id for d in mesh.devices.flat), paths)
+    key = ("sweep", variant, *shape.sizes.values(), tuple(d.id for d in mesh.devices.flat), paths)
 
     def build():
         # reports every iteration: a bar inside the chunk, and an interrupt ends the chunk at once
-        run = make_run(variant, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, report="every")
+        run = make_run(variant, **shape.sizes, report="every")
         batched = jax.vmap(jax.vmap(run, in_axes=(0, None, 0)), in_axes=(None, 0, None))
 
         def chunk(seeds, problems, params):
@@ -144,18 +146,18 @@ def _program(variant, n_ants, n_iters, steplimit, mesh, paths=False):
         )
         return jax.jit(program)
 
-    return key, cached(key, build, variant)
+    return key, cached(key, build)
 
 
 def _shapes(batch) -> tuple:
     return tuple((tuple(x.shape), str(x.dtype)) for x in jax.tree.leaves(batch))
 
 
-def _executable(variant, n_ants, n_iters, steplimit, mesh, batch, n_params: int, chunk: int, on_compile=None,
-                paths=False):
+def _executable(variant: Variant, shape: RunShape, mesh: Mesh, batch, n_params: int, chunk: int, on_compile=None,
+                paths: bool = False):
     """The compiled chunk program for ``chunk`` configurations per device (cached), and whether
     it was compiled by this call (``on_compile()`` is called first when it is)."""
-    pkey, program = _program(variant, n_ants, n_iters, steplimit, mesh, paths)
+    pkey, program = _program(variant, shape, mesh, paths)
     key = (pkey, _shapes(batch), n_params, chunk)
     new = not is_cached(key)
 
@@ -170,7 +172,7 @@ def _executable(variant, n_ants, n_iters, steplimit, mesh, batch, n_params: int,
         params = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, np.float32, sharding=on_cfg), params)
         return _progress.run_interruptibly(lambda: program.lower(seeds, problems, params).compile())
 
-    return cached(key, build, variant), new
+    return cached(key, build), new
 
 
 def _agree(value: int) -> int:
@@ -189,7 +191,8 @@ def _fit(budget: int, fixed: int, per: float, rows_per_device: int) -> int:
     return math.ceil(rows_per_device / n_chunks)
 
 
-def _plan(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, n_rows, budget, on_compile=None, paths=False):
+def _plan(variant: Variant, shape: RunShape, mesh: Mesh, batch, n_params: int, n_rows: int, budget: int,
+          on_compile=None, paths: bool = False):
     """Choose the chunk size under the budget from the compiled program's memory analysis: as
     many of ``n_rows`` runs per chunk as fit (``n_rows`` is also the cap: a caller that wants
     smaller chunks passes the chunk it wants).
@@ -197,14 +200,14 @@ def _plan(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, n_rows, bu
     Returns ``(executable, configurations per device and chunk, info dict)``."""
     rows_per_device = math.ceil(n_rows / mesh.size)
     fixed = sum(int(np.asarray(x).nbytes) for x in jax.tree.leaves(batch))  # replicated problems
-    mkey = (native.active_walk(), id(variant), n_ants, n_iters, steplimit, _shapes(batch), paths)
-    path_len = _path_len(variant, n_ants, n_iters, steplimit, batch)
-    guess = bytes_per_run(batch.n_cells, n_ants, n_iters, steplimit, path_len) * batch.nbr.shape[0]
+    mkey = (native.active_walk(), variant, *shape.sizes.values(), _shapes(batch), paths)
+    path_len = _path_len(variant, shape, batch)
+    guess = bytes_per_run(batch.n_cells, shape.n_ants, shape.n_iters, shape.steplimit, path_len) * batch.nbr.shape[0]
     per = _PER_CONFIG.get(mkey, guess)
     chunk = _agree(_fit(budget, fixed, per, rows_per_device))
     compiles, tried = 0, []
     while True:
-        exe, new = _executable(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, chunk, on_compile, paths)
+        exe, new = _executable(variant, shape, mesh, batch, n_params, chunk, on_compile, paths)
         compiles += new
         tried.append(chunk)
         used = _footprint(exe)
@@ -235,16 +238,16 @@ def _plan(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, n_rows, bu
 _PATH_LEN: dict = {}
 
 
-def _path_len(variant, n_ants, n_iters, steplimit, batch) -> int:
+def _path_len(variant: Variant, shape: RunShape, batch) -> int:
     """Length of the construct step's candidate buffer (shape only, traced once per shapes)."""
-    key = (id(variant), n_ants, n_iters, steplimit, _shapes(batch))
+    key = (variant, *shape.sizes.values(), _shapes(batch))
     if key not in _PATH_LEN:
-        run = make_run(variant, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit)
+        run = make_run(variant, **shape.sizes)
         one = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape[1:], x.dtype), batch)
         prm = jax.tree.map(lambda x: jax.ShapeDtypeStruct((), np.float32), variant.default_params())
         out = jax.eval_shape(run, jax.ShapeDtypeStruct((), jax.random.key(0).dtype), one, prm)
-        _PATH_LEN[key] = (variant, int(out.best_cells.shape[0]))
-    return _PATH_LEN[key][1]
+        _PATH_LEN[key] = int(out.best_cells.shape[0])
+    return _PATH_LEN[key]
 
 
 def _put(x: np.ndarray, sharding):
@@ -277,31 +280,8 @@ def _config_table(variant, params) -> tuple[dict, list[str]]:
     base = resolve_params(variant, {}, where=where)
     n = len(design)
     table = {k: np.broadcast_to(design[k] if k in design else base[k], (n,)).astype(np.float64) for k in base}
-    for lo, hi in ORDERED:  # relations hold on every row (τmin < τmax, Q1 < Q2 < Q3, ρ2 < ρ1)
-        if lo in variant.params and hi in variant.params:
-            bad = ~(table[lo] < table[hi])
-            if bad.any():
-                i = int(np.argmax(bad))
-                raise ParamError(
-                    f"parameters need {lo} < {hi}, got {lo} = {table[lo][i]:g}, {hi} = {table[hi][i]:g} (configuration {i})"
-                )
+    check_relations(table, variant.params)  # on every row (τmin < τmax, Q1 < Q2 < Q3, ρ2 < ρ1)
     return table, list(design.names)
-
-
-def _seeds(seeds) -> np.ndarray:
-    if isinstance(seeds, (int, np.integer)) and not isinstance(seeds, bool):
-        check_memory(64 * int(seeds), f"{seeds} seeds", "use fewer seeds")
-        seeds = range(seeds)
-    elif isinstance(seeds, (str, bytes)) or not hasattr(seeds, "__iter__"):
-        raise JacoError(f"seeds must be a count or a list of integers in [0, 2**32), got {type(seeds).__name__} {seeds!r}")
-    out = []
-    for s in seeds:
-        if isinstance(s, bool) or not isinstance(s, (int, np.integer)) or not 0 <= s < SEED_LIMIT:
-            raise JacoError(f"seeds must be integers in [0, 2**32), got {type(s).__name__} {s!r}")
-        out.append(int(s))
-    if not out:
-        raise JacoError("seeds: need at least one seed")
-    return np.array(out, np.uint32)
 
 
 class Queries(NamedTuple):
@@ -319,7 +299,7 @@ class Queries(NamedTuple):
 def prepare_queries(grid, start, goal, *, n_ants, n_iters, steplimit, connectivity, variant=None) -> tuple[Queries, int]:
     """Validate the maps, queries and sizes (before anything compiles) and build the problems;
     returns them and the step limit (when ``steplimit`` is None, the map's default for ``variant``:
-    :func:`jaco.engine.run.default_steplimit`)."""
+    :func:`jaco.engine.checks.default_steplimit`)."""
     queries = _queries(grid, start, goal)
     shapes = {g.shape for g, _, _ in queries}
     if len(shapes) != 1:
@@ -345,14 +325,12 @@ class Runner:
     numpy arrays ``(queries, rows)``. Every row equals :func:`jaco.solve` with its values and seed,
     whatever the chunk it ran in. Built by :func:`jaco.sweep` and :func:`jaco.search`."""
 
-    def __init__(self, variant, queries: Queries, *, n_ants, n_iters, steplimit, mesh, rows: int, budget: int,
+    def __init__(self, variant: Variant, queries: Queries, *, shape: RunShape, mesh: Mesh, rows: int, budget: int,
                  on_compile=None, paths: bool = False):
-        self.variant, self.queries, self.mesh, self.paths = variant, queries, mesh, paths
-        self.sizes = dict(n_ants=n_ants, n_iters=n_iters, steplimit=steplimit)
+        self.variant, self.queries, self.mesh, self.paths, self.shape = variant, queries, mesh, paths, shape
         batch = stack(queries.problems)
         n_params = len(variant.default_params().to_dict())
-        self.exe, self.chunk, self.info = _plan(variant, n_ants, n_iters, steplimit, mesh, batch, n_params, rows, budget,
-                                                on_compile, paths)
+        self.exe, self.chunk, self.info = _plan(variant, shape, mesh, batch, n_params, rows, budget, on_compile, paths)
         self.width = self.chunk * mesh.size
         self._on_cfg = NamedSharding(mesh, PartitionSpec(AXIS))
         self._batch = jax.tree.map(lambda x: _put(x, NamedSharding(mesh, PartitionSpec())), batch)
@@ -400,7 +378,7 @@ def _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit
     variant = get_variant(variant)
     qs, steplimit = prepare_queries(grid, start, goal, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,
                                     connectivity=connectivity, variant=variant)
-    seed_list = _seeds(seeds)
+    seed_list = check_seeds(seeds)
     budget = check_budget(memory_budget)
     if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1):
         raise JacoError(f"chunk must be a positive number of runs (configurations x seeds), got {chunk!r}")
@@ -413,8 +391,8 @@ def _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit
     config = np.repeat(np.arange(n_cfg), len(seed_list))  # configuration-major, seeds inner
     seed_arr = np.tile(seed_list, n_cfg)
     rows = len(config) if chunk is None else min(len(config), int(chunk))
-    runner = Runner(variant, qs, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, mesh=mesh, rows=rows,
-                    budget=budget, on_compile=on_compile)
+    shape = RunShape(n_ants, n_iters, steplimit, connectivity)
+    runner = Runner(variant, qs, shape=shape, mesh=mesh, rows=rows, budget=budget, on_compile=on_compile)
     info = dict(runs=len(config) * len(qs.problems), configurations=n_cfg, seeds=len(seed_list),
                 queries=len(qs.problems), steplimit=int(steplimit), **runner.info)
     if chunk is not None:  # chunks: over every row, not only the capped first one
@@ -531,7 +509,7 @@ def _sweep(bar, grid, start, goal, variant, params, seeds, n_ants, n_iters, step
            store=None, chunk=None):
     """The body of :func:`sweep` for one planner, moving ``bar`` (:class:`jaco.progress.Bar`)."""
     if store is not None and chunk is None:
-        n_runs = len(as_design(params)) * len(_seeds(seeds))
+        n_runs = len(as_design(params)) * len(check_seeds(seeds))
         chunk = max(1, math.ceil(n_runs / STORE_CHUNKS))
     st = _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices,
                 on_compile=lambda: bar.status("compiling…"), chunk=chunk)
@@ -543,7 +521,7 @@ def _sweep(bar, grid, start, goal, variant, params, seeds, n_ants, n_iters, step
 
         with SweepStore(store) as held:  # locked until the sweep ends
             key = held.fingerprint(st.variant, st.queries, st.values, st.config, st.seeds, n_ants=n_ants,
-                                   n_iters=n_iters, steplimit=st.runner.sizes["steplimit"], connectivity=connectivity)
+                                   n_iters=n_iters, steplimit=st.runner.shape.steplimit, connectivity=connectivity)
             todo = np.flatnonzero(~held.load(key, outs))
             return _run_sweep(bar, st, outs, todo, held, key)
     return _run_sweep(bar, st, outs, todo)
@@ -564,7 +542,7 @@ def _run_sweep(bar, st, outs, todo, store=None, key=None) -> pd.DataFrame:
         bar.update((n_rows - len(todo) + hi) * n_q)
 
     def running(lo, hi, done):  # runs done inside the chunk, by its finished iterations
-        n_iters = st.runner.sizes["n_iters"]
+        n_iters = st.runner.shape.n_iters
         bar.update((n_rows - len(todo) + lo) * n_q + (hi - lo) * n_q * min(int(done), n_iters) // n_iters)
 
     if len(todo):
@@ -602,8 +580,6 @@ def _tidy(variant, queries, problems, values, config, seed_arr, cost, length, be
         success = np.isfinite(cost[q])
         L = np.where(success, length[q].astype(np.float64) * g.cell_size, math.inf)
         optimal = float(problems[q].optimal) * g.cell_size
-        with np.errstate(invalid="ignore", divide="ignore"):
-            gap = np.where(success, (L - optimal) / optimal if optimal else 0.0, math.inf)
         cols = {}
         if n_q > 1:  # the query as integer columns, so that a CSV round trip keeps them numbers
             cols = {"map": [g.name] * n_rows, "start_row": np.full(n_rows, s[0], np.int64),
@@ -618,7 +594,7 @@ def _tidy(variant, queries, problems, values, config, seed_arr, cost, length, be
             cost=cost[q].astype(np.float64),
             best_iteration=best_iter[q].astype(np.int64),
             optimal=np.full(n_rows, optimal),
-            gap=np.where(success, gap, math.inf),
+            gap=np.where(success, gap(L, optimal), math.inf),
             coverage=covered[q].astype(np.int64) / g.n_free,
         )
         parts.append(pd.DataFrame(cols))

@@ -43,10 +43,10 @@ import pandas as pd
 from .. import progress as _progress
 from ..engine.params import ORDERED, SPECS, Params, param_names
 from ..engine.problem import make_problem
-from ..engine.run import (
-    cached, check_grid, check_run_memory, check_seed, check_sizes, default_steplimit, make_run, params_from,
-    resolve_params,
-)
+from ..engine.cache import cached
+from ..engine.checks import check_grid, check_seed, check_sizes, default_steplimit, params_from, resolve_params
+from ..engine.memory import check_run_memory
+from ..engine.run import make_run
 from ..engine.variant import Variant
 from ..errors import JacoError, ParamError, check_keywords, did_you_mean
 from ..grid import Grid
@@ -125,10 +125,10 @@ def member_objective(cost, penalty) -> jax.Array:
 
 # -- the compiled loop -----------------------------------------------------------------------
 def _compiled(variant: Variant, names, optimizer, *, n_ants, n_iters, steplimit, steps, population, n_seeds):
-    """The jitted tuning loop for these static choices, cached by variant and optimiser identity."""
-    key = ("tune", id(variant), id(optimizer), names, n_ants, n_iters, steplimit, steps, population, n_seeds)
-    return cached(key, lambda: _build(variant, names, optimizer, n_ants, n_iters, steplimit, steps, population, n_seeds),
-                  variant, optimizer)
+    """The jitted tuning loop for these static choices, cached by the variant and the optimiser
+    themselves (both hashable: an optax transformation is a tuple of its functions)."""
+    key = ("tune", variant, optimizer, names, n_ants, n_iters, steplimit, steps, population, n_seeds)
+    return cached(key, lambda: _build(variant, names, optimizer, n_ants, n_iters, steplimit, steps, population, n_seeds))
 
 
 def _build(variant, names, optimizer, n_ants, n_iters, steplimit, steps, population, n_seeds):
@@ -163,7 +163,7 @@ _PATH_LEN: dict = {}
 
 def path_buffer(run, key, problem, params) -> int:
     """Length of the best-path buffer of ``run`` (shape only, traced once per run and map shape)."""
-    cache_key = (id(run), problem.nbr.shape)
+    cache_key = (run, problem.nbr.shape)
     if cache_key not in _PATH_LEN:
         _PATH_LEN[cache_key] = jax.eval_shape(run, key, problem, params).best_cells.shape[0]
     return _PATH_LEN[cache_key]
