@@ -258,8 +258,8 @@ def save_sweep(table, path, *args, **kwargs) -> Path:
     ``progress`` is not. The table must have as many rows, and the same seeds, as those
     arguments give, so a wrong argument is caught here; the rest is checked by a rerun.
     """
-    from . import sweeps
     from ..planners.registry import get_variant
+    from . import sweeps
 
     path = check_output(path, "sweep record")
     if path.suffix.lower() != ".csv":

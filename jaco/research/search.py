@@ -678,7 +678,7 @@ class _Run:
             else:
                 brackets = self.halving.brackets(self.sizes["n_iters"])
                 rungs = brackets[bracket % len(brackets)]
-                jobs = self._ask(n, lambda i: {"bracket": bracket})
+                jobs = self._ask(n, lambda i, bracket=bracket: {"bracket": bracket})
                 self._bracket(jobs, rungs)
                 bracket += 1
             self.timings["generations"] += 1
@@ -706,7 +706,7 @@ class _Run:
         by_bracket: dict = {}
         for t in stale:
             by_bracket.setdefault(trial_info(t)["bracket"], []).append(t)
-        for b, members in sorted(by_bracket.items()):
+        for b in sorted(by_bracket):
             everyone = [t for t in self._trials() if trial_info(t).get("bracket") == b]
             jobs = [self._stale(t) for t in everyone]
             self._bracket(jobs, brackets[b % len(brackets)], resumed=True)
@@ -764,7 +764,8 @@ class _Run:
             missing = [m for m in range(len(z)) if m not in members]
             proposals = self.proposer.values(z)
             self.study.sampler.pending = [proposals[m] for m in missing]
-            new = self._ask(len(missing), lambda i: {"member": missing[i], "z": [float(x) for x in z[missing[i]]]})
+            new = self._ask(len(missing), lambda i, missing=missing, z=z: {"member": missing[i],
+                                                                    "z": [float(x) for x in z[missing[i]]]})
             jobs += [Job(j, member=m) for j, m in zip(new, missing)]
             self._evaluate(jobs)
             self._tell(jobs)
@@ -925,10 +926,10 @@ class TrialRecord:
         self.info, self.trial = info, frozen
 
     def rerun(self):
+        from .designs import table
         from .record_format import grid_from_entry, version_warnings
         from .records import Rerun
         from .sweeps import sweep
-        from .designs import table
 
         info, a = self.info, trial_info(self.trial)
         built = [grid_from_entry(e, f"study {self.trial.number}") for e in info["maps"]]
