@@ -19,6 +19,7 @@ import logging
 import sys
 import threading
 import time
+from typing import Any
 
 REPORTS = 25  # a compiled loop reports at most this often per run (every ceil(n / REPORTS) steps)
 SOLVE_DELAY = 2.0  # seconds: a solve shows its bar only once it has taken this long
@@ -51,8 +52,8 @@ class Bar:
     def __init__(self, show: bool, desc: str, unit: str, delay: float = 0.0):
         self.show, self.desc, self.unit, self.delay = show, desc, unit, delay
         self.t0 = time.time()
-        self.total = None
-        self.bar = None
+        self.total: int | None = None
+        self.bar: Any = None  # a tqdm bar, once opened
 
     def _open(self, desc, initial=0, bar_format=None):
         from tqdm import tqdm

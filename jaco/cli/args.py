@@ -187,5 +187,5 @@ def parse_sweep_params(items) -> dict[str, list[float]]:
     return {name: parse_axis(name, value) for name, value in _split_params(items)}
 
 
-def _one_line(text: str) -> str:
+def _one_line(text: object) -> str:
     return " ".join(str(text).split())

@@ -124,7 +124,7 @@ class RunRecord:
     path: Path
     call: dict
     grid: Grid
-    result: object
+    result: Result
     versions: dict
     map_sha256: str
     pheromone_sha256: str | None = None
@@ -281,7 +281,7 @@ def save_sweep(table, path, *args, **kwargs) -> Path:
     if isinstance(given["params"], dict) or given["params"] is None:
         axes = {k: [float(x) for x in np.atleast_1d(np.asarray(vals, np.float64))] for k, vals in (given["params"] or {}).items()}
         n_configs = math.prod(len(x) for x in axes.values())
-        recorded_params = axes
+        recorded_params: dict = axes
     else:  # recorded as explicit rows, rebuilt with jaco.research.designs.table on rerun
         n_configs = len(design)
         recorded_params = {"design": rows}
