@@ -14,6 +14,7 @@ designs, tuning, records, result tables and their statistics), and :mod:`jaco.ap
 :mod:`jaco.exact`, :mod:`jaco.metrics`, :mod:`jaco.plot`, :mod:`jaco.apf`, :mod:`jaco.cli`.
 """
 
+import warnings
 from importlib import import_module
 from importlib.util import find_spec
 
@@ -53,7 +54,9 @@ _SUBMODULES = {
     "research", "waypoints",
 }
 #: Modules that moved into the engine, planners and research packages, by the name they had
-#: before: ``jaco.pheromone`` is :mod:`jaco.engine.pheromone`, ``jaco.variants`` the registry.
+#: before (the ``pheromone`` attribute is :mod:`jaco.engine.pheromone`, ``variants`` the registry):
+#: deprecated, so an access warns (DeprecationWarning) with the new path, and they are not in
+#: ``__all__`` or ``dir(jaco)``.
 _MOVED = {
     "colony": "engine.colony",
     "construct": "engine.walk",
@@ -77,7 +80,7 @@ _MOVED = {
 }
 
 __all__ = [
-    "Grid", "JacoError", "MapFormatError", "OutputError", "ParamError", "ProblemError", "ResourceError", *_LAZY, *sorted(_SUBMODULES | set(_MOVED))
+    "Grid", "JacoError", "MapFormatError", "OutputError", "ParamError", "ProblemError", "ResourceError", *_LAZY, *sorted(_SUBMODULES)
 ]
 
 
@@ -86,8 +89,9 @@ def __getattr__(name):
         value = getattr(import_module(f".{_LAZY[name]}", __name__), name)
     elif name in _SUBMODULES:
         value = import_module(f".{name}", __name__)
-    elif name in _MOVED:
-        value = import_module(f".{_MOVED[name]}", __name__)
+    elif name in _MOVED:  # not cached, so that every access warns
+        warnings.warn(f"jaco.{name} is deprecated; use jaco.{_MOVED[name]}", DeprecationWarning, stacklevel=2)
+        return import_module(f".{_MOVED[name]}", __name__)
     else:
         raise AttributeError(f"module 'jaco' has no attribute {name!r}")
     globals()[name] = value

@@ -9,11 +9,17 @@ cells convert to world coordinates and back.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .errors import MapFormatError, ProblemError
+
+#: A cell as ``(row, col)``: a tuple, list or array of two integers.
+Cell = Sequence[int] | np.ndarray
 
 FREE_TEXT = "."
 BLOCKED_TEXT = "#@"
@@ -61,12 +67,12 @@ class Grid:
 
     # -- constructors ------------------------------------------------------------------------
     @classmethod
-    def from_array(cls, free, **meta) -> "Grid":
+    def from_array(cls, free: np.ndarray, **meta: Any) -> Grid:
         """A grid from a boolean mask ``(H, W)``, True = free."""
         return cls(free, **meta)  # checked (and made an array) by __post_init__
 
     @classmethod
-    def from_rows(cls, rows, **meta) -> "Grid":
+    def from_rows(cls, rows: Sequence[str], **meta: Any) -> Grid:
         """A grid from text rows: ``.`` free, ``#`` or ``@`` blocked. All rows must be equally long.
 
         ``rows`` is a list of strings or one string of lines (``\n`` or ``\r\n`` line ends); blank
@@ -119,7 +125,7 @@ class Grid:
     def n_free(self) -> int:
         return int(self.free.sum())
 
-    def index(self, cell) -> int:
+    def index(self, cell: Cell) -> int:
         """Flat index ``row * W + col`` of a ``(row, col)`` cell."""
         r, c = cell
         return int(r) * self.width + int(c)
@@ -128,11 +134,11 @@ class Grid:
         """``(row, col)`` of a flat index."""
         return divmod(int(index), self.width)
 
-    def in_bounds(self, cell) -> bool:
+    def in_bounds(self, cell: Cell) -> bool:
         r, c = cell
         return 0 <= r < self.height and 0 <= c < self.width
 
-    def check_cell(self, cell, what: str = "cell") -> tuple[int, int]:
+    def check_cell(self, cell: Cell, what: str = "cell") -> tuple[int, int]:
         """``cell`` as a ``(row, col)`` pair of ints, or a :class:`ProblemError` saying why not: not
         a pair of integers, outside the map, or on an obstacle."""
         try:
@@ -153,7 +159,7 @@ class Grid:
             raise ProblemError(f"{what} {(r, c)} is on an obstacle")
         return r, c
 
-    def is_free(self, cell) -> bool:
+    def is_free(self, cell: Cell) -> bool:
         return self.in_bounds(cell) and bool(self.free[cell[0], cell[1]])
 
     def clearance(self) -> np.ndarray:
@@ -176,7 +182,7 @@ class Grid:
         """The grid as text rows (``.`` free, ``@`` blocked)."""
         return ["".join("." if f else "@" for f in row) for row in self.free]
 
-    def replace(self, **changes) -> "Grid":
+    def replace(self, **changes: Any) -> Grid:
         return replace(self, **changes)
 
     # -- world coordinates (ROS maps) ----------------------------------------------------------
@@ -188,7 +194,7 @@ class Grid:
         ox, oy, yaw = self.origin if self.origin is not None else (0.0, 0.0, 0.0)
         return float(self.resolution), float(ox), float(oy), float(yaw)
 
-    def cell_to_world(self, cells) -> np.ndarray:
+    def cell_to_world(self, cells: ArrayLike) -> np.ndarray:
         """World ``(x, y)`` in metres of cell centres; ``cells`` is ``(row, col)`` or ``(K, 2)``.
 
         Row 0 is the top of the image, i.e. the largest y, as map_server reads the image.
@@ -206,7 +212,7 @@ class Grid:
         cs, sn = np.cos(yaw), np.sin(yaw)
         return np.stack([ox + cs * lx - sn * ly, oy + sn * lx + cs * ly], axis=-1)
 
-    def world_to_cell(self, xy) -> np.ndarray:
+    def world_to_cell(self, xy: ArrayLike) -> np.ndarray:
         """The ``(row, col)`` cell containing world point(s) ``(x, y)``; may be out of bounds."""
         res, ox, oy, yaw = self._frame()
         try:

@@ -46,7 +46,7 @@ from .errors import OutputError
 try:
     import fcntl
 except ImportError:  # pragma: no cover - Windows: renames are still atomic, pairs are not locked
-    fcntl = None
+    fcntl = None  # type: ignore[assignment]
 
 #: The name that means standard output.
 STDOUT = "-"
@@ -105,14 +105,14 @@ def target(path, what: str = "output") -> Target:
         return Target("stdout", given)
     parent = given.parent
     if not parent.is_dir():  # missing folders are created when the file is written
-        folder = parent
-        while not os.path.lexists(folder) and folder != folder.parent:
-            folder = folder.parent
-        if folder.is_symlink() and not folder.exists():
-            raise _fail(what, given, f"folder {str(folder)!r} is a dangling symbolic link")
-        if not folder.is_dir():
-            raise _fail(what, given, f"{str(folder)!r} is not a folder")
-        _check_folder(what, repr(str(given)), os.path.realpath(folder))
+        up = parent
+        while not os.path.lexists(up) and up != up.parent:
+            up = up.parent
+        if up.is_symlink() and not up.exists():
+            raise _fail(what, given, f"folder {str(up)!r} is a dangling symbolic link")
+        if not up.is_dir():
+            raise _fail(what, given, f"{str(up)!r} is not a folder")
+        _check_folder(what, repr(str(given)), os.path.realpath(up))
         return Target("file", given)
     folder, name, linked = os.path.realpath(parent), given.name, False
     for _ in range(_LINK_HOPS):
@@ -166,7 +166,7 @@ def is_stdout(path) -> bool:
         if t.kind == "stdout":
             return True
         if t.kind in ("fd", "stream"):
-            return os.path.samestat(os.fstat(t.fd) if t.kind == "fd" else os.stat(t.path), os.fstat(1))
+            return os.path.samestat(os.fstat(t.fd) if t.kind == "fd" else os.stat(t.path), os.fstat(1))  # type: ignore[arg-type]
     except (OutputError, OSError):
         pass
     return False
@@ -190,7 +190,7 @@ def _same_target(a, b) -> bool:
     if "stdout" in (ta.kind, tb.kind):
         return ta.kind == tb.kind or is_stdout(b if ta.kind == "stdout" else a)
     try:
-        sa, sb = (os.fstat(t.fd) if t.kind == "fd" else os.stat(t.path) for t in (ta, tb))
+        sa, sb = (os.fstat(t.fd) if t.kind == "fd" else os.stat(t.path) for t in (ta, tb))  # type: ignore[arg-type]
     except OSError:
         return os.path.abspath(ta.path) == os.path.abspath(tb.path)
     return os.path.samestat(sa, sb) and not stat.S_ISCHR(sa.st_mode)
@@ -281,7 +281,7 @@ def _write_in_place(t: Target, data: bytes) -> None:
         with contextlib.suppress(Exception):
             stream.flush()
     flags = os.O_WRONLY | os.O_NOCTTY | os.O_TRUNC | getattr(os, "O_CLOEXEC", 0)
-    fd = os.dup(t.fd) if t.kind == "fd" else os.open(t.path, flags)  # never O_CREAT: nothing is created
+    fd = os.dup(t.fd) if t.kind == "fd" else os.open(t.path, flags)  # type: ignore[arg-type]  # never O_CREAT
     try:
         view = memoryview(data)
         while view:
@@ -300,6 +300,11 @@ def _folder_lock(folders):
         stack.callback(os.close, fd)
         fcntl.flock(fd, fcntl.LOCK_EX)
     return stack
+
+
+def _remove_if_there(path: str) -> None:
+    if os.path.lexists(path):
+        os.unlink(path)
 
 
 def _reason(e: OSError) -> str:
@@ -323,7 +328,7 @@ def atomic_paths(paths, what: str = "output"):
                     t = target(given, what)  # the folders exist now: links are followed to the end
                     fd, tmp = tempfile.mkstemp(dir=t.path.parent, prefix=f".{t.path.stem}.", suffix=f".tmp{t.path.suffix}")
                     os.close(fd)
-                    cleanup.callback(lambda p=tmp: os.path.lexists(p) and os.unlink(p))
+                    cleanup.callback(_remove_if_there, tmp)
                     os.chmod(tmp, _mode(t.path))
                 else:  # rendered into a private folder, then written in place
                     folder = tempfile.mkdtemp(prefix="jaco-")

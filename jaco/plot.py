@@ -272,7 +272,7 @@ def plot_convergence(history, *, ax=None, optimal=None, label=None, title=None, 
     if not runs:
         raise ParamError("plot_convergence needs at least one history")
     if label is None:
-        labels = [None] * len(runs)  # resolved per run below
+        labels: list[str | None] = [None] * len(runs)  # resolved per run below
     elif isinstance(label, str):
         labels = [label] if len(runs) == 1 else [f"{label} {k}" for k in range(len(runs))]
     else:
@@ -656,7 +656,7 @@ def animate_pheromone(grid, history, *, path=None, every: int = 1, interval: int
     positive = positive[positive > 0]
     if log and positive.size:
         vmin, vmax = float(positive.min()), float(positive.max())
-        norm = LogNorm(vmin=vmin, vmax=vmax if vmax > vmin else vmin * 10)
+        norm: Normalize = LogNorm(vmin=vmin, vmax=vmax if vmax > vmin else vmin * 10)
     else:
         norm = Normalize(vmin=float(stack.min()), vmax=float(stack.max()))
     fig = Figure(figsize=(6.5, 6.0))
@@ -702,7 +702,7 @@ def _comparison(obj, what):
 def _cliques(ranks: np.ndarray, cd: float) -> list[tuple[int, int]]:
     """Maximal runs ``(i, j)`` of configurations (sorted by mean rank) whose mean ranks lie within
     ``cd`` of each other: the groups a critical-difference diagram joins with a bar."""
-    out = []
+    out: list[tuple[int, int]] = []
     for i in range(len(ranks)):
         j = i
         while j + 1 < len(ranks) and ranks[j + 1] - ranks[i] < cd:

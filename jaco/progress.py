@@ -19,12 +19,16 @@ import logging
 import sys
 import threading
 import time
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+T = TypeVar("T")
 
 REPORTS = 25  # a compiled loop reports at most this often per run (every ceil(n / REPORTS) steps)
 SOLVE_DELAY = 2.0  # seconds: a solve shows its bar only once it has taken this long
 
 
-def enabled(progress) -> bool:
+def enabled(progress: bool | None) -> bool:
     """Whether to show bars: ``progress`` True/False, or None for auto (a terminal or a notebook)."""
     if progress is not None:
         return bool(progress)
@@ -51,8 +55,8 @@ class Bar:
     def __init__(self, show: bool, desc: str, unit: str, delay: float = 0.0):
         self.show, self.desc, self.unit, self.delay = show, desc, unit, delay
         self.t0 = time.time()
-        self.total = None
-        self.bar = None
+        self.total: int | None = None
+        self.bar: Any = None  # a tqdm bar, once opened
 
     def _open(self, desc, initial=0, bar_format=None):
         from tqdm import tqdm
@@ -104,7 +108,7 @@ class Interrupted(Exception):
 _STOP = threading.Event()
 
 
-def report(done) -> None:
+def report(done: int) -> None:
     """Host side of :func:`jax.debug.callback` in a compiled loop: ``done`` steps are finished.
     After an interrupt it raises :class:`Interrupted`, which ends the computation."""
     if _STOP.is_set():
@@ -127,7 +131,7 @@ logging.getLogger("jax._src.callback").addFilter(_QuietInterrupts())
 _WORKER = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="jaco-compute")
 
 
-def run_interruptibly(fn, *args, **kwargs):
+def run_interruptibly(fn: Callable[..., T], *args: Any, **kwargs: Any) -> T:
     """``fn(*args, **kwargs)`` (compiling or running a compiled program, fetching its results) in a
     worker thread while the main thread waits in short steps, so that Ctrl-C (SIGINT) or SIGTERM is
     seen at once: only the main thread runs Python's signal handlers, and it would not run them

@@ -182,7 +182,7 @@ def test_a_sweep_over_planners_is_a_categorical_axis(tmp_path):
         pd.testing.assert_frame_equal(mine, alone[mine.columns], check_exact=True)
     summary = jaco.summarize(table)
     assert len(summary) == 3 * 2 and summary["variant"].nunique() == 3  # planners' own parameters stay apart
-    jaco.records.save_sweep(table, tmp_path / "s.csv", GRID, *ENDS, planners, {"beta": [2.0, 6.0]}, 2, **TINY)
+    jaco.research.records.save_sweep(table, tmp_path / "s.csv", GRID, *ENDS, planners, {"beta": [2.0, 6.0]}, 2, **TINY)
     assert jaco.load_run(tmp_path / "s.csv").rerun().matched
     with pytest.raises(jaco.ParamError, match="unknown parameter 'p_best'"):
         jaco.sweep(GRID, *ENDS, ["mmas", "acs"], params={"p_best": [0.05]}, seeds=1, **TINY)

@@ -1,4 +1,4 @@
-"""Double colony with complete crossover (jaco.double), IDACA/DACA and their schedules."""
+"""Double colony with complete crossover (jaco.planners.double), IDACA/DACA and their schedules."""
 
 import math
 

@@ -196,7 +196,7 @@ def test_iaaco_result_cost_and_metrics_agree():
 def test_with_cost_any_variant_cached():
     acs_multi = with_cost("acs", "multi")
     assert acs_multi is with_cost("acs", "multi") and acs_multi.name == "acs+multi"
-    assert acs_multi is jaco.variants.with_cost("acs", "multi")  # the registry's path before the planners folder
+    assert acs_multi is jaco.planners.registry.with_cost("acs", "multi")  # the registry by its module path
     assert set(costs.COST_PARAMS) <= set(acs_multi.params)
     assert with_cost("iaaco", "multi") is jaco.VARIANTS["iaaco"]  # already its cost
     with pytest.raises(jaco.ParamError, match="unknown cost"):

@@ -188,7 +188,59 @@ def test_the_public_names_and_the_moved_modules_resolve():
     for name in jaco.__all__:
         assert getattr(jaco, name) is not None, name
     for old, new in jaco._MOVED.items():
-        assert getattr(jaco, old) is importlib.import_module(f"jaco.{new}"), old
+        with pytest.warns(DeprecationWarning, match=rf"^jaco\.{old} is deprecated; use jaco\.{re.escape(new)}$"):
+            assert getattr(jaco, old) is importlib.import_module(f"jaco.{new}"), old
+
+
+def test_the_moved_names_warn_every_time_and_are_not_listed():
+    with pytest.warns(DeprecationWarning) as caught:
+        assert jaco.pheromone is importlib.import_module("jaco.engine.pheromone")
+        assert jaco.pheromone is importlib.import_module("jaco.engine.pheromone")
+    assert [str(w.message) for w in caught] == ["jaco.pheromone is deprecated; use jaco.engine.pheromone"] * 2
+    with pytest.warns(DeprecationWarning, match=r"^jaco\.variants is deprecated; use jaco\.planners\.registry$"):
+        assert jaco.variants is not None
+    with pytest.warns(DeprecationWarning, match=r"^jaco\.sweeps is deprecated; use jaco\.research\.sweeps$"):
+        assert jaco.sweeps is not None
+    assert not set(jaco._MOVED) & (set(jaco.__all__) | set(dir(jaco)))
+    assert {"engine", "planners", "research", "solve"} <= set(dir(jaco))
+
+
+_OLD_PATH = re.compile(r"\bjaco\.(?:" + "|".join(sorted(jaco._MOVED, key=len, reverse=True) + ["bitexact"]) + r")\b")
+# Files other people are rewriting, each still citing an old path in a string or docstring: drop an
+# entry once its file is fixed (the code-level check below covers every file without exception).
+_OLD_PATH_PENDING = {
+    "jaco/planners/classic.py", "jaco/planners/iaca.py", "jaco/planners/pg.py", "jaco/research/designs.py",
+}
+
+
+def _sources():
+    top = ROOT.parent
+    for folder in ("jaco", "tests", "experiments"):
+        for path in sorted((top / folder).rglob("*.py")):
+            if path != Path(__file__).resolve():
+                yield path.relative_to(top).as_posix(), path.read_text(encoding="utf-8")
+    for path in sorted((top / "notebooks").glob("*.ipynb")):
+        yield path.relative_to(top).as_posix(), path.read_text(encoding="utf-8")
+
+
+def test_nothing_uses_the_moved_names():
+    """No code reaches a module by its old path (``jaco.sweeps``, ``from jaco import records``,
+    ``import jaco.pheromone``), and no string, comment or notebook cites one."""
+    moved = set(jaco._MOVED) | {"bitexact"}
+    for name, text in _sources():
+        if name.endswith(".py"):
+            for node in ast.walk(ast.parse(text)):
+                if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id == "jaco":
+                    assert node.attr not in moved, f"{name}:{node.lineno}: jaco.{node.attr}"
+                elif isinstance(node, ast.ImportFrom) and node.module == "jaco" and not node.level:
+                    assert not moved & {a.name for a in node.names}, f"{name}:{node.lineno}"
+                elif isinstance(node, ast.Import):
+                    for alias in node.names:
+                        parts = alias.name.split(".")
+                        assert parts[0] != "jaco" or len(parts) == 1 or parts[1] not in moved, f"{name}:{node.lineno}"
+        if name not in _OLD_PATH_PENDING:
+            found = [m.group() for m in _OLD_PATH.finditer(text)]
+            assert not found, f"{name} cites old module paths: {found}"
 
 
 def _readme_section(title: str) -> str:

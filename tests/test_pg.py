@@ -1,4 +1,4 @@
-"""pg-aco (jaco.pg): the score function against jax.grad, the advantages by hand, the optax step
+"""pg-aco (jaco.planners.pg): the score function against jax.grad, the advantages by hand, the optax step
 and its state in the carry, and that the colony learns (the shared contract runs in
 tests/test_variants.py)."""
 

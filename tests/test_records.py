@@ -1,4 +1,4 @@
-"""Run records (jaco.records): save -> load -> rerun is bit for bit, the record carries versions
+"""Run records (jaco.research.records): save -> load -> rerun is bit for bit, the record carries versions
 and the map hash, tampering and version changes are reported, sweeps round-trip, and paths are
 written in ROS world coordinates."""
 
@@ -72,7 +72,7 @@ def test_record_contains_versions_map_hash_and_call(tmp_path, demo):
     assert doc["format"] == "jaco-record" and doc["kind"] == "run"
     assert doc["versions"]["jaco"] == jaco.__version__
     assert doc["versions"]["jax"] == jax.__version__
-    # the documented hash recipe, recomputed here independently of jaco.records
+    # the documented hash recipe, recomputed here independently of jaco.research.records
     header = json.dumps(
         {"shape": [20, 30], "cell_size": 1.0, "resolution": None, "origin": None},
         sort_keys=True, separators=(",", ":"),

@@ -38,7 +38,7 @@ def _terminate(signum, frame):
     raise Terminated()
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``jaco`` console script; returns the exit code."""
     import signal
     import threading

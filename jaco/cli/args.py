@@ -142,7 +142,7 @@ def _split_params(items) -> list[tuple[str, str]]:
     return out
 
 
-def parse_params(items) -> dict[str, float]:
+def parse_params(items: list[str] | None) -> dict[str, float]:
     """``--param NAME=VALUE`` for one run: one float per name."""
     out = {}
     for name, value in _split_params(items):
@@ -183,9 +183,9 @@ def parse_axis(name: str, value: str) -> list[float]:
     return [_float(name, value)]
 
 
-def parse_sweep_params(items) -> dict[str, list[float]]:
+def parse_sweep_params(items: list[str] | None) -> dict[str, list[float]]:
     return {name: parse_axis(name, value) for name, value in _split_params(items)}
 
 
-def _one_line(text: str) -> str:
+def _one_line(text: object) -> str:
     return " ".join(str(text).split())

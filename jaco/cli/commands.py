@@ -3,6 +3,7 @@ how a run is reported. Heavy modules are imported inside the functions."""
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import functools
 import json
@@ -11,6 +12,7 @@ import os
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 from .args import UsageError, _one_line, parse_params, parse_sweep_params
 from .queries import load_map, resolve_queries, resolve_query
@@ -221,7 +223,7 @@ def _quiet_stdout() -> None:
 
 
 @_outputs("--out")
-def cmd_demo(args) -> int:
+def cmd_demo(args: argparse.Namespace) -> int:
     from .. import maps
 
     _check_outputs(args, figures=("--out",))
@@ -233,7 +235,7 @@ def cmd_demo(args) -> int:
 
 
 @_outputs("--json", "--plot", "--path-csv", "--record")
-def cmd_solve(args) -> int:
+def cmd_solve(args: argparse.Namespace) -> int:
     from ..outputs import is_stream
 
     params = parse_params(args.param)
@@ -273,7 +275,7 @@ def cmd_solve(args) -> int:
 
 
 @_outputs("--csv", "--record")
-def cmd_sweep(args) -> int:
+def cmd_sweep(args: argparse.Namespace) -> int:
     axes = parse_sweep_params(args.param)
     if args.record and Path(args.record).suffix.lower() != ".csv":
         raise UsageError(f"--record writes the table as CSV plus a .json sidecar: give a name ending in .csv, got {args.record!r}")
@@ -392,7 +394,7 @@ def _summary_table(shown, swept, lengths: bool = True) -> str:
     return text_table(text, left=["variant"])
 
 
-def cmd_compare(args) -> int:
+def cmd_compare(args: argparse.Namespace) -> int:
     """Paired statistics on a saved results table (jaco.research.compare)."""
     from ..research.compare import compare
     from ..research.tables import read_table
@@ -444,7 +446,7 @@ def _where(table, items):
     return table
 
 
-def cmd_rerun(args) -> int:
+def cmd_rerun(args: argparse.Namespace) -> int:
     """Rerun a record; exit 0 when it matched bit for bit, 1 when it did not."""
     from ..research.records import RunRecord, load_run
 
@@ -464,7 +466,7 @@ def cmd_rerun(args) -> int:
     return report_rerun(lambda: rec.rerun(warn=False), "the record")
 
 
-def report_rerun(rerun, what: str) -> int:
+def report_rerun(rerun: Any, what: str) -> int:
     """Run ``rerun()`` (a :class:`jaco.research.records.Rerun`) and say whether it matched
     ``what``: exit 0 when it did, 1 when it did not."""
     t0 = time.perf_counter()
@@ -479,7 +481,7 @@ def report_rerun(rerun, what: str) -> int:
     return 1
 
 
-def cmd_variants(args) -> int:
+def cmd_variants(args: argparse.Namespace) -> int:
     from ..planners.registry import VARIANTS
 
     width = max(len(name) for name in VARIANTS)  # the sources column starts at one place
@@ -493,7 +495,7 @@ def cmd_variants(args) -> int:
     return 0
 
 
-def cmd_maps(args) -> int:
+def cmd_maps(args: argparse.Namespace) -> int:
     from .. import maps
 
     print("named maps (start/goal built in):")
@@ -510,7 +512,7 @@ def cmd_maps(args) -> int:
     return 0
 
 
-def cmd_info(args) -> int:
+def cmd_info(args: argparse.Namespace) -> int:
     import platform
 
     import jax

@@ -227,7 +227,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "rerun", help="rerun a run or sweep record and check it bit for bit",
         description="Rerun a record written by 'jaco solve --record', 'jaco sweep --record', "
-        "Result.save or jaco.records.save_sweep, and compare path, length and history (or the "
+        "Result.save or jaco.research.records.save_sweep, and compare path, length and history (or the "
         "whole sweep table) bit for bit. Exit 0 when it matched, 1 when it did not; a record "
         "written by other jaco/jax versions or on another backend gets a warning line first.",
     )

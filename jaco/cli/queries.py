@@ -136,7 +136,8 @@ def world_cell(grid, xy, flag: str) -> tuple[int, int]:
             f"{flag} needs a map with a resolution and origin (a ROS map .yaml); map {grid.name!r} "
             f"has none: give {cell_flag} ROW,COL instead"
         )
-    cell = tuple(int(v) for v in grid.world_to_cell(xy))
+    row, col = (int(v) for v in grid.world_to_cell(xy))
+    cell = (row, col)
     shown = f"({xy[0]:g}, {xy[1]:g}) m"
     if not grid.in_bounds(cell):
         x0, x1, y0, y1 = _map_extent(grid)

@@ -3,15 +3,17 @@ rerun STORAGE --trial N`` for a stored trial."""
 
 from __future__ import annotations
 
+import argparse
 import math
 import time
+from typing import Any
 
 from .args import UsageError, _float, _split_params
 
 NO_PATH = 4  # as solve: no trial reached the goal
 
 
-def parse_dimension(name: str, value: str):
+def parse_dimension(name: str, value: str) -> Any:
     """``--param`` of a search: ``lo:hi`` (a real range), ``lo:hi:log``, ``lo:hi:int`` (also
     ``lo:hi:int:log``), ``a,b,c`` (a categorical) or one number (fixed)."""
     if ":" in value:
@@ -30,7 +32,7 @@ def parse_dimension(name: str, value: str):
     return int(x) if x.is_integer() and name in ("n_ants", "n_iters") else x
 
 
-def parse_space(items) -> dict:
+def parse_space(items: list[str] | None) -> dict:
     return {name: parse_dimension(name, value) for name, value in _split_params(items)}
 
 
@@ -51,7 +53,7 @@ def _outputs(*flags):
 
 
 @_outputs("--csv", "--plot")
-def cmd_search(args) -> int:
+def cmd_search(args: argparse.Namespace) -> int:
     from .commands import _check_outputs
     from .queries import load_map, resolve_queries
 
@@ -130,7 +132,7 @@ def cmd_search(args) -> int:
     return 0
 
 
-def cmd_rerun(args) -> int:
+def cmd_rerun(args: argparse.Namespace) -> int:
     """``jaco rerun``: a run or sweep record (:func:`jaco.cli.commands.cmd_rerun`), or with
     ``--trial N [--study NAME]`` a trial of a stored search; exit 0 when it matched, 1 when not."""
     from ..research.search import load_study

@@ -145,13 +145,13 @@ def _carve(flat, h, w, start, goal, rng, protected) -> np.ndarray:
         else:
             c += int(np.sign(dc))
         path.append(r * w + c)
-    path = np.array(path)
-    cleared = int((~flat[path]).sum())
+    cells = np.array(path)
+    cleared = int((~flat[cells]).sum())
     flat = flat.copy()
-    flat[path] = True
+    flat[cells] = True
     if cleared:
         keep_free = np.zeros_like(flat)
-        keep_free[path] = True
+        keep_free[cells] = True
         keep_free[list(protected)] = True
         spare = np.flatnonzero(flat & ~keep_free)
         flat[rng.choice(spare, size=min(cleared, spare.size), replace=False)] = False

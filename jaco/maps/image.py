@@ -32,7 +32,7 @@ def _pillow(path: Path) -> tuple[np.ndarray, str]:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # the size is checked below
-            img = Image.open(path)
+            img: Image.Image = Image.open(path)
         with img:
             # Pillow's decompression-bomb limit (about 89 million pixels), checked before decoding
             w, h, limit = *img.size, Image.MAX_IMAGE_PIXELS
@@ -62,7 +62,7 @@ def _pnm_header(data: bytes, fname: str) -> tuple[bytes, int, int, int, int]:
             f"(or P6/P3 colour)"
         )
     # Three integers (width, height, maxval) separated by whitespace and/or comments.
-    pos, fields = 2, []
+    pos, fields = 2, list[int]()
     if pos >= len(data) or data[pos : pos + 1] not in b" \t\r\n#":
         raise MapFormatError(f"{fname}: malformed PGM header after the magic number")
     while len(fields) < 3:

@@ -65,9 +65,9 @@ def load_ros(path: Path, *, negate: bool | None = None, cell_size: float = 1.0) 
         raise MapFormatError(f"{fname}: origin must be finite, got {doc['origin']!r}")
     occ_th = _yaml_number(doc["occupied_thresh"], fname, "occupied_thresh")
     free_th = _yaml_number(doc["free_thresh"], fname, "free_thresh")
-    for key, v in (("occupied_thresh", occ_th), ("free_thresh", free_th)):
-        if not 0.0 <= v <= 1.0:
-            raise MapFormatError(f"{fname}: {key} must be in [0, 1], got {v}")
+    for key, th in (("occupied_thresh", occ_th), ("free_thresh", free_th)):
+        if not 0.0 <= th <= 1.0:
+            raise MapFormatError(f"{fname}: {key} must be in [0, 1], got {th}")
     if free_th >= occ_th:
         raise MapFormatError(
             f"{fname}: free_thresh ({free_th}) must be below occupied_thresh ({occ_th})"

@@ -1,34 +1,12 @@
-"""APF-ACO: ant colony optimisation guided by an improved artificial potential field
-(Dong & Zhao 2021).
+"""APF-ACO: ant colony optimisation guided by an improved artificial potential field (Dong & Zhao
+2021), and its baseline PF-ACO (the same with the classic APF; Wang, Yang & Zhang 2018).
 
-Dong Xuanliang, Zhao Guiqing, *Robot navigation path planning based on ant colony algorithm guided
-by artificial potential field*, Machinery Design & Manufacture 2021(6):169–173: the heuristic
-built on the APF path length (eq. 10) and the best-half, fitness-weighted pheromone update (eqs. 11,
-12). ``pf-aco`` is the paper's baseline (its ref. 10, Wang, Yang & Zhang 2018): the same scheme
-with the path length of the *classic* APF (attraction plus repulsion), which has local minima.
+Source: Dong Xuanliang, Zhao Guiqing, *Robot navigation path planning based on ant colony algorithm
+guided by artificial potential field*, Machinery Design & Manufacture 2021(6):169–173. The APF
+table r_jg is :mod:`jaco.potential`'s, the improved APF itself :mod:`jaco.apf`.
 
-The APF path length r_jg of every cell is a table of :mod:`jaco.potential`, computed once per run
-by the pheromone rule's init (:func:`apf_init`) and carried in the trail; the improved APF itself
-(3.1 intermediate points, eqs. 3, 4; 3.2 attraction-only local moves, eq. 5) and its
-interpretations are in :mod:`jaco.apf`.
-
-Interpretations of the ACO part (equations in ``docs/algorithms.md`` §6; also in
-``docs/variants.md``, section APF-ACO):
-
-* **Heuristic (10)** ``η_ij = 1/(d_ij + r_jg) · (Nmax − Nc + 1)/Nmax`` with Nc = t + 1. The time
-  factor is common to every move of an iteration, so it cancels in the normalised rule (6):
-  computed as printed, it changes no choice.
-* **Update (11, 12).** No deposit while walking; after the iteration the best ⌈k/2⌉ of the k
-  successful ants (ranked by cost, ties to the lower ant index) deposit
-  ``s_i·Δτ_i = (fit_i/Σ fit)·Q/L_i`` on their moves (Δτ = Q/L of eq. 8, fit = 1/L), after the
-  evaporation ``(1 − ρ)τ`` of every move. No successful ant: evaporation only.
-* **τ0** (not printed) = 1: with Q = 1 and ρ = 0.7 a smaller τ0 lets the first iteration's
-  deposits decide the run (docs/variants.md has the sweep).
-* **Weights in log space.** At ρ = 0.7 an unused move's τ falls below float32's range within
-  about 70 iterations (0.3^70 ≈ 1e-37), and τ^α long before: ``τ^α η^β`` would then be 0 (or the
-  engine's floor) for every unused move and η would stop guiding the ants. The construct step
-  computes ``α·log τ + β·log η`` (τ floored at the smallest normal float32), subtracts each
-  cell's maximum and exponentiates: the same probabilities (6), without underflow.
+Equations: docs/algorithms.md §6; every interpretation and the defaults: docs/variants.md,
+"APF-ACO and PF-ACO".
 """
 
 from __future__ import annotations

@@ -1,28 +1,11 @@
 """Chaos ACO with a probability-selection function (docs/algorithms.md §7).
 
-Xi'an Technological University, School of Electronic Information Engineering: ant colony path
-planning with a probability-selection function (free-cell share and angle to the goal) and a
-Logistic-chaos perturbation of the pheromone, ported to ROS (the copy we worked from names
-neither title nor authors). Its equation numbers as the text cites them: transition rule (11),
-chaos perturbation (14), global update (15); the formulas themselves are lost in that copy, so
-docs/algorithms.md §7 and docs/variants.md ("Chaos ACO") give the interpretation built here.
+Source: a Xi'an Technological University paper (School of Electronic Information Engineering; the
+copy we worked from names neither title nor authors and has lost its formulas): a selection
+function P_free·P_θ (free-cell share, angle to the goal) in the transition rule (11) and a
+Logistic-chaos perturbation of the pheromone (14) before the global update (15).
 
-- **Free-cell share** :func:`free_share`: P_free(j) = (free cells among j's 8 neighbours,
-  the current cell excluded) / 7.
-- **Angle share** :func:`angle_share`: θ_j is the angle between the move i→j and the
-  direction i→goal; P_θ(j) = 1 − θ_j / Σ_s θ_s over the moves the map allows from i (1 where
-  Σθ = 0: at the goal, or when every allowed move points at it).
-- **Selection function** :func:`selection`: P_free·P_θ; the transition (11) is
-  p ∝ τ^α η^β (P_free·P_θ)^γ. Both shares depend only on the map and the goal, so the factor
-  (P_free·P_θ)^γ is folded into the ``(N, 8)`` weight table once per iteration
-  (:func:`selection_factor`, the variant's ``factor``), never per ant step.
-- **Chaos update** (eqs. 14, 15) :func:`chaos_perturb` then :func:`deposit_at_or_below_mean`:
-  the paths above the iteration's mean length get their pheromone re-drawn by i_c steps of the Logistic
-  map h ← μh(1−h) (:func:`logistic`), then τ ← (1−ρ)τ + Σ Q/L_k over the paths at or below the
-  mean (15).
-
-Several targets are not specific to this planner: every variant takes
-``jaco.solve(..., waypoints=[...])`` (:mod:`jaco.waypoints`).
+The interpretation built here: docs/algorithms.md §7 and docs/variants.md, "Chaos ACO".
 """
 
 from __future__ import annotations

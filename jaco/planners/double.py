@@ -1,27 +1,12 @@
 """Double ant colony with complete path crossover: IDACA (thesis chapter 3) and DACA (ref. 58).
 
-Hua Lu, *Research on path planning based on ant colony algorithm*, MSc thesis, Nanchang
-Hangkong University, 2011, chapter 3 (sections 3.4, 3.5; eqs. 3-3..3-10), and its reference [58]:
-Sun Chunzhe, Lin Juguang, Lou Ganfei et al., *Double ant colony complete crossover algorithm for
-global path planning with concave obstacles*, Trans. CSAM 39(7):149–153, 2008.
+Sources: Hua Lu, *Research on path planning based on ant colony algorithm*, MSc thesis, Nanchang
+Hangkong University, 2011, chapter 3; its ref. 58, Sun, Lin, Lou et al., *Double ant colony
+complete crossover algorithm for global path planning with concave obstacles*, Trans. CSAM, 2008.
 
-One iteration (:func:`double_colony`, a ``construct`` function of :mod:`jaco.engine.colony`):
-
-1. Colony 1 (``n_ants`` ants) walks start → goal, colony 2 (another ``n_ants`` ants) walks
-   goal → start (the same problem with start and goal swapped, its heuristic computed toward its
-   own goal), both with the random-proportional rule, a tabu list and the step limit
-   (:func:`jaco.engine.walk.walk`). An ant that does not arrive is dead (thesis 3.5, Steps 2–3).
-2. Complete crossover (:func:`crossover`): where the walk of colony-1 ant a and the walk of
-   colony-2 ant b share a cell x, ``start → x`` (a's walk) + ``x → goal`` (b's walk reversed) is a
-   path. For every colony-1 ant the shortest such splice over all partners b and all common cells
-   x is its spliced candidate. Walks of *dead* ants take part: a colony-1 prefix meeting a
-   colony-2 prefix is already a full path, which is the point of sending two colonies.
-3. The best population (Step 4) is whichever of {colony 1, colony 2 reversed, the splices} has
-   the lowest mean cost over its feasible candidates; only its candidates are returned, so the
-   best-so-far path and every deposit come from it (Steps 5–6).
-
-All three populations share one path buffer of ``2·S`` steps (``S`` the padded step limit), so
-shapes are static whatever population wins.
+:func:`double_colony` is the construct step: two colonies, complete crossover, best population.
+Equations: docs/algorithms.md §3; the iteration and every interpretation: docs/variants.md,
+"Double colonies: IDACA and DACA".
 """
 
 from __future__ import annotations

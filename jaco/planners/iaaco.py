@@ -1,40 +1,11 @@
 """IAACO: the improved adaptive ant colony algorithm (Miao et al. 2021).
 
-Miao C., Chen G., Yan C. et al., *Path planning optimization of indoor mobile robot based on
-adaptive ant colony algorithm*, Computers & Industrial Engineering 156 (2021) 107230: the adaptive
-heuristic (eqs. 1, 2), the transition rule with angle guidance and obstacle exclusion (3, 4, 5),
-the adaptive pseudo-random rule (6, 7), the best/worst pheromone update (8, 9), the adaptive
-evaporation rate (10) and the multi-objective cost J = kL·L + kS·S + kE·E.
+Source: Miao, Chen, Yan et al., *Path planning optimization of indoor mobile robot based on
+adaptive ant colony algorithm*, Computers & Industrial Engineering 156 (2021) 107230. The
+multi-objective cost (:func:`jaco.engine.cost.multi_objective`) is open to every variant through
+``jaco.planners.registry.with_cost``.
 
-The per-move factors μ^λ (4) and ξ (5) depend only on the map and the parameters, so they are
-folded into the ``(N, 8)`` move-weight table once per iteration (:func:`guided_factor`, in log
-space, each cell's row scaled to a largest weight of 1); an ant step still gathers one row.
-The multi-objective cost (:func:`jaco.engine.cost.multi_objective`) is a ``Variant.cost`` that
-any variant can use: ``jaco.planners.registry.with_cost("acs", "multi")`` (cached, so repeated calls return
-the same object and never recompile).
-
-Interpretations (equations in ``docs/algorithms.md`` §5; also in ``docs/variants.md``, section
-IAACO):
-
-* **ε (2) cancels.** ε multiplies every η of an iteration alike, so in the normalised rule (3)
-  and in the argmax of (6) it cancels: it is computed as printed but changes no choice (the
-  per-row scaling of the engine's weights removes it up to rounding, so it cannot push weights
-  into float32's limits either).
-* **μ (4)** as printed, ``|y_j − y_G| / d_jG`` (y = row), vanishes on the goal's row; the robust
-  form ``cos∠(j→G, S→G)`` is the default. Both are floored at ``mu_min`` (a weight of 0 would
-  forbid a free move and can cut the only way to the goal); μ = 1 at the goal (d_jG = 0).
-* **ξ (5)** on ``problem.clearance`` (centre-to-centre distance to the nearest obstacle cell, the
-  map's outside counting as obstacle) at the candidate cell j; ξ = 1 at the goal. With Rs = 0.5
-  a cell orthogonally next to an obstacle gets ξ = 0.5, every other free cell 1. ξ = 0 (only
-  when Rs > 1) leaves the minimal weight 1e-30 (relative to the cell's best move): such a move
-  is taken only when the ant has no other.
-* **Update (8, 9)** on the iteration's best and worst successful ants only; other moves keep
-  their pheromone (as in ACS's global update). (8) then (9), so a move on both paths gets both;
-  then τ ≥ τmin. No successful ant: no update.
-* **ρ (10)** = k·L_SG/J_best (J_best of the iteration, L_SG the Euclidean start–goal distance),
-  clipped to [0, ``rho``]: ``rho`` is the largest evaporation rate (since L ≥ L_SG, ρ ≤ k/kL
-  anyway with the multi-objective cost).
-* **τ0, α, β, λ, k, μ_min, ρ cap** are not printed: chosen by a small sweep (docs/variants.md).
+Equations: docs/algorithms.md §5; every interpretation and the defaults: docs/variants.md, "IAACO".
 """
 
 from __future__ import annotations

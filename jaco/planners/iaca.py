@@ -1,54 +1,11 @@
 """IACA: the improved ant colony algorithm with backtracking ants (Hua Lu 2011, thesis chapter 4).
 
-Hua Lu, *Research on path planning based on ant colony algorithm*, MSc thesis, Nanchang Hangkong
-University, 2011, chapter 4: the node-selection rule (4-1) with the detour heuristic (4-5), ranked
-("sorted") selection of the next cell (4.2.2), pheromone initialised from the goal distance
-(4.2.3), the local update while walking (4-2..4-4) bounded to [τmin, τmax], the piecewise update
-of infeasible paths (4-6, 4.2.4) and the ant backtracking strategy (4.3); the step list of 4.4.
+Source: Hua Lu, *Research on path planning based on ant colony algorithm*, MSc thesis, Nanchang
+Hangkong University, 2011, chapter 4 (eqs. 4-1..4-6, sections 4.2.2-4.4). Pheromone on cells;
+:func:`iaca_colony` replaces the engine's single colony, because the local update changes τ while
+the ants walk and the heuristic (4-5) depends on each ant's tabu list.
 
-Pheromone lives on cells (τ_j, the thesis's "node pheromone"). Unlike the classic family, an
-ant's weights depend on the pheromone *as it is during the walk* (the local update changes it
-after every step) and on its own tabu list (the heuristic 4-5 normalises over the allowed
-neighbours), so :func:`iaca_colony` replaces the engine's :func:`jaco.engine.colony.single_colony`:
-it carries τ through the walk and computes each ant's 8 weights per step.
-
-Interpretations (equations in ``docs/algorithms.md`` §4; also in ``docs/variants.md``, section
-IACA):
-
-* **Heuristic (4-5)** ``η_B = 1 − (d_AB + d_BE) / Σ_{C∈M_A} (d_AC + d_CE)``, Euclidean
-  distances, ``M_A`` = the moves the map allows from A minus the ant's tabu list. With a single
-  allowed neighbour the formula gives 0, which would forbid the only move: η is 1 there (its
-  probability is 1 anyway); η is also floored at 1e-6.
-* **Ranked selection (4.2.2)** = the engine's pseudo-random proportional rule: with probability
-  ``q0`` (the thesis's ranked choice, q_r) the most probable candidate (ties: lowest move index),
-  else roulette.
-* **Initialisation (4.2.3)** ``τ0_j = K·η_goal(j)``, ``η_goal(j) = 1 − d_jE / max_free d_jE``
-  (Euclidean), clamped to [τmin, τmax]; set for every cell at the start instead of "when a cell
-  is first a candidate" (the only difference: the global evaporation also acts on cells that no
-  ant has considered yet).
-* **Local update (4-2..4-4)** on each forward step i→j: ``τ_j ← (1−ρ_l)τ_j + Q/d_ij`` then clamp.
-  Ants walk in parallel: after each step, the updates of all ants that stepped are applied
-  together. A cell entered by k ants in the same step receives all k updates, in the closed form
-  averaged over the k! orders: ``τ ← (1−ρ_l)^k τ + (Σ Q/d)·(1 − (1−ρ_l)^k)/(k ρ_l)`` (exact when
-  the k steps have one length), then one clamp. An ant sees the updates of earlier steps of all
-  ants of its iteration, never those of the same step. Back-steps do not update.
-* **Backtracking (4.3)** an ant with no allowed move keeps its cell in its tabu list (marked
-  infeasible), pops it from its path stack and returns to the previous cell, where it chooses
-  again among the remaining moves at its next step. Every action (forward step or back-step)
-  counts toward ``steplimit``. An ant back at the start with nothing left dies (only possible
-  when the goal is unreachable, since the walk is then a depth-first search); an ant out of steps
-  has failed. The path is the stack: the cells from start to goal without the dead branches.
-* **Infeasible update (4-6)** after the walks, once per iteration, on the *infeasible cells*:
-  every cell visited by an ant that failed, plus every cell popped by backtracking (by any ant),
-  minus the cells on the final path of an ant that arrived in this iteration. Applied inside
-  :func:`iaca_colony` (the engine's ``Walks`` carry the final paths only), before the global
-  update. ``P + q`` for P ≤ Q1, ``ρ1·P`` for Q1 < P ≤ Q2, ``ρ2·P`` for Q2 < P ≤ Q3, ``P − q`` above
-  Q3, then clamp to [τmin, τmax].
-* **Global update** after each iteration, MMAS-style (the thesis's step list has none beyond the
-  local update and 4-6; 4.2.3 says "use the MMAS idea to control the pheromone"): evaporation
-  ``(1−ρ)τ`` of every cell, the best-so-far ant deposits ``σ·Q/L*`` on its cells, clamp to
-  [τmin, τmax]. Without it nothing rewards short paths (the local update rewards every visit).
-* ``Colony.n_steps`` counts all actions (forward steps and back-steps): the work done.
+Equations: docs/algorithms.md §4; every interpretation and the defaults: docs/variants.md, "IACA".
 """
 
 from __future__ import annotations

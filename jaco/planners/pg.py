@@ -1,81 +1,12 @@
 """Policy-gradient ACO (``pg-aco``): log-pheromone as the logits of the ants' policy, stepped by an
-optax optimiser from a REINFORCE estimate of the expected path cost (docs/algorithms.md §8).
+optax optimiser from a REINFORCE estimate of the expected path cost.
 
-Meuleau & Dorigo, *Ant colony optimization and stochastic gradient descent*, Artificial Life
-8(2):103–121, 2002, show that Ant System's update is a form of stochastic gradient descent on the
-expected cost of the ants' policy. Here that is taken literally; the score-function estimator is
-Williams's REINFORCE (Machine Learning 8:229–256, 1992) with a baseline.
+Source: Meuleau & Dorigo, *Ant colony optimization and stochastic gradient descent*, Artificial
+Life 8(2), 2002 (Ant System's update as stochastic gradient descent), taken literally, with
+Williams's REINFORCE (1992) as the estimator. :class:`PGTrail` carries the logits and the
+optimiser's state through the engine's loop; :func:`make_pg_aco` picks the optimiser.
 
-**Policy.** The pheromone on move i→j is ``τ_ij = exp(θ_ij)``; θ are the logits. An ant at cell i
-with tabu set T (the cells it has visited) picks move j among the allowed moves
-``M_i(T) = {j : the map allows i→j, j ∉ T}`` with
-
-    p_ij = exp(θ_ij) η_ij^β / Σ_{l ∈ M_i(T)} exp(θ_il) η_il^β                          (1)
-
-i.e. the engine's roulette on ``τ^α η^β`` with α ≡ 1 (so that log τ *is* the logit; α is not a
-parameter of this variant). η is the classic family's goal-distance heuristic (thesis eq. 3-7).
-
-**Score function.** For an ant k whose path takes the moves (i_t → j_t), t = 0..n−1, with tabu
-sets T_t, ``log p(path_k) = Σ_t log p_{i_t j_t}(T_t)`` and
-
-    ∂ log p(path_k) / ∂θ_ij = Σ_{t : i_t = i} ( 1[j = j_t] − p_ij(T_t) )                  (2)
-
-(a softmax's log-derivative, summed over the steps where the ant stood at i; 0 for cells it never
-left). :func:`score` evaluates (2) for every ant at once from the recorded walk, rebuilding each
-step's tabu set from the first-visit times of the cells; the roulette's safety clip of the
-weights to [1e-30, 1e30] (:func:`jaco.engine.colony.move_weights`) is ignored by (2). An ant that dies
-at a dead end contributes the steps it took.
-
-**REINFORCE with a baseline.** With C_k the cost of ant k and b the baseline, the gradient of
-the expected cost J(θ) = E[C] is estimated by
-
-    g = (1/A) Σ_k  ((C_k − b) / L̄) · ∂ log p(path_k)/∂θ                                  (3)
-
-over the A ants of the iteration, where L̄ is the mean cost of the iteration's successful ants.
-Dividing by L̄ makes the advantage dimensionless, so the step size does not depend on the map's
-scale (with adam that would not matter; with sgd it does).
-
-* **Failed ants** (dead end or step limit) cost ``C = (1 + penalty)·L̄``: a failure counts as a
-  path ``penalty`` times longer than the colony's mean successful path (default 0.3), so the
-  moves that led into dead ends are discouraged.
-* **Baseline** b = the mean cost over *all* A ants, the failed ones at their penalty cost
-  (``baseline="all"``, the default). REINFORCE only asks for "a baseline"; the mean cost
-  of the successful ants alone, ``b = L̄`` (``baseline="successful"``), is available. We did not
-  make it the default: while few ants arrive, a lone successful ant then has advantage 0, and
-  nothing reinforces the one path that worked. Only the failures push the policy, away from
-  their moves. On random-20-30 (50 ants × 100 iterations, 5 seeds) that left a median gap of
-  42 %, against 0 % with the all-ants baseline (docs/variants.md, pg-aco).
-* **No ant arrived**: (3) is 0 (every ant has the same cost, nothing to rank); only the
-  evaporation below acts.
-
-**Update.** ``u, s = optimizer.update(g, s, θ)``, then
-
-    θ ← clip((1 − ρ)·θ + Q·u, −θmax, θmax)                                                 (4)
-
-where ``optimizer`` is any optax ``GradientTransformation`` built with learning rate 1 (so that
-``u`` is minus the descent direction's unit step, optax's convention), Q (the Params field ``q``,
-"deposit constant" of the classic family) is the traced step size, so sweeps and
-:func:`jaco.tune` can vary it without recompiling, ρ (``rho``) shrinks the logits toward the
-uniform policy (evaporation in log space: τ ← τ^(1−ρ)), and θmax = :data:`LOGIT_MAX` keeps τ
-finite. Both the initial logits θ = 0 (τ = 1) and (4) are exact optax steps; with adam,
-``optax.adam(1.0)`` followed by a scale Q is exactly ``optax.adam(Q)``.
-
-**Where the optimiser's state lives.** The engine carries one pheromone trail through its
-``lax.scan``; a rule's ``init`` returns it and the construct step and the rule's ``update`` return
-it again. :class:`PGTrail` is a NamedTuple ``(tau, lo, hi, theta, opt)``: its first three fields
-are :class:`jaco.engine.pheromone.Trail`'s, so the engine (which only reads ``trail.tau`` and hands the
-trail back) carries the logits and the optimiser's state (adam's moments and step count) without
-any change to ``Trail`` or to the loop. The REINFORCE step needs each step's tabu set and the
-roulette weights, which only the construct step has, so :func:`pg_colony` walks the colony and
-then applies (3)–(4); the variant's pheromone rule only initialises.
-
-The optimiser is a static choice made when the variant is built (:func:`make_pg_aco`). The
-registered ``pg-aco`` uses ``optax.adam(1.0)`` with Q = 0.2, ρ = 0.03, penalty = 0.3, β = 4.
-Adam normalises each logit's step by its own gradient scale, so rarely visited moves learn as
-fast as busy ones. With it, one step moves a logit by about Q whatever the size of the costs.
-``make_pg_aco(optax.sgd(1.0))`` gives plain stochastic gradient descent on (3), the form
-closest to Meuleau & Dorigo's analysis of Ant System. It needs a much larger step (Q ≈ 30) and
-is somewhat worse with the same budget (docs/variants.md).
+Equations (1)-(4): docs/algorithms.md §8; choices, defaults: docs/variants.md, "Policy-gradient ACO".
 """
 
 from __future__ import annotations

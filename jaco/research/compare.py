@@ -370,9 +370,9 @@ def _pair_sentence(row, alpha) -> str:
     if row["ties"] == row["pairs"]:
         return f"{a} and {b} cannot be told apart: they tie on all {row['pairs']} pairs"
     if row["p_holm"] < alpha:
-        win, lose, w, l = (a, b, row["a_better"], row["b_better"]) if row["a_better"] >= row["b_better"] else \
+        win, lose, w, lost = (a, b, row["a_better"], row["b_better"]) if row["a_better"] >= row["b_better"] else \
             (b, a, row["b_better"], row["a_better"])
-        return (f"{win} beats {lose} on {w} of {row['pairs']} pairs ({lose} better on {l}, {row['ties']} ties), "
+        return (f"{win} beats {lose} on {w} of {row['pairs']} pairs ({lose} better on {lost}, {row['ties']} ties), "
                 f"p = {_p(row['p_holm'])} after Holm")
     return (f"{a} and {b} cannot be told apart (p = {_p(row['p_holm'])} after Holm; {a} better on {row['a_better']}, "
             f"{b} on {row['b_better']}, {row['ties']} ties)")

@@ -193,7 +193,7 @@ def grid_from_entry(entry: dict, where: str) -> tuple[Grid, list[str]]:
             name=str(entry.get("name", "grid")),
             cell_size=float(entry.get("cell_size", 1.0)),
             resolution=None if entry.get("resolution") is None else float(entry["resolution"]),
-            origin=None if origin is None else tuple(float(v) for v in origin),
+            origin=None if origin is None else (float(origin[0]), float(origin[1]), float(origin[2])),
         )
     except (KeyError, TypeError, ValueError, zlib.error, JacoError) as e:
         raise RecordError(f"{where}: the embedded map cannot be read ({type(e).__name__}: {e})") from None

@@ -125,7 +125,7 @@ class RunRecord:
     path: Path
     call: dict
     grid: Grid
-    result: object
+    result: Result
     versions: dict
     map_sha256: str
     pheromone_sha256: str | None = None
@@ -259,8 +259,8 @@ def save_sweep(table, path, *args, **kwargs) -> Path:
     ``progress`` is not. The table must have as many rows, and the same seeds, as those
     arguments give, so a wrong argument is caught here; the rest is checked by a rerun.
     """
-    from . import sweeps
     from ..planners.registry import get_variant
+    from . import sweeps
 
     path = check_output(path, "sweep record")
     if path.suffix.lower() != ".csv":
@@ -282,7 +282,7 @@ def save_sweep(table, path, *args, **kwargs) -> Path:
     if isinstance(given["params"], dict) or given["params"] is None:
         axes = {k: [float(x) for x in np.atleast_1d(np.asarray(vals, np.float64))] for k, vals in (given["params"] or {}).items()}
         n_configs = math.prod(len(x) for x in axes.values())
-        recorded_params = axes
+        recorded_params: dict = axes
     else:  # recorded as explicit rows, rebuilt with jaco.research.designs.table on rerun
         n_configs = len(design)
         recorded_params = {"design": rows}

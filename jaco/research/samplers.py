@@ -214,7 +214,6 @@ class EvosaxProposer:
         import jax
         import jax.numpy as jnp
         import optax
-
         from evosax import algorithms
 
         self.names = [n for n in space.dims]

@@ -56,6 +56,7 @@ import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 import pandas as pd
@@ -67,7 +68,7 @@ from .space import SIZES, VARIANT, Space, parse_space
 
 FORMAT = "jaco-search"
 FORMAT_VERSION = 1
-OBJECTIVES = {"gap": "minimize", "length": "minimize", "turns": "minimize", "success": "maximize", "budget": "minimize"}
+OBJECTIVES: dict[str, Literal["minimize", "maximize"]] = {"gap": "minimize", "length": "minimize", "turns": "minimize", "success": "maximize", "budget": "minimize"}
 PENALIZED = ("gap", "length", "turns")
 ATTR = "jaco"  # the study's user attribute with everything jaco needs to rerun and resume it
 
@@ -136,7 +137,7 @@ def _positive_int(name, v, limit=2**31 - 1) -> int:
 
 def _penalties(penalty, objectives) -> dict:
     """User penalties by objective (None: the default bound, per query)."""
-    out = {n: None for n in objectives if n in PENALIZED}
+    out: dict[str, float | None] = {n: None for n in objectives if n in PENALIZED}
     if penalty is None:
         return out
     given = penalty if isinstance(penalty, dict) else {n: penalty for n in out}
@@ -394,7 +395,7 @@ def search(
     grid,
     start,
     goal,
-    space: dict,
+    space: dict | Space,
     *,
     variant=None,
     trials: int = 128,
@@ -466,10 +467,10 @@ def search(
     queries, _ = prepare_queries(grid, start, goal, n_ants=largest["n_ants"], n_iters=largest["n_iters"],
                                  steplimit=steplimit, connectivity=connectivity)
     # each planner's own default step limit (backtracking ants get twice the dying ants'), or the one given
-    steplimit = {name: default_steplimit(queries.grid, v) if steplimit is None else steplimit
-                 for name, v in space.planners.items()}
-    check_sizes(largest["n_ants"], largest["n_iters"], max(steplimit.values()))
-    check_run_memory(queries.grid.n_cells, largest["n_ants"], largest["n_iters"], max(steplimit.values()),
+    steplimits = {name: default_steplimit(queries.grid, v) if steplimit is None else steplimit
+                  for name, v in space.planners.items()}
+    check_sizes(largest["n_ants"], largest["n_iters"], max(steplimits.values()))
+    check_run_memory(queries.grid.n_cells, largest["n_ants"], largest["n_iters"], max(steplimits.values()),
                      runs=len(queries.queries), what="a search chunk")
     seed_list = check_seeds(seeds)
     budget = check_budget(memory_budget)
@@ -482,10 +483,10 @@ def search(
 
         for v in space.planners.values():
             recordable_name(v)  # a stored trial must name a planner the registry finds again
-    info = _study_info(space, objectives, penalties, queries, seed_list, sizes, steplimit, connectivity,
+    info = _study_info(space, objectives, penalties, queries, seed_list, sizes, steplimits, connectivity,
                        sampler_name, seed, halving, batch)
 
-    evaluator = Evaluator(space, queries, seed_list, steplimit=steplimit, objectives=objectives, penalties=penalties,
+    evaluator = Evaluator(space, queries, seed_list, steplimit=steplimits, objectives=objectives, penalties=penalties,
                           batch=batch, budget=budget, devices=devices)
     bar = _progress.Bar(_progress.enabled(progress), f"search {sampler_name}", "trial")
     t0 = time.perf_counter()
@@ -525,7 +526,8 @@ def _study_info(space, objectives, penalties, queries, seeds, sizes, steplimit, 
     resumed study is the same search."""
     from .record_format import map_entry, versions
 
-    maps, where = [], {}
+    maps: list[dict] = []
+    where: dict[str, int] = {}
     for g, _, _ in queries.queries:
         entry = map_entry(g)
         if entry["sha256"] not in where:
@@ -680,7 +682,7 @@ class _Run:
             else:
                 brackets = self.halving.brackets(self.sizes["n_iters"])
                 rungs = brackets[bracket % len(brackets)]
-                jobs = self._ask(n, lambda i: {"bracket": bracket})
+                jobs = self._ask(n, lambda i, bracket=bracket: {"bracket": bracket})
                 self._bracket(jobs, rungs)
                 bracket += 1
             self.timings["generations"] += 1
@@ -708,7 +710,7 @@ class _Run:
         by_bracket: dict = {}
         for t in stale:
             by_bracket.setdefault(trial_info(t)["bracket"], []).append(t)
-        for b, members in sorted(by_bracket.items()):
+        for b in sorted(by_bracket):
             everyone = [t for t in self._trials() if trial_info(t).get("bracket") == b]
             jobs = [self._stale(t) for t in everyone]
             self._bracket(jobs, brackets[b % len(brackets)], resumed=True)
@@ -766,7 +768,8 @@ class _Run:
             missing = [m for m in range(len(z)) if m not in members]
             proposals = self.proposer.values(z)
             self.study.sampler.pending = [proposals[m] for m in missing]
-            new = self._ask(len(missing), lambda i: {"member": missing[i], "z": [float(x) for x in z[missing[i]]]})
+            new = self._ask(len(missing), lambda i, missing=missing, z=z: {"member": missing[i],
+                                                                    "z": [float(x) for x in z[missing[i]]]})
             jobs += [Job(j, member=m) for j, m in zip(new, missing)]
             self._evaluate(jobs)
             self._tell(jobs)
@@ -927,10 +930,10 @@ class TrialRecord:
         self.info, self.trial = info, frozen
 
     def rerun(self):
+        from .designs import table
         from .record_format import grid_from_entry, version_warnings
         from .records import Rerun
         from .sweeps import sweep
-        from .designs import table
 
         info, a = self.info, trial_info(self.trial)
         built = [grid_from_entry(e, f"study {self.trial.number}") for e in info["maps"]]
