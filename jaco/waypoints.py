@@ -33,9 +33,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .engine.problem import _as_cell, make_problem, stack
 from .engine.cache import cached
 from .engine.checks import params_from, prepare
+from .engine.problem import _as_cell, make_problem, stack
 from .engine.result import Result, to_result
 from .engine.run import make_run
 from .engine.shape import RunShape

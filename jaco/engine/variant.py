@@ -11,11 +11,11 @@ from typing import Any, Callable, Iterable, Iterator, Mapping, NamedTuple, Proto
 
 import jax
 
+from ..errors import JacoError
 from . import heuristics
 from . import pheromone as ph
 from .colony import eta_factor, single_colony
 from .cost import path_length
-from ..errors import JacoError
 from .params import SPECS, Param, Params, declare
 from .pheromone import Trail
 

@@ -9,6 +9,7 @@ registry or anything above it. docs/adding_a_planner.md says how to add one.
 """
 
 from .. import _submodules_on_access
+
 # Each planner module declares its components (jaco.planners.compose.component) when it loads, so
 # that compose(...) finds every one by name whichever planner module a program imports first.
 from . import apf_guided, chaos, classic, double, iaaco, iaca, pg  # noqa: F401,E402

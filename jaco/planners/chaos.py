@@ -13,8 +13,8 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from ..engine import pheromone as ph
 from ..engine import heuristics
+from ..engine import pheromone as ph
 from ..engine.colony import ALPHA, BETA, eta_factor
 from ..engine.params import Param, declare
 from ..moves import MOVES

@@ -217,7 +217,7 @@ def _build(c: dict) -> Variant:
         p = pieces[kind]
         if "rule" in p.parts:
             rules.append(p.parts["rule"])
-    for kind, p in pieces.items():
+    for p in pieces.values():
         for k, v in p.parts.items():
             if k == "schedule":
                 schedules_.append(v)

@@ -20,7 +20,7 @@ import numpy as np
 from ..engine import native
 from ..engine import pheromone as ph
 from ..engine.bitexact import power, rounded
-from ..engine.colony import ALPHA, BETA, Q0, Colony, eta_factor, scaled, step_targets
+from ..engine.colony import ALPHA, BETA, Colony, eta_factor, scaled, step_targets
 from ..engine.heuristics import goal_distance
 from ..engine.params import INF, Param, declare
 from ..engine.walk import CHUNK, Tours, choose, key_words, step_uniforms

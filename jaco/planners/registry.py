@@ -11,13 +11,15 @@ from __future__ import annotations
 from ..engine.cost import COSTS, MULTI_PARAMS
 from ..engine.variant import FrozenMap, Variant
 from ..errors import JacoError, ParamError
-from . import apf_guided  # APF-ACO and its PF-ACO baseline (Dong & Zhao 2021)
-from . import chaos  # chaos ACO (the Xi'an Technological University paper)
-from . import classic  # docs/algorithms.md §2
-from . import double  # thesis chapter 3
-from . import iaaco  # IAACO (Miao et al. 2021)
-from . import iaca  # thesis chapter 4
-from . import pg  # policy-gradient ACO (Meuleau & Dorigo 2002)
+from . import (
+    apf_guided,  # APF-ACO and its PF-ACO baseline (Dong & Zhao 2021)
+    chaos,  # chaos ACO (the Xi'an Technological University paper)
+    classic,  # docs/algorithms.md §2
+    double,  # thesis chapter 3
+    iaaco,  # IAACO (Miao et al. 2021)
+    iaca,  # thesis chapter 4
+    pg,  # policy-gradient ACO (Meuleau & Dorigo 2002)
+)
 from .compose import LOCAL_SEARCHES, parse
 
 __all__ = ["VARIANTS", "get_variant", "register", "with_cost", "with_local_search"]

@@ -25,9 +25,9 @@ from typing import Mapping
 
 import numpy as np
 
+from .. import planners  # noqa: F401 (its modules declare every component's parameters)
 from ..engine.params import SPECS, check_values, param_names
 from ..errors import ParamError
-from .. import planners  # noqa: F401 (its modules declare every component's parameters)
 
 
 class Design:

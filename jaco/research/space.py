@@ -26,10 +26,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import planners as _planners  # noqa: F401 (its modules declare every component's parameters)
 from ..engine.params import ORDERED, SPECS, check_values
 from ..engine.variant import Variant
 from ..errors import ParamError
-from .. import planners  # noqa: F401 (its modules declare every component's parameters)
 
 #: Sizes a search may choose (static shapes: each distinct value compiles its own program, so a
 #: categorical of a few values is the usual choice).

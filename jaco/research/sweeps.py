@@ -350,7 +350,7 @@ class Runner:
                     jax.tree.map(lambda x: _put(x, self._on_cfg), prm))
             update = (lambda done, lo=lo, hi=hi: on_iteration(lo, hi, done)) if on_iteration else (lambda done: None)
             with _progress.reporting(update):
-                got = _progress.run_interruptibly(lambda: [_fetch(x) for x in self.exe(*args)])
+                got = _progress.run_interruptibly(lambda args=args: [_fetch(x) for x in self.exe(*args)])
             got = [x[:, : hi - lo] for x in got]
             if outs is None:
                 outs = [np.empty((x.shape[0], n) + x.shape[2:], x.dtype) for x in got]

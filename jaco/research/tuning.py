@@ -41,16 +41,17 @@ import optax
 import pandas as pd
 
 from .. import progress as _progress
-from ..engine.params import ORDERED, SPECS, Params, param_names
-from ..engine.problem import make_problem
 from ..engine.cache import cached
 from ..engine.checks import check_grid, check_seed, check_sizes, default_steplimit, params_from, resolve_params
 from ..engine.memory import check_run_memory
+from ..engine.params import ORDERED, SPECS, Params, param_names
+from ..engine.problem import make_problem
 from ..engine.run import make_run
 from ..engine.variant import Variant
 from ..errors import JacoError, ParamError, check_keywords, did_you_mean
 from ..grid import Grid
 from ..planners.registry import get_variant
+
 
 #: Parameters that can be tuned: every parameter with a range, except those in an order relation
 #: (τmin < τmax, Q1 < Q2 < Q3, ρ2 < ρ1), which one-parameter-at-a-time transforms cannot keep.
