@@ -121,7 +121,7 @@ def _path(graph, a, b, allowed):
 
 def test_the_graph_sees_imports_inside_functions_and_relative_ones():
     assert "jaco.research.record_format" in GRAPH["jaco.engine.result"]  # inside Result.save
-    assert "jaco.engine.variant" in GRAPH["jaco.planners.classic"]  # from ..engine.variant import
+    assert "jaco.planners.compose" in GRAPH["jaco.planners.classic"]  # from .compose import
     assert "jaco.maps" in GRAPH["jaco.research.record_format"]  # from .. import maps
     assert "jaco.engine" in GRAPH["jaco.apf"]  # the package runs before its module
 
@@ -206,11 +206,6 @@ def test_the_moved_names_warn_every_time_and_are_not_listed():
 
 
 _OLD_PATH = re.compile(r"\bjaco\.(?:" + "|".join(sorted(jaco._MOVED, key=len, reverse=True) + ["bitexact"]) + r")\b")
-# Files other people are rewriting, each still citing an old path in a string or docstring: drop an
-# entry once its file is fixed (the code-level check below covers every file without exception).
-_OLD_PATH_PENDING = {
-    "jaco/planners/classic.py", "jaco/planners/iaca.py", "jaco/planners/pg.py", "jaco/research/designs.py",
-}
 
 
 def _sources():
@@ -238,9 +233,8 @@ def test_nothing_uses_the_moved_names():
                     for alias in node.names:
                         parts = alias.name.split(".")
                         assert parts[0] != "jaco" or len(parts) == 1 or parts[1] not in moved, f"{name}:{node.lineno}"
-        if name not in _OLD_PATH_PENDING:
-            found = [m.group() for m in _OLD_PATH.finditer(text)]
-            assert not found, f"{name} cites old module paths: {found}"
+        found = [m.group() for m in _OLD_PATH.finditer(text)]
+        assert not found, f"{name} cites old module paths: {found}"
 
 
 def _readme_section(title: str) -> str:

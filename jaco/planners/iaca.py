@@ -125,7 +125,7 @@ def local_update(tau, lo, hi, n_straight, n_diagonal, params):
     ``n_straight``, ``n_diagonal`` ``(N,)``: how many ants entered each cell by a straight or a
     diagonal move. A cell entered by k ants gets the k sequential updates averaged over their
     orders: ``(1−ρ)^k τ + (Σ Q/d)(1 − (1−ρ)^k)/(kρ)``; then it is clamped to [lo, hi]. Written
-    so that the native kernel rounds every operation identically (:mod:`jaco.bitexact`).
+    so that the native kernel rounds every operation identically (:mod:`jaco.engine.bitexact`).
     """
     k = n_straight + n_diagonal
     a1, a2 = params.q / jnp.float32(MOVE_LENGTHS[0]), params.q / jnp.float32(MOVE_LENGTHS[4])
@@ -370,7 +370,7 @@ IACA = compose(construct="backtrack", heuristic="iaca", rule="iaca").named(
     "along their path (4.3), back-steps count toward the step limit and the path is the stack "
     "without dead branches; after the walks, the piecewise rule (4-6) on the cells of failed "
     "ants and of popped dead branches; then, MMAS-style, evaporation (1−ρ), a deposit σ·Q/L* on "
-    "the best-so-far path and the clamp to [τmin, τmax]. See jaco.planners.iaca for every interpretation.",
+    "the best-so-far path and the clamp to [τmin, τmax]. Every interpretation: docs/variants.md (IACA).",
     alpha=1.0, beta=8.0, rho=0.05, q=0.1, sigma=1000.0, q0=0.9, tau_min=0.01, tau_max=20.0, k_init=10.0,
     rho_local=0.1, q1=1.0, q2=5.0, q3=15.0, rho1=0.7, rho2=0.2, q_step=0.5,
 )

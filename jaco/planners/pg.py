@@ -136,7 +136,7 @@ def pg_init(optimizer: optax.GradientTransformation) -> ph.Rule:
 BASELINES = ("all", "successful")
 PG_DEFAULTS = dict(beta=4.0, rho=0.03, q=0.2, penalty=0.3)
 _DOC = (
-    "Policy-gradient ACO (Meuleau & Dorigo 2002; eqs. (1)-(4) of jaco.planners.pg): τ = exp(θ), the "
+    "Policy-gradient ACO (Meuleau & Dorigo 2002; eqs. (1)-(4), docs/algorithms.md §8): τ = exp(θ), the "
     "logits θ of the ants' policy p_ij ∝ exp(θ_ij)·η_ij^β over the allowed non-tabu moves "
     "(α ≡ 1); after each iteration one optax step (default adam, lr 1, scaled by Q) on the "
     "REINFORCE estimate (1/A)Σ_k ((C_k − b)/L̄)·∇ log p(path_k): L̄ = mean cost of the "
