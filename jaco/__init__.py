@@ -51,7 +51,7 @@ _LAZY = {
 }
 _SUBMODULES = {
     "api", "apf", "cli", "engine", "exact", "maps", "metrics", "moves", "outputs", "planners", "plot", "potential",
-    "research", "waypoints",
+    "research", "testing", "waypoints",
 }
 #: Modules that moved into the engine, planners and research packages, by the name they had
 #: before (the ``pheromone`` attribute is :mod:`jaco.engine.pheromone`, ``variants`` the registry):

@@ -1,24 +1,28 @@
 """A planner that is not in the package passes the same contract as the registered ones, with no
 edit anywhere else: docs/adding_a_planner.md in practice.
 
-The toy below is written the way a new file in ``jaco/planners/`` would be; registering it is what
-its one line in ``jaco/planners/registry.py`` would do. Every contract test of
-``tests/test_variants.py`` is collected here again, and this module's ``name`` fixture hands them
-the toy instead of the registered planners.
+The guide's notebook cell (a pheromone rule with a new hyperparameter and a state of its own) is
+run here as it is printed, and ``jaco.testing.check_planner`` (the contract of
+``tests/test_variants.py``) runs inside it. A toy built from functions with ``make_variant``
+passes the same contract.
 """
 
-import inspect
+import hashlib
+import re
 from contextlib import contextmanager
+from pathlib import Path
 
+import numpy as np
 import pytest
 
 import jaco
 from jaco.engine import pheromone as ph
 from jaco.engine.variant import make_variant
+from jaco.planners.compose import COMPONENTS
 from jaco.planners.registry import register
 
-import test_variants
-from test_variants import maps_  # noqa: F401 (a fixture the contract tests use)
+ROOT = Path(__file__).resolve().parents[1]
+GUIDE = ROOT / "docs" / "adding_a_planner.md"
 
 #: Ant System in which only the iteration's best ant deposits: τ ← (1−ρ)τ, then τ += Q/L_ib on
 #: the iteration-best path (thesis eqs. 2-2 and 2-17's deposit, without MMAS's bounds).
@@ -36,7 +40,7 @@ TOY = make_variant(
 @contextmanager
 def registered(variant):
     """``variant`` in the registry for the length of the block (so ``jaco.solve(..., name)``,
-    sweeps and the registry's checks find it by name), then removed again."""
+    sweeps and records find it by name), then removed again."""
     register(variant)
     try:
         yield variant.name
@@ -44,22 +48,62 @@ def registered(variant):
         del jaco.VARIANTS[variant.name]
 
 
-@pytest.fixture
-def name():
-    with registered(TOY) as registered_name:
-        yield registered_name
+def _package_digest() -> str:
+    h = hashlib.sha256()
+    for path in sorted((ROOT / "jaco").rglob("*.py")):
+        h.update(path.read_bytes())
+    return h.hexdigest()
 
 
-CONTRACT = {
-    key: test
-    for key, test in vars(test_variants).items()
-    if key.startswith("test_") and "name" in inspect.signature(test).parameters
-}
-globals().update(CONTRACT)  # collected here with this module's `name` fixture
+def _cell() -> str:
+    text = GUIDE.read_text(encoding="utf-8")
+    section = text[text.index("## A planner in a notebook cell"):]
+    return re.search(r"```python\n(.*?)```", section, re.S).group(1)
 
 
-def test_the_whole_contract_is_collected_here():
-    assert len(CONTRACT) >= 8 and "test_sweep_rows_equal_solve" in CONTRACT
+@pytest.fixture(scope="module")
+def cell():
+    """The guide's cell run in a namespace of its own; its component and planner removed after."""
+    before = _package_digest()
+    namespace: dict = {}
+    exec(compile(_cell(), str(GUIDE), "exec"), namespace)
+    yield namespace
+    jaco.VARIANTS.pop("as-restart", None)
+    COMPONENTS["rule"].pop("as-restart", None)
+    assert _package_digest() == before
+
+
+def test_the_guide_cell_adds_a_hyperparameter_and_a_state_without_touching_the_package(cell, tmp_path):
+    planner = cell["AS_RESTART"]
+    # Nothing in the package names the new parameter: it lives in the cell (and the guide) only.
+    for path in (ROOT / "jaco").rglob("*.py"):
+        assert "restart_after" not in path.read_text(encoding="utf-8"), path
+    assert "restart_after" in planner.params and planner.defaults["restart_after"] == 10.0
+    assert jaco.engine.params.SPECS["restart_after"].describe() == "[1, 1e+06]"
+    grid = jaco.maps.named("demo")
+    ends = grid.meta["start"], grid.meta["goal"]
+    # Its range is checked like any other parameter's, before anything compiles.
+    with pytest.raises(jaco.ParamError, match="'restart_after' = 0 is out of range"):
+        jaco.solve(grid, *ends, "as-restart", restart_after=0, n_ants=8, n_iters=4)
+    # The state is the rule's own: with restart_after = 1 the pheromone is reset to τ0 in every
+    # iteration that does not improve the best-so-far path, so a long run ends at τ0 everywhere.
+    r = jaco.solve(grid, *ends, "as-restart", seed=0, restart_after=1, n_ants=8, n_iters=30, keep_pheromone=True)
+    assert r.success and np.allclose(r.pheromone, r.params["tau0"])
+    never = jaco.solve(grid, *ends, "as-restart", seed=0, restart_after=1e6, n_ants=8, n_iters=30, keep_pheromone=True)
+    assert not np.allclose(never.pheromone, never.params["tau0"])
+    # A sweep over the new parameter, and a record that reruns bit for bit by name.
+    table = jaco.sweep(grid, *ends, "as-restart", params={"restart_after": [2.0, 50.0]}, seeds=2, n_ants=8, n_iters=6)
+    assert list(table["restart_after"]) == [2.0, 2.0, 50.0, 50.0] or sorted(set(table["restart_after"])) == [2.0, 50.0]
+    r.save(tmp_path / "run.json")
+    assert jaco.load_run(tmp_path / "run.json").rerun().matched
+    # The new rule composes with another source's heuristic.
+    mixed = jaco.compose(rule="as-restart", heuristic="iaaco")
+    assert "restart_after" in mixed.params and "lam" in mixed.params
+
+
+def test_a_toy_built_from_functions_passes_the_contract():
+    with registered(TOY):
+        jaco.testing.check_planner(TOY)
 
 
 def test_registering_is_checked_and_undone():
