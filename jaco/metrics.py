@@ -21,6 +21,7 @@ radians).
 from __future__ import annotations
 
 import math
+from typing import overload
 
 import numpy as np
 
@@ -142,11 +143,11 @@ def validate_path(grid, path, start=None, goal=None, connectivity: int = 8) -> l
     free = grid.free
     problems: list[str] = []
     inside = (cells[:, 0] >= 0) & (cells[:, 0] < H) & (cells[:, 1] >= 0) & (cells[:, 1] < W)
-    for i in np.flatnonzero(~inside):
-        problems.append(f"path[{i}] = {_cell(cells[i])} is out of bounds of the {H}x{W} grid")
-    for i in np.flatnonzero(inside):
-        if not free[cells[i, 0], cells[i, 1]]:
-            problems.append(f"path[{i}] = {_cell(cells[i])} is blocked")
+    for j in np.flatnonzero(~inside):
+        problems.append(f"path[{j}] = {_cell(cells[j])} is out of bounds of the {H}x{W} grid")
+    for j in np.flatnonzero(inside):
+        if not free[cells[j, 0], cells[j, 1]]:
+            problems.append(f"path[{j}] = {_cell(cells[j])} is blocked")
 
     for i in range(len(cells) - 1):
         a, b = _cell(cells[i]), _cell(cells[i + 1])
@@ -324,6 +325,12 @@ def any_angle_length(grid, path, cell_size: float = 1.0) -> float:
 
 
 # -- quality against the optimum ---------------------------------------------------------------
+@overload
+def gap(length: float, optimal: float) -> float: ...
+@overload
+def gap(length: np.ndarray, optimal: float) -> float | np.ndarray: ...  # a 0-d array: a float
+
+
 def gap(length: float | np.ndarray, optimal: float) -> float | np.ndarray:
     """Relative gap ``(length - optimal) / optimal``: the one gap of jaco (results, waypoint trips,
     the APF planner, records, sweep tables).

@@ -48,9 +48,10 @@ from . import native
 from .colony import Colony, step_targets
 from .walk import Tours
 
+
 class ShortcutSearch(Protocol):
     """What :func:`shortcut_search` returns: a ``Variant.local_search`` that also carries its
-    static choices as attributes (read by reprs and tests)."""
+    static choices as attributes, for whoever inspects a variant."""
 
     window: int
     passes: int
