@@ -70,6 +70,7 @@ from .engine.params import check_values
 from .engine.problem import make_problem
 from .engine.result import Result
 from .errors import JacoError, ParamError
+from .grid import Cell, Grid
 from .metrics import gap
 from .moves import MOVES
 from .potential import D0, K_REP, MOVE_LEN, classic_next
@@ -275,7 +276,7 @@ def _trace(grid, start, goal, max_steps, kind, connectivity, k_rep, d0):
     return _follow(step, s, g, int(max_steps)), problem
 
 
-def trace(grid, start, goal, *, max_steps=None, kind: str = "improved", connectivity: int = 8,
+def trace(grid: Grid, start: Cell, goal: Cell, *, max_steps: int | None = None, kind: str = "improved", connectivity: int = 8,
           k_rep: float = K_REP, d0: float = D0) -> Trace:
     """Walk the APF planner from ``start`` to ``goal`` and say how it ended (:class:`Trace`).
 
@@ -289,7 +290,7 @@ def trace(grid, start, goal, *, max_steps=None, kind: str = "improved", connecti
     return _trace(grid, start, goal, max_steps, kind, connectivity, k_rep, d0)[0]
 
 
-def intermediate_points(grid, cell, goal, *, connectivity: int = 8) -> list | None:
+def intermediate_points(grid: Grid, cell: Cell, goal: Cell, *, connectivity: int = 8) -> list | None:
     """The chain of intermediate points (3.1) the improved APF computes at ``cell``: a list of
     ``(row, col)`` from the goal to the local target (``[goal]`` when the segment is clear), or
     None when no intermediate point exists."""
@@ -298,8 +299,8 @@ def intermediate_points(grid, cell, goal, *, connectivity: int = 8) -> list | No
     return ref.targets((int(cell[0]), int(cell[1])))
 
 
-def plan(grid, start, goal, *, max_steps=None, kind: str = "improved", connectivity: int = 8,
-         k_rep: float = K_REP, d0: float = D0):
+def plan(grid: Grid, start: Cell, goal: Cell, *, max_steps: int | None = None, kind: str = "improved", connectivity: int = 8,
+         k_rep: float = K_REP, d0: float = D0) -> Result:
     """Plan one path with the APF alone (Dong & Zhao 2021, 3.1–3.2) and return a :class:`jaco.Result`.
 
     ``variant`` is ``"apf"`` (improved) or ``"apf-classic"``; a walk that loops, gets stuck or

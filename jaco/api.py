@@ -9,11 +9,15 @@ engine never imports the planners and the waypoints sit above the single run.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+from typing import Any
+
 from .engine import run as _run
 from .engine.params import unknown_parameter
 from .engine.result import Result
+from .engine.variant import Variant
 from .errors import ParamError
-from .grid import Grid
+from .grid import Cell, Grid
 from .planners.registry import get_variant
 from .waypoints import solve_waypoints
 
@@ -25,9 +29,9 @@ SOLVE_KEYWORDS = ("seed", "n_ants", "n_iters", "steplimit", "connectivity", "kee
 
 def solve(
     grid: Grid,
-    start,
-    goal,
-    variant="mmas",
+    start: Cell,
+    goal: Cell,
+    variant: str | Variant = "mmas",
     *,
     seed: int = 0,
     n_ants: int = 50,
@@ -35,9 +39,9 @@ def solve(
     steplimit: int | None = None,
     connectivity: int = 8,
     keep_pheromone: bool = False,
-    waypoints=None,
+    waypoints: Sequence[Cell] | None = None,
     progress: bool | None = None,
-    **params,
+    **params: float,
 ) -> Result:
     """Plan a path from ``start`` to ``goal`` (``(row, col)`` cells) with one ACO variant.
 
@@ -62,14 +66,15 @@ def solve(
         if name not in variant.params:
             raise ParamError(unknown_parameter(name, variant.params, f"variant {variant.name!r}", SOLVE_KEYWORDS,
                                                "jaco.solve"))
-    kw = dict(seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, connectivity=connectivity,
+    kw: dict[str, Any] = dict(seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, connectivity=connectivity,
               keep_pheromone=keep_pheromone, **params)
     if waypoints is not None:
         return solve_waypoints(grid, start, goal, variant, waypoints, **kw)
     return _run.solve(grid, start, goal, variant, progress=progress, **kw)
 
 
-def make_run(variant, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromone: bool | str = False):
+def make_run(variant: str | Variant, *, n_ants: int, n_iters: int, steplimit: int,
+             keep_pheromone: bool | str = False) -> Callable:
     """:func:`jaco.engine.run.make_run` for a variant given by name or as a :class:`Variant`:
     ``run(key, problem, params) -> RunOutput`` for fixed shapes (not jitted here)."""
     return _run.make_run(get_variant(variant), n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,

@@ -4,9 +4,14 @@ The command line prints a :class:`JacoError` as one line and exits with code 2. 
 (a keyword of ``jaco.solve``/``sweep``/``tune``, a parameter) is answered with the closest names
 the call takes (:func:`did_you_mean`, :func:`check_keywords`)."""
 
+
+from __future__ import annotations
+
 import difflib
 import functools
 import inspect
+from collections.abc import Callable, Iterable
+from typing import Any, TypeVar, cast
 
 
 class JacoError(ValueError):
@@ -41,14 +46,17 @@ class OutputError(JacoError):
     is a directory, it names one of the run's inputs, or its suffix is not a format jaco writes."""
 
 
-def did_you_mean(name: str, candidates) -> str:
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def did_you_mean(name: str, candidates: Iterable[str]) -> str:
     """``" (did you mean 'n_ants'?)"`` for the names in ``candidates`` closest to a misspelt
     ``name`` (difflib's ratio ≥ 0.6, at most three), or ``""`` when none is close."""
     close = difflib.get_close_matches(str(name), [str(c) for c in candidates], n=3, cutoff=0.6)
     return f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
 
 
-def check_keywords(fn):
+def check_keywords(fn: F) -> F:
     """Decorate a public function so that an unknown keyword argument is a :class:`JacoError`
     naming the closest keywords it takes (``n_ant`` -> ``n_ants``) and listing them all, instead
     of Python's TypeError. The signature is kept (``inspect.signature`` sees ``fn``'s)."""
@@ -63,4 +71,4 @@ def check_keywords(fn):
                                 f"its keywords: {', '.join(names)}")
         return fn(*args, **kwargs)
 
-    return checked
+    return cast(F, checked)

@@ -15,7 +15,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components, dijkstra
 
 from .errors import ProblemError
-from .grid import Grid
+from .grid import Cell, Grid
 from .moves import cached_table
 
 
@@ -36,7 +36,7 @@ def _check_cell(grid: Grid, cell, what: str) -> int:
     return grid.index(grid.check_cell(cell, what))
 
 
-def distance_field(grid: Grid, goal, *, connectivity: int = 8) -> np.ndarray:
+def distance_field(grid: Grid, goal: Cell, *, connectivity: int = 8) -> np.ndarray:
     """Exact distance ``(H, W)`` from every cell to ``goal`` in cell units (inf where unreachable)."""
     g = _check_cell(grid, goal, "goal")
     dist = dijkstra(_graph(grid, connectivity), directed=True, indices=g)
@@ -66,7 +66,7 @@ def free_extent(grid: Grid, connectivity: int = 8) -> float:
     return grid.meta[key]
 
 
-def shortest_path(grid: Grid, start, goal, *, connectivity: int = 8):
+def shortest_path(grid: Grid, start: Cell, goal: Cell, *, connectivity: int = 8) -> tuple[float, np.ndarray]:
     """Exact shortest path: ``(length, path)`` with ``path`` a ``(K, 2)`` array of ``(row, col)``.
 
     ``length`` is in cell units times ``grid.cell_size``. When the goal cannot be reached the
@@ -86,7 +86,7 @@ def shortest_path(grid: Grid, start, goal, *, connectivity: int = 8):
     return float(dist[g]) * grid.cell_size, path
 
 
-def reachable(grid: Grid, start, *, connectivity: int = 8) -> np.ndarray:
+def reachable(grid: Grid, start: Cell, *, connectivity: int = 8) -> np.ndarray:
     """Boolean mask ``(H, W)`` of the cells reachable from ``start`` (moves are symmetric)."""
     s = _check_cell(grid, start, "start")
     _, labels = connected_components(_graph(grid, connectivity), directed=False)

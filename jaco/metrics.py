@@ -21,10 +21,14 @@ radians).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import Any, overload
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .errors import ParamError, ProblemError
+from .grid import Cell, Grid
 
 __all__ = [
     "DEFAULT_WEIGHTS",
@@ -121,7 +125,8 @@ def _check_connectivity(connectivity) -> None:
 
 
 # -- validity ----------------------------------------------------------------------------------
-def validate_path(grid, path, start=None, goal=None, connectivity: int = 8) -> list[str]:
+def validate_path(grid: Grid, path: ArrayLike, start: Cell | None = None, goal: Cell | None = None,
+                  connectivity: int = 8) -> list[str]:
     """The problems of ``path`` on ``grid`` under the move model, as messages; ``[]`` if valid.
 
     Reports, each message naming the path index (``path[i]``): an empty path, a cell out of
@@ -142,11 +147,11 @@ def validate_path(grid, path, start=None, goal=None, connectivity: int = 8) -> l
     free = grid.free
     problems: list[str] = []
     inside = (cells[:, 0] >= 0) & (cells[:, 0] < H) & (cells[:, 1] >= 0) & (cells[:, 1] < W)
-    for i in np.flatnonzero(~inside):
-        problems.append(f"path[{i}] = {_cell(cells[i])} is out of bounds of the {H}x{W} grid")
-    for i in np.flatnonzero(inside):
-        if not free[cells[i, 0], cells[i, 1]]:
-            problems.append(f"path[{i}] = {_cell(cells[i])} is blocked")
+    for j in np.flatnonzero(~inside):
+        problems.append(f"path[{j}] = {_cell(cells[j])} is out of bounds of the {H}x{W} grid")
+    for j in np.flatnonzero(inside):
+        if not free[cells[j, 0], cells[j, 1]]:
+            problems.append(f"path[{j}] = {_cell(cells[j])} is blocked")
 
     for i in range(len(cells) - 1):
         a, b = _cell(cells[i]), _cell(cells[i + 1])
@@ -175,7 +180,7 @@ def validate_path(grid, path, start=None, goal=None, connectivity: int = 8) -> l
 
 
 # -- shape of a path ---------------------------------------------------------------------------
-def path_length(path, cell_size: float = 1.0) -> float:
+def path_length(path: ArrayLike, cell_size: float = 1.0) -> float:
     """Sum of the Euclidean step lengths, times ``cell_size``; 0 for fewer than two vertices.
 
     Works for grid paths and for any-angle vertex lists alike.
@@ -186,12 +191,12 @@ def path_length(path, cell_size: float = 1.0) -> float:
     return float(np.sum(np.hypot(*np.diff(arr, axis=0).T)) * cell_size)
 
 
-def turns(path) -> int:
+def turns(path: ArrayLike) -> int:
     """Number of heading changes along the path (repeated cells are ignored, a reversal counts)."""
     return int(np.count_nonzero(_turn_angles(path) > _ANGLE_EPS))
 
 
-def heading_change(path) -> float:
+def heading_change(path: ArrayLike) -> float:
     """Total absolute heading change in radians; each turn adds its angle in [0, pi].
 
     This is the energy cost E of Miao et al. 2021 (``docs/algorithms.md`` §5).
@@ -200,7 +205,7 @@ def heading_change(path) -> float:
 
 
 # -- obstacle proximity ------------------------------------------------------------------------
-def clearance_stats(grid, path) -> tuple[float, float]:
+def clearance_stats(grid: Grid, path: ArrayLike) -> tuple[float, float]:
     """``(min, mean)`` of ``grid.clearance()`` (cells) over the path cells; ``(nan, nan)`` if empty.
 
     Cells off the map count as blocked (clearance 0), so an invalid path still gets a number.
@@ -212,7 +217,7 @@ def clearance_stats(grid, path) -> tuple[float, float]:
     return (float(d.min()), float(d.mean()))
 
 
-def safety_terms(d_b, rs, xp=np):
+def safety_terms(d_b: Any, rs: float, xp: Any = np) -> Any:
     """Per-cell safety cost ``max(0, 2*rs - d_b) / (2*rs)`` for clearances ``d_b`` (any shape).
 
     The one formula of S: :func:`safety_cost` sums it with numpy, the in-jit multi-objective cost
@@ -221,7 +226,7 @@ def safety_terms(d_b, rs, xp=np):
     return xp.maximum(0.0, 2 * rs - d_b) / (2 * rs)
 
 
-def safety_cost(grid, path, rs: float = SAFETY_RADIUS) -> float:
+def safety_cost(grid: Grid, path: ArrayLike, rs: float = SAFETY_RADIUS) -> float:
     """Safety cost S = sum over path cells of ``max(0, 2*rs - d_b) / (2*rs)`` (Miao et al. 2021;
     ``docs/algorithms.md`` §5).
 
@@ -281,7 +286,7 @@ def _los(shape, colsum: np.ndarray, a, b) -> bool:
     return bool(np.all(colsum[row_hi + 1, cols] - colsum[row_lo, cols] == 0))
 
 
-def line_of_sight(grid, a, b) -> bool:
+def line_of_sight(grid: Grid, a: Cell, b: Cell) -> bool:
     """Whether the straight segment between the centres of cells ``a`` and ``b`` is clear.
 
     Rule (a closed supercover): every cell whose *closed* unit square the segment touches must be
@@ -293,7 +298,7 @@ def line_of_sight(grid, a, b) -> bool:
     return _los(grid.shape, _blocked_colsum(grid.free), a, b)
 
 
-def shortcut(grid, path) -> np.ndarray:
+def shortcut(grid: Grid, path: ArrayLike) -> np.ndarray:
     """Greedy line-of-sight shortcutting of a grid path: the any-angle vertex list ``(M, 2)``.
 
     From the current vertex, jump to the farthest later path vertex in sight (:func:`line_of_sight`)
@@ -318,12 +323,18 @@ def shortcut(grid, path) -> np.ndarray:
     return cells[keep]
 
 
-def any_angle_length(grid, path, cell_size: float = 1.0) -> float:
+def any_angle_length(grid: Grid, path: ArrayLike, cell_size: float = 1.0) -> float:
     """Length of :func:`shortcut` of the path, times ``cell_size``; never more than ``path_length``."""
     return path_length(shortcut(grid, path), cell_size)
 
 
 # -- quality against the optimum ---------------------------------------------------------------
+@overload
+def gap(length: float, optimal: float) -> float: ...
+@overload
+def gap(length: np.ndarray, optimal: float) -> float | np.ndarray: ...  # a 0-d array: a float
+
+
 def gap(length: float | np.ndarray, optimal: float) -> float | np.ndarray:
     """Relative gap ``(length - optimal) / optimal``: the one gap of jaco (results, waypoint trips,
     the APF planner, records, sweep tables).
@@ -353,7 +364,7 @@ def gap(length: float | np.ndarray, optimal: float) -> float | np.ndarray:
     return (length - optimal) / optimal
 
 
-def path_metrics(grid, path, optimal: float | None = None, rs: float = SAFETY_RADIUS) -> dict:
+def path_metrics(grid: Grid, path: ArrayLike, optimal: float | None = None, rs: float = SAFETY_RADIUS) -> dict:
     """Every single-path figure in one dict.
 
     Keys: ``length`` and ``any_angle_length`` (times ``grid.cell_size``), ``turns``,
@@ -387,12 +398,12 @@ def path_metrics(grid, path, optimal: float | None = None, rs: float = SAFETY_RA
 
 # -- indices over a set of runs (thesis 2.3) ---------------------------------------------------
 def performance_indices(
-    best_lengths,
+    best_lengths: ArrayLike,
     optimal: float,
-    iters_to_converge,
-    time_per_iter,
+    iters_to_converge: ArrayLike,
+    time_per_iter: ArrayLike,
     max_iters: int,
-    weights=DEFAULT_WEIGHTS,
+    weights: Sequence[float] = DEFAULT_WEIGHTS,
 ) -> dict:
     """The thesis's performance indices over R independent runs (Hua Lu 2011, 2.3;
     ``docs/algorithms.md`` §1).

@@ -45,7 +45,7 @@ def neighbour_table(free: np.ndarray, connectivity: int = 8) -> tuple[np.ndarray
     return nbr, step
 
 
-def cached_table(grid: Grid, connectivity: int):
+def cached_table(grid: Grid, connectivity: int) -> tuple[np.ndarray, np.ndarray]:
     """:func:`neighbour_table` of ``grid``, computed once per grid and connectivity (read-only)."""
     key = f"_nbr{connectivity}"
     if key not in grid.meta:

@@ -38,8 +38,10 @@ import shutil
 import stat
 import sys
 import tempfile
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import IO, Any
 
 from .errors import OutputError
 
@@ -54,8 +56,11 @@ _LINK_HOPS = 40  # as the kernel's limit on symbolic links in one lookup (ELOOP)
 _SYSTEM = ("/dev", "/proc", "/sys")  # folders of the system's nodes: never create, rename, remove
 _stdout_streams: list = []  # set by standard_output()
 
+#: A path argument: a str or an ``os.PathLike`` (also ``-``, a stream or a descriptor where the function says so).
+PathArg = str | os.PathLike
 
-def as_path(path, what: str, error=OutputError) -> Path:
+
+def as_path(path: PathArg, what: str, error: type[Exception] = OutputError) -> Path:
     """``path`` (a str or ``os.PathLike``) as a :class:`~pathlib.Path`, or ``error`` saying a file
     path was expected (inputs pass their own error class)."""
     if isinstance(path, bool) or not isinstance(path, (str, os.PathLike)):
@@ -96,7 +101,7 @@ def _fail(what: str, path, why: str) -> OutputError:
     return OutputError(f"{what} {shown}: {why}")
 
 
-def target(path, what: str = "output") -> Target:
+def target(path: PathArg, what: str = "output") -> Target:
     """What writing ``path`` means (see the module docstring), checked: raises
     :class:`OutputError` for a directory, a loop of links, a dangling link into a missing folder,
     a new name in ``/dev``, ``/proc`` or ``/sys``, or a folder that cannot be written. Opens nothing."""
@@ -158,7 +163,7 @@ def _check_folder(what: str, shown: str, folder: str) -> None:
         raise OutputError(f"{what} {shown}: folder {folder!r} is not writable")
 
 
-def is_stdout(path) -> bool:
+def is_stdout(path: Any) -> bool:
     """Whether writing ``path`` goes to this process's standard output (``-``, ``/dev/stdout``,
     a descriptor or node that is the one open as descriptor 1). Never raises."""
     try:
@@ -172,7 +177,7 @@ def is_stdout(path) -> bool:
     return False
 
 
-def is_stream(path) -> bool:
+def is_stream(path: Any) -> bool:
     """Whether ``path`` is written in place (standard output, a device, a FIFO, a descriptor): a
     name with no suffix to say a format there is normal. Never raises."""
     try:
@@ -196,7 +201,8 @@ def _same_target(a, b) -> bool:
     return os.path.samestat(sa, sb) and not stat.S_ISCHR(sa.st_mode)
 
 
-def check_output(path, what: str, *, suffixes=None, inputs=(), format=None, how="format=") -> Path:
+def check_output(path: PathArg, what: str, *, suffixes: Sequence[str] | None = None, inputs: Iterable[Any] = (),
+                 format: str | None = None, how: str = "format=") -> Path:
     """``path`` as a :class:`~pathlib.Path` once it is known to be writable (:func:`target`): a
     suffix in ``suffixes`` (when given; lower-case, with the dot) unless ``format`` names one (and
     the suffix, if it is one of ``suffixes``, agrees), and
@@ -249,7 +255,7 @@ def _mode(path: Path) -> int:
 
 
 @contextlib.contextmanager
-def standard_output(stream):
+def standard_output(stream: IO | None) -> Iterator[Any]:
     """Within the block, ``-`` writes to ``stream`` (default: ``sys.stdout`` at the time of the
     write). The command line keeps its data here while its summary goes to stderr."""
     _stdout_streams.append(stream)
@@ -312,7 +318,7 @@ def _reason(e: OSError) -> str:
 
 
 @contextlib.contextmanager
-def atomic_paths(paths, what: str = "output"):
+def atomic_paths(paths: Iterable[PathArg], what: str = "output") -> Iterator[list[Path]]:
     """Temporary paths for ``paths`` (same suffixes, for writers that choose the format by it),
     yielded as a list; when the block ends without an exception they replace their targets in the
     order given (renamed under a lock on their folders; a target written in place gets the
@@ -348,13 +354,13 @@ def atomic_paths(paths, what: str = "output"):
 
 
 @contextlib.contextmanager
-def atomic_path(path, what: str = "output"):
+def atomic_path(path: PathArg, what: str = "output") -> Iterator[Path]:
     """:func:`atomic_paths` of one path: yields its temporary path."""
     with atomic_paths([path], what) as (tmp,):
         yield tmp
 
 
-def write_bytes(path, data: bytes, what: str = "output") -> Path:
+def write_bytes(path: PathArg, data: bytes, what: str = "output") -> Path:
     """Write ``data`` to ``path`` (see the module docstring: atomically to a file, in place to a
     device, FIFO, descriptor or ``-``); returns the path as given. Raises :class:`OutputError`."""
     path = as_path(path, what)
@@ -373,6 +379,6 @@ def write_bytes(path, data: bytes, what: str = "output") -> Path:
     return path
 
 
-def write_text(path, text: str, what: str = "output") -> Path:
+def write_text(path: PathArg, text: str, what: str = "output") -> Path:
     """Write ``text`` (UTF-8, ``\\n`` line ends as given) to ``path`` as :func:`write_bytes` does."""
     return write_bytes(path, text.encode("utf-8"), what)

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import cast
 
 import jax
 import jax.numpy as jnp
@@ -124,7 +125,8 @@ def combine(legs: list[Result]) -> Result:
     optimal = float(sum(r.optimal for r in legs))
     hist = {k: np.stack([r.history[k] for r in legs]) for k in legs[0].history}
     history = {k: np.prod(v, axis=0) if k == "success_rate" else np.sum(v, axis=0) for k, v in hist.items()}
-    pheromone = None if legs[0].pheromone is None else np.stack([r.pheromone for r in legs])
+    # every leg ran with the same keep_pheromone: all kept a pheromone, or none did
+    pheromone = None if legs[0].pheromone is None else np.stack(cast("list[np.ndarray]", [r.pheromone for r in legs]))
     return dataclasses.replace(
         legs[0],
         path=path,

@@ -8,6 +8,8 @@ call the same functions.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
+from typing import cast
 
 import numpy as np
 
@@ -84,16 +86,19 @@ def check_seed(seed: int, what: str = "seed") -> int:
     return int(seed)
 
 
-def check_seeds(seeds: int | list[int]) -> np.ndarray:
+def check_seeds(seeds: int | Iterable[int]) -> np.ndarray:
     """A sweep's seeds: a count (``range(seeds)``) or a non-empty list of :func:`check_seed` seeds,
     as uint32."""
+    items: Iterable[int]
     if isinstance(seeds, (int, np.integer)) and not isinstance(seeds, bool):
         check_memory(64 * int(seeds), f"{seeds} seeds", "use fewer seeds")
-        seeds = range(seeds)
+        items = range(seeds)
     elif isinstance(seeds, (str, bytes)) or not hasattr(seeds, "__iter__"):
         raise JacoError(f"seeds must be a count or a list of integers in [0, 2**32), got {type(seeds).__name__} {seeds!r}")
+    else:
+        items = cast("Iterable[int]", seeds)  # not an int: a bool has no __iter__ and was refused above
     out = []
-    for s in seeds:
+    for s in items:
         try:
             out.append(check_seed(s, "seeds"))
         except JacoError:

@@ -37,6 +37,7 @@ definition, used everywhere else.
 from __future__ import annotations
 
 import functools
+from typing import Any, Protocol, cast
 
 import jax
 import jax.numpy as jnp
@@ -46,6 +47,18 @@ from ..moves import MOVES
 from . import native
 from .colony import Colony, step_targets
 from .walk import Tours
+
+
+class ShortcutSearch(Protocol):
+    """What :func:`shortcut_search` returns: a ``Variant.local_search`` that also carries its
+    static choices as attributes, for whoever inspects a variant."""
+
+    window: int
+    passes: int
+    best: int | None
+
+    def __call__(self, variant: Any, problem: Any, colony: Colony, params: Any) -> Colony: ...
+
 
 #: ``MOVE_OF[(dr + 1)·3 + (dc + 1)]``: the index of the move (dr, dc) in :data:`jaco.moves.MOVES`, -1 for (0, 0).
 MOVE_OF = np.full(9, -1, np.int32)
@@ -256,7 +269,7 @@ def path_tours(problem, cells, arrived, n_steps, visited) -> Tours:
     )
 
 
-def shortcut_search(*, window: int, passes: int, best: int | None):
+def shortcut_search(*, window: int, passes: int, best: int | None) -> ShortcutSearch:
     """A ``Variant.local_search``: the octile shortcut (``window`` path cells ahead, at most
     ``passes`` passes) of the ``best`` lowest-cost successful candidates of each iteration
     (``None``: every candidate). A candidate takes its shortened path where its cost (the
@@ -281,5 +294,6 @@ def shortcut_search(*, window: int, passes: int, best: int | None):
                                step_len=put(colony.step_len, tours.step_len), cost=put(colony.cost, cost),
                                length=put(colony.length, tours.length))
 
-    local_search.window, local_search.passes, local_search.best = window, passes, best
-    return local_search
+    search = cast(ShortcutSearch, local_search)
+    search.window, search.passes, search.best = window, passes, best
+    return search

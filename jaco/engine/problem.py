@@ -19,6 +19,13 @@ from ..errors import ProblemError
 from ..grid import Grid
 from ..moves import MOVES, cached_table
 
+#: A Problem's array leaf: numpy when built by :func:`make_problem`, a jax array inside jit or on device.
+ArrayLike = jax.Array | np.ndarray
+#: A Problem's scalar leaves, numpy scalars when built and 0-d (or batched) arrays once stacked or
+#: traced: a cell index (start, goal) and a length (optimal).
+IndexLike = jax.Array | np.ndarray | np.integer
+LengthLike = jax.Array | np.ndarray | np.floating
+
 
 def _as_cell(grid: Grid, cell, what: str) -> tuple[int, int]:
     return grid.check_cell(cell, what)
@@ -37,15 +44,15 @@ class Problem:
     ``optimal`` the exact optimum from start to goal.
     """
 
-    nbr: jax.Array
-    step: jax.Array
-    offsets: jax.Array
-    xy: jax.Array
-    clearance: jax.Array
-    goal_dist: jax.Array
-    start: jax.Array
-    goal: jax.Array
-    optimal: jax.Array
+    nbr: ArrayLike
+    step: ArrayLike
+    offsets: ArrayLike
+    xy: ArrayLike
+    clearance: ArrayLike
+    goal_dist: ArrayLike
+    start: IndexLike
+    goal: IndexLike
+    optimal: LengthLike
 
     @property
     def n_cells(self) -> int:

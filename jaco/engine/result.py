@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -68,8 +69,8 @@ class Result:
         run = {"cost": self.cost, "coverage": self.coverage, "best_iteration": self.best_iteration}
         if not self.success:
             return {"length": math.inf, "valid": False, **run}
-        rs = self.params.get("rs_cost", SAFETY_RADIUS)
-        return {**path_metrics(self.grid, self.path, optimal=self.optimal, rs=rs), **run}
+        rs = self.params.get("rs_cost", SAFETY_RADIUS)  # a successful result carries its grid
+        return {**path_metrics(cast(Grid, self.grid), self.path, optimal=self.optimal, rs=rs), **run}
 
     def to_dict(self) -> dict:
         """JSON-ready dict (no numpy types; inf written as None where JSON has no inf)."""

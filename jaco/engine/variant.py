@@ -25,6 +25,7 @@ class FrozenMap(Mapping):
     and compiled programs are cached by the planner itself."""
 
     __slots__ = ("_items",)
+    _items: dict
 
     def __init__(self, items=()):
         object.__setattr__(self, "_items", dict(items))

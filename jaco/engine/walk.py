@@ -19,7 +19,7 @@ the roulette's sums added in the same order, so the same moves bit for bit.
 from __future__ import annotations
 
 import functools
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -77,8 +77,8 @@ def choose(w, u, q0, exploit: bool):
     ``(u − q0)/(1 − q0)``, again uniform on [0, 1), so one uniform per step serves both draws.
     """
     sums = [w[:, 0]]
-    for k in range(1, 8):
-        sums.append(sums[-1] + w[:, k])
+    for j in range(1, 8):
+        sums.append(sums[-1] + w[:, j])
     c = jnp.stack(sums, axis=1)
     total = sums[-1]
     if exploit:
@@ -100,7 +100,7 @@ def walk(problem, weights, key, q0, *, n_ants: int, steplimit: int, exploit: boo
     and the program runs on CPU; the JAX walk everywhere else.
     """
     args = (weights, key_words(key), problem.start, problem.goal, jnp.asarray(q0, jnp.float32), problem.offsets)
-    kw = dict(n_ants=n_ants, steplimit=steplimit, exploit=bool(exploit))
+    kw: dict[str, Any] = dict(n_ants=n_ants, steplimit=steplimit, exploit=bool(exploit))
     return _tours(*native.dispatch(functools.partial(native.walk, **kw), functools.partial(jax_walk, **kw), *args))
 
 

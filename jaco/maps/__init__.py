@@ -33,6 +33,9 @@ Modules: :mod:`.files` (bundled data, shared file checks), the formats :mod:`.mo
 
 from __future__ import annotations
 
+import os
+from typing import Any
+
 from ..errors import MapFormatError
 from ..grid import Grid
 from ..outputs import as_path
@@ -46,7 +49,7 @@ from .text import load_npy, load_text, save_text
 
 
 def load(
-    path,
+    path: str | os.PathLike,
     *,
     name: str | None = None,
     cell_size: float = 1.0,
@@ -102,7 +105,7 @@ def load(
     return grid.replace(name=name) if name is not None else grid
 
 
-def load_bundled(name: str, **kw) -> Grid:
+def load_bundled(name: str, **kw: Any) -> Grid:
     """``load(bundled(name), **kw)``: a bundled map as a :class:`Grid`."""
     return load(bundled(name), **kw)
 

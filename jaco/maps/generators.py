@@ -9,12 +9,13 @@ cutting and carries ``meta["start"]`` / ``meta["goal"]``.
 from __future__ import annotations
 
 import numbers
+from typing import Any
 
 import numpy as np
 
 from ..errors import ProblemError
 from ..exact import reachable
-from ..grid import Grid
+from ..grid import Cell, Grid
 
 
 def _connected(grid: Grid, start, goal) -> bool:
@@ -50,11 +51,11 @@ def _seed_arg(seed) -> int:
 
 
 def random_map(
-    size_or_hw,
+    size_or_hw: int | tuple[int, int],
     p: float,
     seed: int,
-    start=None,
-    goal=None,
+    start: Cell | None = None,
+    goal: Cell | None = None,
     *,
     method: str = "resample",
     max_tries: int = 1000,
@@ -158,7 +159,7 @@ def _carve(flat, h, w, start, goal, rng, protected) -> np.ndarray:
     return flat
 
 
-def with_endpoints(free: np.ndarray, name: str, start, goal, **meta) -> Grid:
+def with_endpoints(free: np.ndarray, name: str, start: Cell, goal: Cell, **meta: Any) -> Grid:
     grid = Grid(free, name=name, meta={"start": tuple(start), "goal": tuple(goal), **meta})
     if not (grid.is_free(start) and grid.is_free(goal) and _connected(grid, start, goal)):
         raise ProblemError(f"map {name!r}: goal {goal} is not reachable from start {start}")

@@ -11,6 +11,7 @@ exactly the file's and a file with more or fewer values than its size is refused
 
 from __future__ import annotations
 
+import os
 import re
 import warnings
 from pathlib import Path
@@ -125,7 +126,7 @@ def _pnm_raster(data: bytes, fname: str) -> np.ndarray:
     return values.reshape(shape)
 
 
-def read_pnm(path) -> tuple[np.ndarray, int]:
+def read_pnm(path: str | os.PathLike) -> tuple[np.ndarray, int]:
     """Read a PGM/PPM file (P2/P5 grey, P3/P6 colour): ``(values (H, W[, 3]) int64, maxval)``.
 
     The values are the file's samples, ``0..maxval``. Pillow decodes binary files whose samples

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -122,7 +124,7 @@ class Scenario:
     index: int = 0
 
 
-def load_scenarios(path) -> list[Scenario]:
+def load_scenarios(path: str | os.PathLike) -> list[Scenario]:
     """Read a MovingAI ``.scen`` file: ``version 1`` (or ``1.0``) then 9 tab-separated columns.
 
     Columns: bucket, map file, map width, map height, start x, start y, goal x, goal y, optimal
@@ -196,7 +198,8 @@ def _within(x, lo, hi) -> bool:
     return (lo is None or x >= lo) and (hi is None or x <= hi)
 
 
-def select_scenarios(scenarios, *, index=None, bucket=None, optimal=None, count=None) -> list[Scenario]:
+def select_scenarios(scenarios: list[Scenario] | tuple[Scenario, ...] | str | os.PathLike, *, index: Any = None, bucket: Any = None, optimal: Any = None,
+                     count: int | None = None) -> list[Scenario]:
     """The scenarios (of :func:`load_scenarios`, or a ``.scen`` path) that a sweep should run.
 
     ``index``: an int or a list of ints, positions in the file (``Scenario.index``), in the order

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +25,7 @@ def load_text(path: Path, *, cell_size: float = 1.0) -> Grid:
         raise MapFormatError(f"{path.name}: {e}") from None
 
 
-def save_text(grid: Grid, path) -> Path:
+def save_text(grid: Grid, path: str | os.PathLike) -> Path:
     """Write ``grid`` as a text map (``.`` free, ``@`` blocked); :func:`load` reads it back."""
     path = check_output(path, "text map", suffixes=(".txt",))
     return write_text(path, "\n".join(grid.to_rows()) + "\n", "text map")

@@ -203,9 +203,10 @@ def backtrack_walk(
     scalars = jnp.stack([jnp.asarray(v, jnp.float32) for v in (
         params.q0 if exploit else 0.0, params.alpha, params.beta, trail.lo, trail.hi, params.rho_local, params.q)])
     args = (trail.tau, rows, factors, words, problem.start, problem.goal, scalars, problem.offsets)
-    kw = dict(n_ants=n_ants, steplimit=steplimit, exploit=bool(exploit), table=table)
-    return Backtracked(*native.dispatch(functools.partial(native_backtrack_walk, **kw),
-                                        functools.partial(jax_backtrack_walk, **kw), *args))
+    exploit = bool(exploit)
+    return Backtracked(*native.dispatch(
+        functools.partial(native_backtrack_walk, n_ants=n_ants, steplimit=steplimit, exploit=exploit, table=table),
+        functools.partial(jax_backtrack_walk, n_ants=n_ants, steplimit=steplimit, exploit=exploit, table=table), *args))
 
 
 def jax_backtrack_walk(

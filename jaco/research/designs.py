@@ -80,7 +80,7 @@ class Design:
             and all(np.array_equal(self[k], other[k]) for k in self.names)
         )
 
-    __hash__ = None
+    __hash__ = None  # type: ignore[assignment]  # unhashable (mutable columns), as object's stub can't say
 
     def __repr__(self) -> str:
         return f"Design({self.kind}, {len(self)} configurations over {', '.join(self.names) or 'no parameter'})"
@@ -190,15 +190,15 @@ def latin_hypercube(seed: int, n: int, ranges: Mapping, *, log=()) -> Design:
 def product(*designs) -> Design:
     """Every row of the first design with every row of the next (first slowest), e.g. a Latin
     hypercube over (α, β) crossed with a grid over ρ. The designs must not share a name."""
-    designs = [as_design(d) for d in designs]
+    parts = [as_design(d) for d in designs]
     seen: set = set()
-    for d in designs:
+    for d in parts:
         shared = seen & set(d.names)
         if shared:
             raise ParamError(f"designs in a product must not share parameters, both have {sorted(shared)}")
         seen |= set(d.names)
-    index = np.array(list(itertools.product(*(range(len(d)) for d in designs))), np.int64).reshape(-1, len(designs))
-    values = {k: d[k][index[:, i]] for i, d in enumerate(designs) for k in d.names}
+    index = np.array(list(itertools.product(*(range(len(d)) for d in parts))), np.int64).reshape(-1, len(parts))
+    values = {k: d[k][index[:, i]] for i, d in enumerate(parts) for k in d.names}
     return Design(values, kind="product", n=len(index))
 
 

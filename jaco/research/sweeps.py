@@ -26,7 +26,7 @@ Scale (docs/cluster.md):
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import jax
 import numpy as np
@@ -101,7 +101,7 @@ def _devices(devices) -> list:
     """None: every device (all processes' after ``jax.distributed.initialize``), or the one set
     by ``jax.default_device``; an int n: the first n; or a list of devices."""
     if devices is None:
-        chosen = jax.config.jax_default_device
+        chosen = jax.config.jax_default_device  # type: ignore[attr-defined]  # jax's Config makes its flags at runtime
         return [chosen] if isinstance(chosen, jax.Device) else list(jax.devices())
     if isinstance(devices, (int, np.integer)) and not isinstance(devices, bool):
         available = jax.devices()
@@ -358,6 +358,7 @@ class Runner:
                 dst[:, lo:hi] = src
             if on_chunk is not None:
                 on_chunk(lo, hi, got)
+        assert outs is not None, "a sweep has at least one row (check_seeds)"
         return tuple(outs)
 
 
@@ -638,7 +639,7 @@ def summarize(table: pd.DataFrame, by=None) -> pd.DataFrame:
     finite = table.assign(length=table["length"].where(ok), gap=table["gap"].where(ok))
     # dropna=False: a planner's row may have no value (NaN) for a parameter a given `by` keeps
     quartile = {name: (lambda v, q=q: v.quantile(q)) for name, q in (("q1", 0.25), ("median", 0.5), ("q3", 0.75))}
-    stats = {"success_rate": ("success", "mean")}
+    stats: dict[str, tuple[str, Any]] = {"success_rate": ("success", "mean")}
     for col in ("length", "gap"):
         stats.update({f"{col}_{k}": (col, f) for k, f in (("median", quartile["median"]), ("q1", quartile["q1"]),
                                                          ("q3", quartile["q3"]), ("mean", "mean"), ("std", "std"),
