@@ -13,7 +13,7 @@ never NaN, the trivial query, and a documented planner.
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -34,7 +34,7 @@ __all__ = [
 ]
 
 #: The size of the contract's runs: small enough for seconds per check, large enough to find paths.
-SMALL = dict(n_ants=16, n_iters=12)
+SMALL: dict[str, Any] = dict(n_ants=16, n_iters=12)
 
 
 def default_maps() -> list[Grid]:
@@ -42,7 +42,7 @@ def default_maps() -> list[Grid]:
     return [random_map(12, 0.2, seed=3), named("utrap-15")]
 
 
-def _ends(grid: Grid):
+def _ends(grid: Grid) -> tuple[Any, Any]:
     return grid.meta["start"], grid.meta["goal"]
 
 
@@ -52,7 +52,7 @@ def _other_value(v: Variant) -> tuple[str, float, float]:
     x = float(v.defaults[name])
     spec = SPECS[name]
     for y in (0.5 * x, 2.0 * x, x + 1.0, x - 1.0):
-        if y != x and bool(spec.contains(np.float64(y))):
+        if y != x and bool(spec.contains(np.asarray(y))):
             return name, x, y
     return name, x, x
 
@@ -83,6 +83,7 @@ def check_pheromone(planner, grid: Grid | None = None) -> None:
     grid = grid or default_maps()[0]
     r = solve(grid, *_ends(grid), v, seed=1, keep_pheromone=True, **SMALL)
     tau = r.pheromone
+    assert tau is not None
     assert np.isfinite(tau).all() and (tau >= 0).all(), f"{v.name}: pheromone not finite or negative"
 
 
@@ -110,7 +111,9 @@ def check_sweep(planner, grid: Grid | None = None) -> None:
     table = sweep(grid, *_ends(grid), v, params={name: [x, y]}, seeds=[0, 3], **SMALL)
     assert len(table) == 4
     for _, row in table.iterrows():
-        r = solve(grid, *_ends(grid), v, seed=int(row.seed), **{name: float(row[name])}, **SMALL)
+        value: dict[str, Any] = {name: float(row[name])}
+        start, goal = _ends(grid)
+        r = solve(grid, start, goal, v, seed=int(row.seed), **value, **SMALL)
         assert row.length == r.length and row.best_iteration == r.best_iteration, (
             f"{v.name}: sweep row ({name}={row[name]}, seed {row.seed}) differs from its single run")
         assert row.coverage == r.coverage
@@ -121,11 +124,12 @@ def check_compiles_once(planner) -> None:
     v = get_variant(planner)
     a = random_map(12, 0.2, seed=1)
     b = random_map(12, 0.1, seed=2)
-    shape = dict(SMALL, steplimit=96)  # one step limit: a default one may depend on the map
+    shape: dict[str, Any] = dict(SMALL, steplimit=96)  # one step limit: a default one may depend on the map
     solve(a, (0, 0), (11, 11), v, seed=0, **shape)
     before = TRACES[v.name]
     name, _, y = _other_value(v)
-    solve(a, (0, 0), (11, 11), v, seed=1, **{name: y}, **shape)
+    other: dict[str, Any] = {name: y}
+    solve(a, (0, 0), (11, 11), v, seed=1, **other, **shape)
     solve(b, (0, 0), (11, 11), v, seed=2, **shape)  # other map, same shape
     solve(b, (11, 11), (0, 0), v, seed=3, **shape)  # other query
     assert TRACES[v.name] == before, f"{v.name}: recompiled for a call of the same shape"
