@@ -113,10 +113,10 @@ def step_limit_cost(jaco, name, n_scen, ants, iters):
 
     grid = _grid(jaco, name)
     scen = scenarios(jaco, name, n_scen)
-    old, new = jc.legacy_steplimit(grid), jc.default_steplimit(grid, jaco.VARIANTS["iaca"])
+    old, new = jc.legacy_steplimit(grid), jc.default_steplimit(grid, jaco.PLANNERS["iaca"])
     rows = []
     for planner in ("iaca", jaco.compose(**CHAOS, local_search="shortcut")):
-        v = jaco.planners.registry.get_variant(planner)
+        v = jaco.planners.registry.get_planner(planner)
         for limit in (old, new):
             times, gaps = [], []
             for q, s in enumerate(scen):
@@ -132,7 +132,7 @@ def step_limit_cost(jaco, name, n_scen, ants, iters):
             mem = run.lower(jaco.engine.run.jax.random.key(0), problem, jc.params_from(values)).compile().memory_analysis()
             total = sum(getattr(mem, k, 0) for k in ("argument_size_in_bytes", "output_size_in_bytes", "temp_size_in_bytes"))
             label = "old default, 4·(H + W)" if limit == old else "new default for backtracking ants"
-            rows.append([jaco.planners.registry.get_variant(planner).name if planner == "iaca" else "backtrack+chaos+iaca+shortcut",
+            rows.append([jaco.planners.registry.get_planner(planner).name if planner == "iaca" else "backtrack+chaos+iaca+shortcut",
                          f"{limit} — {label}", fixed(statistics.median(times), 2), fixed(max(times), 2),
                          f"{total / 2**20:.0f}", fixed(100 * float(np.median(gaps)), 1)])
             print(" | ".join(rows[-1]), flush=True)
@@ -151,7 +151,7 @@ def longest(jaco, k, ants, iters, maps=None):
         t0 = time.perf_counter()
         tab = jaco.sweep(grid, [s.start for s in scen], [s.goal for s in scen], "iaca", seeds=[0], n_ants=ants,
                          n_iters=iters, progress=False)
-        limit = jaco.engine.checks.default_steplimit(grid, jaco.VARIANTS["iaca"])
+        limit = jaco.engine.checks.default_steplimit(grid, jaco.PLANNERS["iaca"])
         rows.append([m.removesuffix(".map"), f"{grid.height}x{grid.width}", str(limit), fixed(scen[0].optimal, 1),
                      fixed(scen[-1].optimal, 1), f"{int(tab.success.sum())} of {len(tab)}",
                      fixed(100 * float(np.median(tab.gap)), 1), fixed(time.perf_counter() - t0, 0)])

@@ -57,7 +57,7 @@ def main(argv=None):
     import jaco
 
     ants, iters = (5, 3) if args.smoke else (50, 100)
-    names = ["mmas", "iaca"] if args.smoke else list(jaco.VARIANTS)
+    names = ["mmas", "iaca"] if args.smoke else list(jaco.PLANNERS)
     t_all = time.perf_counter()
     rows = []
     for label, grid, start, goal in queries(jaco, args.smoke):

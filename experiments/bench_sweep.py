@@ -197,7 +197,7 @@ def main(argv=None):
     if cfg["estimate"]:
         import jaco
 
-        R["estimate"] = estimates(sorted(jaco.VARIANTS))
+        R["estimate"] = estimates(sorted(jaco.PLANNERS))
     R["machine"] = machine()
     R["total_s"] = time.perf_counter() - t0
     R["date"] = _dt.datetime.now().strftime("%Y-%m-%d %H:%M")

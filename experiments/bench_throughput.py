@@ -197,7 +197,7 @@ def run_benchmark(args) -> dict:
     t_start = time.perf_counter()
     R: dict = {"config": {k: v for k, v in cfg.items()}, "machine": machine(), "load_start": os.getloadavg(),
                "walks": walks()}
-    variant = jaco.VARIANTS["as"]
+    variant = jaco.PLANNERS["as"]
     n_dev = min(args.devices, len(jax.devices()))
 
     side, n_ants, n_iters = cfg["side"], cfg["n_ants"], cfg["n_iters"]

@@ -111,7 +111,7 @@ def parse_args(argv=None):
             ap.error(f"unknown MovingAI map {m!r}; bundled: {', '.join(maps)}")
     for n in (args.planners or []) + list(args.skip):
         try:
-            jaco.planners.registry.get_variant(n)
+            jaco.planners.registry.get_planner(n)
         except jaco.JacoError as e:
             ap.error(str(e))
     if args.local_search not in jaco.planners.compose.LOCAL_SEARCHES:
@@ -135,9 +135,9 @@ def planners(jaco, names, local_search: str = "none"):
     """``(label, variant, fixed parameters)`` of every planner to run: ``names``, or every registered
     planner and composition, each also with ``local_search`` (unless ``"none"``)."""
     if names is not None:
-        vs = [jaco.planners.registry.get_variant(n) for n in names]
+        vs = [jaco.planners.registry.get_planner(n) for n in names]
     else:
-        vs = list(jaco.VARIANTS.values()) + [jaco.compose(**kw) for kw in COMPOSITIONS]
+        vs = list(jaco.PLANNERS.values()) + [jaco.compose(**kw) for kw in COMPOSITIONS]
         if local_search != "none":
             vs += [jaco.planners.registry.with_local_search(v, local_search) for v in vs]
     return [(short(v.name), v, {}) for v in vs]
@@ -175,7 +175,7 @@ def select(jaco, cfg, args):
     # lowest median gap; ties (small maps are often solved optimally in most runs) go to the higher
     # success rate, then the lower mean gap of the successful runs
     (name, fixed), gap = min(gaps.items(), key=lambda kv: gap_rank(kv[1]))
-    v = jaco.planners.registry.get_variant(name)
+    v = jaco.planners.registry.get_planner(name)
     label = selected_prefix(cfg, args) + " " + short(name) + " (" + ", ".join(f"{k}={x:g}" for k, x in fixed) + ")"
     print(f"{label}, median gap {100 * float(np.median(gap)):.1f} % on its maps", flush=True)
     return label, v, dict(fixed)

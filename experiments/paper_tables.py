@@ -39,7 +39,7 @@ import numpy as np
 import jaco
 from jaco.engine import pheromone as ph
 from jaco.engine.cost import path_length
-from jaco.engine.variant import make_variant
+from jaco.engine.planner import make_planner
 from jaco.metrics import SAFETY_RADIUS, path_metrics, validate_path
 from jaco.planners.classic import BASE
 
@@ -50,7 +50,7 @@ MAPS = ["simple-20", "complex-30"]
 SQRT2 = math.sqrt(2.0)
 
 #: Dong & Zhao 2021's "basic ACO" (its 4.1, eqs. 6–8) with the paper's tuned parameters (its 5).
-ACO_003 = make_variant(
+ACO_003 = make_planner(
     "aco-003",
     "Dong & Zhao 2021, 4.1, eqs. 6, 7, 8; docs/algorithms.md §6",
     "The basic ACO of Dong & Zhao 2021: random-proportional rule (6), η = 1/(distance of the candidate to "
@@ -82,15 +82,15 @@ PAPER_SG = {"simple-20": 20 * SQRT2, "complex-30": 30 * SQRT2}
 
 
 def table1_planners() -> dict:
-    """Dong & Zhao 2021's table 1 rows: label -> (Variant, parameter values). PF-ACO and APF-ACO run with
+    """Dong & Zhao 2021's table 1 rows: label -> (Planner, parameter values). PF-ACO and APF-ACO run with
     the paper's printed α = 2, β = 6, ρ = 0.7, Q = 1 (``jaco.planners.apf_guided.PAPER_PARAMS``), not jaco's
     defaults (β = 20, ρ = 0.3, chosen for dense maps: docs/variants.md)."""
     from jaco.planners.apf_guided import PAPER_PARAMS
 
     out = {"ACO": (ACO_003, {})}
     for label, name in (("PF-ACO", "pf-aco"), ("APF-ACO", "apf-aco")):
-        if name in jaco.VARIANTS:
-            out[label] = (jaco.VARIANTS[name], PAPER_PARAMS)
+        if name in jaco.PLANNERS:
+            out[label] = (jaco.PLANNERS[name], PAPER_PARAMS)
     return out
 
 
@@ -102,8 +102,8 @@ def compare_planners(labels=None) -> dict:
     two papers' planners (``labels``: a subset of :data:`COMPARE`'s labels; default all)."""
     out = {}
     for label, name in COMPARE:
-        if (labels is None or label in labels) and name in jaco.VARIANTS:
-            out[label] = jaco.VARIANTS[name]
+        if (labels is None or label in labels) and name in jaco.PLANNERS:
+            out[label] = jaco.PLANNERS[name]
     return out
 
 
@@ -470,11 +470,11 @@ def main(argv=None):
         figures(name, grid, rows2[name], figdir, "paper_compare")
     total = time.perf_counter() - t_all
 
-    iaaco = jaco.VARIANTS.get("iaaco")
+    iaaco = jaco.PLANNERS.get("iaaco")
     d = dict(iaaco.defaults) if iaaco is not None else {}
     weights = (d.get("k_len", 0.7), d.get("k_safe", 0.1), d.get("k_energy", 0.2))
     covs = [c["coverage"] for cells in rows1.values() for c in cells.values() if c["runs"] > 1]
-    missing = [n for n in ("pf-aco", "apf-aco", "iaaco", "chaos-aco") if n not in jaco.VARIANTS]
+    missing = [n for n in ("pf-aco", "apf-aco", "iaaco", "chaos-aco") if n not in jaco.PLANNERS]
     if not has_apf():
         missing.append("jaco.apf.plan")
     cmd = (f"python experiments/paper_tables.py{' --smoke' if args.smoke else ''} --runs {args.runs} --compare-runs {args.compare_runs} "

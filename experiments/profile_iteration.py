@@ -71,7 +71,7 @@ def measure(cfg) -> dict:
     start, goal = (0, 0), (29, 29)
     prob = to_device(make_problem(grid, start, goal))
     steplimit = jc.default_steplimit(grid)
-    var = jaco.VARIANTS["as"]
+    var = jaco.PLANNERS["as"]
     betas = jnp.asarray(np.resize([1.0, 2.0, 4.0, 8.0], B), jnp.float32)
     P = jax.vmap(lambda b: var.default_params().replace(beta=b))(betas)
     empty = Trail(jnp.zeros(8 * prob.nbr.shape[0]), jnp.float32(0), jnp.float32(jnp.inf))

@@ -8,7 +8,7 @@ the thesis could not: the exact optimum, the gap, the success rate and the indic
 For every map and planner, R independent runs (seeds 0..R-1) go through ONE ``jaco.sweep`` call
 (compiled once per planner and map shape; a warm-up call of the same shape is made first, so the
 reported time per run excludes compilation). "ACA" is the thesis's baseline: Ant System with the
-textbook heuristic η = 1/d_ij (``VARIANTS["as"]`` with ``jaco.engine.heuristics.inverse_step``).
+textbook heuristic η = 1/d_ij (``PLANNERS["as"]`` with ``jaco.engine.heuristics.inverse_step``).
 Lengths are in cell units (the thesis's tables are ×10: cell size 10).
 """
 
@@ -43,11 +43,11 @@ PUBLISHED = {
 
 
 def planners():
-    aca = jaco.VARIANTS["as"]._replace(name="aca", heuristic=jaco.engine.heuristics.inverse_step)
+    aca = jaco.PLANNERS["as"]._replace(name="aca", heuristic=jaco.engine.heuristics.inverse_step)
     out = {"ACA": aca}
     for label, name in (("DACA", "daca"), ("IDACA", "idaca"), ("IACA", "iaca")):
-        if name in jaco.VARIANTS:
-            out[label] = jaco.VARIANTS[name]
+        if name in jaco.PLANNERS:
+            out[label] = jaco.PLANNERS[name]
     return out
 
 

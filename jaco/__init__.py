@@ -34,9 +34,12 @@ _LAZY = {
     "sweep": "research.sweeps",
     "summarize": "research.sweeps",
     "plan_sweep": "research.sweeps",
-    "VARIANTS": "planners.registry",
+    "PLANNERS": "planners.registry",
     "compose": "planners.compose",
-    "Variant": "engine.variant",
+    "Planner": "engine.planner",
+    # the names before planners had one name, kept because users type them: the same objects
+    "VARIANTS": "planners.registry",
+    "Variant": "engine.planner",
     "load_run": "research.records",
     # statistics on a results table (the module is jaco.research.compare: jaco.compare is the function)
     "compare": "research.compare",
@@ -66,7 +69,7 @@ _MOVED = {
     "problem": "engine.problem",
     "run": "engine.run",
     "schedules": "engine.schedules",
-    "variant": "engine.variant",
+    "variant": "engine.planner",
     "variants": "planners.registry",
     "chaos": "planners.chaos",
     "double": "planners.double",

@@ -1,6 +1,6 @@
 """The front door: :func:`solve` and :func:`make_run` as ``jaco.solve`` / ``jaco.make_run``.
 
-They take a planner by name or as a :class:`~jaco.engine.variant.Variant`, resolve the name
+They take a planner by name or as a :class:`~jaco.engine.planner.Planner`, resolve the name
 through the registry (:mod:`jaco.planners.registry`) and hand the variant to the engine:
 :func:`jaco.engine.run.solve` for one run, :func:`jaco.waypoints.solve_waypoints` when there are
 waypoints. This is the one place where the engine, the registry and the waypoints meet, so the
@@ -14,11 +14,11 @@ from typing import Any
 
 from .engine import run as _run
 from .engine.params import unknown_parameter
+from .engine.planner import Planner
 from .engine.result import Result
-from .engine.variant import Variant
-from .errors import ParamError
+from .errors import ParamError, accepts_aliases
 from .grid import Cell, Grid
-from .planners.registry import get_variant
+from .planners.registry import get_planner
 from .waypoints import solve_waypoints
 
 __all__ = ["solve", "make_run"]
@@ -27,11 +27,12 @@ __all__ = ["solve", "make_run"]
 SOLVE_KEYWORDS = ("seed", "n_ants", "n_iters", "steplimit", "connectivity", "keep_pheromone", "waypoints", "progress")
 
 
+@accepts_aliases
 def solve(
     grid: Grid,
     start: Cell,
     goal: Cell,
-    variant: str | Variant = "mmas",
+    planner: str | Planner = "mmas",
     *,
     seed: int = 0,
     n_ants: int = 50,
@@ -43,7 +44,7 @@ def solve(
     progress: bool | None = None,
     **params: float,
 ) -> Result:
-    """Plan a path from ``start`` to ``goal`` (``(row, col)`` cells) with one ACO variant.
+    """Plan a path from ``start`` to ``goal`` (``(row, col)`` cells) with one ACO planner.
 
     Everything is validated before anything compiles: the map, start and goal (and that the goal
     is reachable), the sizes, and every parameter (an unknown name is answered with the closest
@@ -61,21 +62,22 @@ def solve(
     >>> r.success, round(r.length, 3), round(r.optimal, 3)
     (True, 5.0, 5.0)
     """
-    variant = get_variant(variant)
+    planner = get_planner(planner)
     for name in params:  # a misspelt keyword of solve lands among the parameters: suggest both
-        if name not in variant.params:
-            raise ParamError(unknown_parameter(name, variant.params, f"variant {variant.name!r}", SOLVE_KEYWORDS,
+        if name not in planner.params:
+            raise ParamError(unknown_parameter(name, planner.params, f"variant {planner.name!r}", SOLVE_KEYWORDS,
                                                "jaco.solve"))
     kw: dict[str, Any] = dict(seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, connectivity=connectivity,
               keep_pheromone=keep_pheromone, **params)
     if waypoints is not None:
-        return solve_waypoints(grid, start, goal, variant, waypoints, **kw)
-    return _run.solve(grid, start, goal, variant, progress=progress, **kw)
+        return solve_waypoints(grid, start, goal, planner, waypoints, **kw)
+    return _run.solve(grid, start, goal, planner, progress=progress, **kw)
 
 
-def make_run(variant: str | Variant, *, n_ants: int, n_iters: int, steplimit: int,
+@accepts_aliases
+def make_run(planner: str | Planner, *, n_ants: int, n_iters: int, steplimit: int,
              keep_pheromone: bool | str = False) -> Callable:
-    """:func:`jaco.engine.run.make_run` for a variant given by name or as a :class:`Variant`:
+    """:func:`jaco.engine.run.make_run` for a planner given by name or as a :class:`Planner`:
     ``run(key, problem, params) -> RunOutput`` for fixed shapes (not jitted here)."""
-    return _run.make_run(get_variant(variant), n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,
+    return _run.make_run(get_planner(planner), n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,
                          keep_pheromone=keep_pheromone)

@@ -56,15 +56,44 @@ def did_you_mean(name: str, candidates: Iterable[str]) -> str:
     return f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
 
 
+#: Keywords renamed when planners got one name (jaco 0.1 called them variants): the old keyword is
+#: still taken, because users' code and stored records type it.
+KEYWORD_ALIASES = {"variant": "planner"}
+
+
+def resolve_aliases(kwargs: dict) -> dict:
+    """``kwargs`` with each former keyword (:data:`KEYWORD_ALIASES`) under its new name."""
+    for old, new in KEYWORD_ALIASES.items():
+        if old in kwargs:
+            if new in kwargs:
+                raise JacoError(f"{old}= and {new}= are the same argument ({old} is its former name): give one")
+            kwargs[new] = kwargs.pop(old)
+    return kwargs
+
+
+def accepts_aliases(fn: F) -> F:
+    """Decorate a public function so that a former keyword (:data:`KEYWORD_ALIASES`:
+    ``variant=``) is taken as its new name (``planner=``)."""
+
+    @functools.wraps(fn)
+    def call(*args, **kwargs):
+        return fn(*args, **resolve_aliases(kwargs))
+
+    return cast(F, call)
+
+
 def check_keywords(fn: F) -> F:
     """Decorate a public function so that an unknown keyword argument is a :class:`JacoError`
     naming the closest keywords it takes (``n_ant`` -> ``n_ants``) and listing them all, instead
-    of Python's TypeError. The signature is kept (``inspect.signature`` sees ``fn``'s)."""
+    of Python's TypeError; a former keyword (``variant=``) is taken as its new name. The signature
+    is kept (``inspect.signature`` sees ``fn``'s)."""
     params = inspect.signature(fn).parameters.values()
     names = [p.name for p in params if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
 
     @functools.wraps(fn)
     def checked(*args, **kwargs):
+        if "planner" in names:
+            kwargs = resolve_aliases(kwargs)
         for key in kwargs:
             if key not in names:
                 raise JacoError(f"unknown keyword {key!r} for jaco.{fn.__name__}{did_you_mean(key, names)}; "

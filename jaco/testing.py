@@ -1,7 +1,7 @@
 """The contract every planner passes, as functions a user can call on a planner of their own.
 
 ``jaco.testing.check_planner(p)`` runs every check below on ``p`` (a name, a composition or a
-:class:`~jaco.engine.variant.Variant`) and raises :class:`AssertionError` naming the first that
+:class:`~jaco.engine.planner.Planner`) and raises :class:`AssertionError` naming the first that
 fails; each check is also a function of its own. jaco's tests run the same functions on every
 registered planner (``tests/test_variants.py``), so a planner that passes here is held to what
 the built-in ones are held to: valid paths (free cells, 8-connected, no corner cutting, never
@@ -19,13 +19,13 @@ import numpy as np
 
 from .api import solve
 from .engine.params import SPECS
+from .engine.planner import Planner
 from .engine.run import TRACES
-from .engine.variant import Variant
 from .errors import ProblemError
 from .grid import Grid
 from .maps import named, random_map
 from .metrics import validate_path
-from .planners.registry import get_variant
+from .planners.registry import get_planner
 from .research.sweeps import sweep
 
 __all__ = [
@@ -46,7 +46,7 @@ def _ends(grid: Grid) -> tuple[Any, Any]:
     return grid.meta["start"], grid.meta["goal"]
 
 
-def _other_value(v: Variant) -> tuple[str, float, float]:
+def _other_value(v: Planner) -> tuple[str, float, float]:
     """The planner's first parameter, its default and another value inside its range."""
     name = v.params[0]
     x = float(v.defaults[name])
@@ -61,7 +61,7 @@ def check_paths(planner, maps: Sequence[Grid] | None = None) -> None:
     """On every map: the run succeeds, its path is valid (free cells, 8-connected, no corner cut)
     and never shorter than the exact optimum, the gap is (L − L*)/L*, the history holds no NaN,
     the best-so-far never rises and the best iteration lies in the run."""
-    v = get_variant(planner)
+    v = get_planner(planner)
     for grid in maps or default_maps():
         start, goal = _ends(grid)
         r = solve(grid, start, goal, v, seed=0, **SMALL)
@@ -79,7 +79,7 @@ def check_paths(planner, maps: Sequence[Grid] | None = None) -> None:
 
 def check_pheromone(planner, grid: Grid | None = None) -> None:
     """The final pheromone is finite and non-negative."""
-    v = get_variant(planner)
+    v = get_planner(planner)
     grid = grid or default_maps()[0]
     r = solve(grid, *_ends(grid), v, seed=1, keep_pheromone=True, **SMALL)
     tau = r.pheromone
@@ -90,7 +90,7 @@ def check_pheromone(planner, grid: Grid | None = None) -> None:
 def check_seeds(planner, grid: Grid | None = None) -> None:
     """The same seed gives the same run bit for bit; other seeds give other walks (some history or
     the cells the ants covered differ: a planner may find the optimum every time)."""
-    v = get_variant(planner)
+    v = get_planner(planner)
     grid = grid or default_maps()[0]
     a = solve(grid, *_ends(grid), v, seed=5, **SMALL)
     b = solve(grid, *_ends(grid), v, seed=5, **SMALL)
@@ -105,7 +105,7 @@ def check_seeds(planner, grid: Grid | None = None) -> None:
 def check_sweep(planner, grid: Grid | None = None) -> None:
     """Each row of a sweep (two values of the planner's first parameter × two seeds) equals the
     single run with that value and seed."""
-    v = get_variant(planner)
+    v = get_planner(planner)
     grid = grid or default_maps()[1]
     name, x, y = _other_value(v)
     table = sweep(grid, *_ends(grid), v, params={name: [x, y]}, seeds=[0, 3], **SMALL)
@@ -121,7 +121,7 @@ def check_sweep(planner, grid: Grid | None = None) -> None:
 
 def check_compiles_once(planner) -> None:
     """Repeated calls of one shape (other parameter values, maps and queries) compile nothing new."""
-    v = get_variant(planner)
+    v = get_planner(planner)
     a = random_map(12, 0.2, seed=1)
     b = random_map(12, 0.1, seed=2)
     shape: dict[str, Any] = dict(SMALL, steplimit=96)  # one step limit: a default one may depend on the map
@@ -137,7 +137,7 @@ def check_compiles_once(planner) -> None:
 
 def check_unreachable(planner) -> None:
     """An unreachable goal is a :class:`~jaco.errors.ProblemError` before anything compiles."""
-    v = get_variant(planner)
+    v = get_planner(planner)
     grid = Grid.from_rows(["..#..", "..#..", "..#.."])
     before = TRACES[v.name]
     try:
@@ -152,7 +152,7 @@ def check_unreachable(planner) -> None:
 def check_failed_runs(planner) -> None:
     """Runs that cannot succeed (two steps to the far corner) are inf, never NaN, with best
     iteration −1, inside a batch."""
-    v = get_variant(planner)
+    v = get_planner(planner)
     grid = random_map(12, 0.1, seed=0)
     name, x, y = _other_value(v)
     table = sweep(grid, (0, 0), (11, 11), v, params={name: [x, y]}, seeds=2, n_ants=4, n_iters=3, steplimit=2)
@@ -164,7 +164,7 @@ def check_failed_runs(planner) -> None:
 
 def check_trivial_query(planner, grid: Grid | None = None) -> None:
     """Start = goal: success, length 0, the path is the one cell."""
-    v = get_variant(planner)
+    v = get_planner(planner)
     grid = grid or default_maps()[0]
     start = _ends(grid)[0]
     r = solve(grid, start, start, v, **SMALL)
@@ -173,14 +173,14 @@ def check_trivial_query(planner, grid: Grid | None = None) -> None:
 
 def check_documented(planner) -> None:
     """A name, a source and a description; every parameter has a finite default."""
-    v = get_variant(planner)
-    assert isinstance(v, Variant) and v.name and v.source and v.doc, f"{v!r}: name, source and doc are required"
+    v = get_planner(planner)
+    assert isinstance(v, Planner) and v.name and v.source and v.doc, f"{v!r}: name, source and doc are required"
     assert set(v.defaults) >= set(v.params), f"{v.name}: parameters without a default"
     assert all(math.isfinite(float(v.defaults[k])) for k in v.params), f"{v.name}: a default is not finite"
 
 
 def check_planner(planner, maps: Sequence[Grid] | None = None) -> None:
-    """Every check of this module on ``planner`` (a name, a composition or a Variant); raises
+    """Every check of this module on ``planner`` (a name, a composition or a Planner); raises
     :class:`AssertionError` naming the first that fails. About a minute on two cores: each check
     compiles the planner's programs for its own shapes."""
     maps = list(maps) if maps is not None else default_maps()

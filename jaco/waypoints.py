@@ -36,11 +36,11 @@ import numpy as np
 
 from .engine.cache import cached
 from .engine.checks import params_from, prepare
+from .engine.planner import Planner
 from .engine.problem import _as_cell, make_problem, stack
 from .engine.result import Result, to_result
 from .engine.run import make_run
 from .engine.shape import RunShape
-from .engine.variant import Variant
 from .errors import ProblemError
 from .exact import distance_field, shortest_path
 from .grid import Grid
@@ -84,7 +84,7 @@ def leg_keys(seed: int, n_legs: int) -> jax.Array:
     return jnp.stack([base] + [jax.random.fold_in(base, i) for i in range(1, n_legs)])
 
 
-def compiled_legs(variant: Variant, shape: RunShape):
+def compiled_legs(variant: Planner, shape: RunShape):
     """``jit(vmap(run))`` over (key, problem) pairs with shared params, cached like
     :func:`jaco.engine.run.compiled_run` (by the variant and :attr:`RunShape.program`)."""
     def build():
@@ -94,7 +94,7 @@ def compiled_legs(variant: Variant, shape: RunShape):
     return cached(("legs", variant, *shape.program), build)
 
 
-def run_legs(grid: Grid, points: list, variant: Variant, *, seed: int, shape: RunShape, values: dict) -> list[Result]:
+def run_legs(grid: Grid, points: list, variant: Planner, *, seed: int, shape: RunShape, values: dict) -> list[Result]:
     """One :class:`Result` per leg ``points[i] → points[i+1]``, all legs in one batched call.
     ``points`` come from :func:`check_waypoints`; ``values`` are validated parameter values."""
     legs = list(zip(points[:-1], points[1:]))
@@ -143,7 +143,7 @@ def combine(legs: list[Result]) -> Result:
     )
 
 
-def solve_waypoints(grid: Grid, start, goal, variant: Variant, waypoints, *, seed, n_ants, n_iters, steplimit,
+def solve_waypoints(grid: Grid, start, goal, variant: Planner, waypoints, *, seed, n_ants, n_iters, steplimit,
                     connectivity, keep_pheromone, **params) -> Result:
     """The body of ``jaco.solve(..., waypoints=...)`` (whose signature has the defaults): validate
     the call as a single run is validated, and every target; run the legs in one batched call;

@@ -3,7 +3,7 @@ edit anywhere else: docs/adding_a_planner.md in practice.
 
 The guide's notebook cell (a pheromone rule with a new hyperparameter and a state of its own) is
 run here as it is printed, and ``jaco.testing.check_planner`` (the contract of
-``tests/test_variants.py``) runs inside it. A toy built from functions with ``make_variant``
+``tests/test_variants.py``) runs inside it. A toy built from functions with ``make_planner``
 passes the same contract.
 """
 
@@ -17,7 +17,7 @@ import pytest
 
 import jaco
 from jaco.engine import pheromone as ph
-from jaco.engine.variant import make_variant
+from jaco.engine.planner import make_planner
 from jaco.planners.compose import COMPONENTS
 from jaco.planners.registry import register
 
@@ -26,7 +26,7 @@ GUIDE = ROOT / "docs" / "adding_a_planner.md"
 
 #: Ant System in which only the iteration's best ant deposits: τ ← (1−ρ)τ, then τ += Q/L_ib on
 #: the iteration-best path (thesis eqs. 2-2 and 2-17's deposit, without MMAS's bounds).
-TOY = make_variant(
+TOY = make_planner(
     "toy-iteration-best",
     "tests/test_adding_a_planner.py: thesis eqs. 2-2, 2-17 (deposit only)",
     "A toy planner for the contract test: Ant System whose pheromone is deposited by the "
@@ -45,7 +45,7 @@ def registered(variant):
     try:
         yield variant.name
     finally:
-        del jaco.VARIANTS[variant.name]
+        del jaco.PLANNERS[variant.name]
 
 
 def _package_digest() -> str:
@@ -68,7 +68,7 @@ def cell():
     namespace: dict = {}
     exec(compile(_cell(), str(GUIDE), "exec"), namespace)
     yield namespace
-    jaco.VARIANTS.pop("as-restart", None)
+    jaco.PLANNERS.pop("as-restart", None)
     COMPONENTS["rule"].pop("as-restart", None)
     assert _package_digest() == before
 
@@ -108,9 +108,9 @@ def test_a_toy_built_from_functions_passes_the_contract():
 
 def test_registering_is_checked_and_undone():
     with registered(TOY) as registered_name:
-        assert jaco.VARIANTS[registered_name] is TOY and register(TOY) is TOY  # the same object: harmless
+        assert jaco.PLANNERS[registered_name] is TOY and register(TOY) is TOY  # the same object: harmless
         with pytest.raises(jaco.JacoError, match="already registered"):
             register(TOY._replace(doc="another planner under the same name"))
-        with pytest.raises(jaco.JacoError, match="only a Variant"):
+        with pytest.raises(jaco.JacoError, match="only a Planner"):
             register("mmas")
-    assert TOY.name not in jaco.VARIANTS
+    assert TOY.name not in jaco.PLANNERS

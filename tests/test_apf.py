@@ -314,7 +314,7 @@ def test_table_is_computed_once_per_run_not_per_iteration():
         calls.append(1)
         return potential.apf_distance(problem)
 
-    v = jaco.VARIANTS["apf-aco"]
+    v = jaco.PLANNERS["apf-aco"]
     v = v._replace(name="apf-aco-count", rule=ph.chain(apf_guided.apf_init(counting), ph.evaporate(), apf_guided.deposit_best_half()))
     grid = jaco.Grid.from_rows(["......", "..#...", "..#...", "......"])
     prob = make_problem(grid, (2, 0), (2, 5))
@@ -324,7 +324,7 @@ def test_table_is_computed_once_per_run_not_per_iteration():
 
 # -- the variants ---------------------------------------------------------------------------------
 def test_variants_defaults_and_sources():
-    a, c = jaco.VARIANTS["apf-aco"], jaco.VARIANTS["pf-aco"]
+    a, c = jaco.PLANNERS["apf-aco"], jaco.PLANNERS["pf-aco"]
     for v in (a, c):
         d = v.default_params()
         assert (d.alpha, d.beta, d.rho, d.q) == (2.0, 20.0, 0.3, 1.0)  # tuned (docs/variants.md)

@@ -28,7 +28,7 @@ from jaco.engine.params import SPECS
 from jaco.engine.problem import make_problem
 from jaco.engine.checks import prepare
 from jaco.engine.memory import memory_budget
-from jaco.planners.registry import get_variant
+from jaco.planners.registry import get_planner
 from jaco.research.records import RecordError, load_run
 
 FAST = settings(max_examples=40, deadline=None,
@@ -259,7 +259,7 @@ PARAM_NAMES = st.sampled_from(sorted(SPECS) + ["nope", ""])
        sizes=st.tuples(*[st.one_of(st.integers(-2, 40), st.sampled_from([2**31, 10**9, 2**64]), ANY)] * 3),
        seed=st.one_of(st.integers(-2, 2**33), ANY))
 def test_parameter_sets_sizes_and_seeds(values, variant, sizes, seed):
-    v = get_variant(variant)
+    v = get_planner(variant)
     n_ants, n_iters, steplimit = sizes
     prepared = outcome(lambda: prepare(GRID, v, seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,
                                        params=values))
@@ -584,7 +584,7 @@ def test_deeply_nested_record(tmp_path):
     (lambda: jaco.Grid.from_rows([1, 2]), "list of str rows"),
     (lambda: jaco.Grid.from_rows(None), "a str or a list of str rows"),
     (lambda: jaco.solve("demo", (0, 0), (1, 1)), "expected a jaco.Grid, got str"),
-    (lambda: jaco.solve(GRID, (0, 0), (3, 5), variant=["mmas"]), "planner name (str) or a Variant, got list"),
+    (lambda: jaco.solve(GRID, (0, 0), (3, 5), variant=["mmas"]), "planner name (str) or a Planner, got list"),
     (lambda: jaco.solve(GRID, (math.inf, 0), (3, 5)), "start must be a (row, col) pair of integers"),
     (lambda: jaco.solve(GRID, (0, 0), (3, 5), alpha="1"), "must be a number"),
     (lambda: jaco.solve(GRID, (0, 0), (3, 5), connectivity="8"), "connectivity must be 4 or 8"),
@@ -617,8 +617,23 @@ def test_a_misspelt_keyword_is_answered_with_the_closest_names(call, suggestion,
 def test_keyword_checks_keep_the_signature():
     import inspect
 
-    assert list(inspect.signature(jaco.sweep).parameters)[:6] == ["grid", "start", "goal", "variant", "params", "seeds"]
+    assert list(inspect.signature(jaco.sweep).parameters)[:6] == ["grid", "start", "goal", "planner", "params", "seeds"]
     assert "population" in inspect.signature(jaco.tune).parameters
+
+
+def test_the_former_keyword_variant_is_the_planner_keyword():
+    """``variant=`` (the keyword's name before planners had one name) still works everywhere a
+    planner is named, and giving both is one clear error."""
+    a = jaco.solve(GRID, (0, 0), (3, 5), planner="as", seed=2, **SMALL)
+    b = jaco.solve(GRID, (0, 0), (3, 5), variant="as", seed=2, **SMALL)
+    assert a.path.tolist() == b.path.tolist() and a.variant == b.variant == "as"
+    t = jaco.sweep(GRID, (0, 0), (3, 5), variant=["as", "acs"], seeds=1, **SMALL)
+    assert list(t["variant"]) == ["as", "acs"]
+    with pytest.raises(jaco.JacoError, match="variant= and planner= are the same argument"):
+        jaco.sweep(GRID, (0, 0), (3, 5), variant="as", planner="acs", seeds=1, **SMALL)
+    with pytest.raises(jaco.JacoError, match="variant= and planner= are the same argument"):
+        jaco.solve(GRID, (0, 0), (3, 5), variant="as", planner="acs", **SMALL)
+    assert jaco.VARIANTS is jaco.PLANNERS and jaco.Variant is jaco.Planner
 
 
 def test_a_list_of_variants_is_still_a_sweep_axis():
@@ -647,9 +662,9 @@ def test_internal_errors_are_one_line_and_exit_3(capsys, monkeypatch):
     def broken(args):
         raise RuntimeError("boom\nsecond line")
 
-    monkeypatch.setattr("jaco.cli.parser.cmd_variants", broken)
-    code, _, err = run_cli(capsys, "variants")
+    monkeypatch.setattr("jaco.cli.parser.cmd_planners", broken)
+    code, _, err = run_cli(capsys, "planners")
     one_error_line(code, err, "jaco: internal error: RuntimeError: boom second line", "report", "--debug",
                    exit_code=3)
-    code, _, err = run_cli(capsys, "--debug", "variants")
+    code, _, err = run_cli(capsys, "--debug", "variants")  # the command's former name
     assert code == 3 and "Traceback" in err and "boom" in err

@@ -67,7 +67,7 @@ def test_selection_is_the_product_and_enters_the_weights_with_gamma(problem):
     assert sel[at(0, 0), 1] == pytest.approx(3 / 7 * (1 - t1 / (t1 + t2)), abs=1e-6)
 
     v = chaos.CHAOS_ACO
-    classic = v._replace(factor=jaco.VARIANTS["as"].factor)  # the same weights without the shares
+    classic = v._replace(factor=jaco.PLANNERS["as"].factor)  # the same weights without the shares
     trail = ph.Trail(jnp.full(8 * problem.n_cells, 0.5, jnp.float32), 0.0, jnp.inf)
     valid = np.asarray(problem.nbr) >= 0
     for gamma in (0.0, 1.0, 2.5):
@@ -137,7 +137,7 @@ def test_no_perturbation_when_no_path_is_above_the_mean():
     x = np.float32(0.17985597)
     walks = _walks([x, x, x, math.inf], [[0, 1, 2, 3], [4, -1, -1, 5]])
     tau = jnp.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
-    out = chaos.chaos_perturb().update(ph.Trail(tau, 0.0, jnp.inf), walks, None, jaco.VARIANTS["chaos-aco"].default_params())
+    out = chaos.chaos_perturb().update(ph.Trail(tau, 0.0, jnp.inf), walks, None, jaco.PLANNERS["chaos-aco"].default_params())
     np.testing.assert_array_equal(np.asarray(out.tau), np.asarray(tau))
     amounts = np.asarray(chaos.at_or_below_mean_cycle(walks, jaco.Params(q=1.0)))  # one per ant
     np.testing.assert_allclose(amounts, [1 / x, 1 / x, 1 / x, 0.0], rtol=1e-6)
@@ -145,7 +145,7 @@ def test_no_perturbation_when_no_path_is_above_the_mean():
 
 @pytest.mark.slow  # a sweep of its own parameters (chaos-aco runs the contract in the slow checks)
 def test_chaos_aco_is_registered_and_sweeps_its_own_parameters():
-    v = jaco.VARIANTS["chaos-aco"]
+    v = jaco.PLANNERS["chaos-aco"]
     assert {"gamma", "chaos_iters", "chaos_mu"} <= set(v.params)
     grid = jaco.maps.random_map(10, 0.2, seed=1)
     table = jaco.sweep(grid, (0, 0), (9, 9), "chaos-aco", params={"gamma": [0.0, 3.0], "chaos_iters": [1, 20]},

@@ -121,7 +121,7 @@ def test_failed_run_gives_null_not_infinity_in_json(tmp_path, capsys):
 def test_unknown_param_lists_valid_names(capsys):
     code, _, err = run(capsys, "solve", "demo", *SMALL, "--param", "gamma=1")
     assert_user_error(code, err, "gamma")
-    for name in jaco.VARIANTS["mmas"].params:
+    for name in jaco.PLANNERS["mmas"].params:
         assert name in err
 
 
@@ -186,7 +186,7 @@ def test_sweep_writes_tidy_csv_and_prints_best(tmp_path, capsys):
     with out_csv.open() as f:
         rows = list(csv.DictReader(f))
     assert len(rows) == 4
-    expected = set(jaco.VARIANTS["mmas"].params) | {
+    expected = set(jaco.PLANNERS["mmas"].params) | {
         "seed", "success", "length", "cost", "best_iteration", "optimal", "gap", "coverage"}
     assert expected <= set(rows[0])
     assert sorted({float(r["alpha"]) for r in rows}) == [0.5, 2.0]
@@ -207,7 +207,7 @@ def test_sweep_over_several_planners_and_a_composition(tmp_path, capsys):
     assert code == 0, err
     with out_csv.open() as f:
         rows = list(csv.DictReader(f))
-    full = jaco.planners.registry.get_variant(comp).name
+    full = jaco.planners.registry.get_planner(comp).name
     assert sorted({r["variant"] for r in rows}) == sorted(["acs", full]) and len(rows) == 8
     demo = jaco.maps.named("demo")
     alone = jaco.sweep(demo, demo.meta["start"], demo.meta["goal"], "acs", {"beta": [2.0, 6.0]}, 2,
@@ -228,8 +228,8 @@ def test_variants_lists_every_registered_variant(capsys):
     code, out, _ = run(capsys, "variants")
     assert code == 0
     lines = out.strip().splitlines()
-    assert len(lines) == len(jaco.VARIANTS)
-    for line, (name, variant) in zip(lines, jaco.VARIANTS.items()):
+    assert len(lines) == len(jaco.PLANNERS)
+    for line, (name, variant) in zip(lines, jaco.PLANNERS.items()):
         assert line.split()[0] == name
         assert variant.source in line
 
@@ -248,13 +248,13 @@ def test_help_returns_zero(capsys):
     assert "a:b:n" in capsys.readouterr().out
 
 
-def test_console_script_variants_subprocess():
+def test_console_script_planners_subprocess():
     exe = shutil.which("jaco")
-    cmd = [exe, "variants"] if exe else [sys.executable, "-m", "jaco.cli", "variants"]
+    cmd = [exe, "planners"] if exe else [sys.executable, "-m", "jaco.cli", "planners"]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     names = [line.split()[0] for line in proc.stdout.strip().splitlines()]
-    assert names == list(jaco.VARIANTS)
+    assert names == list(jaco.PLANNERS)
 
 
 def test_console_script_user_error_subprocess():
@@ -355,8 +355,8 @@ def test_sweep_table_of_successes_has_numbers(capsys):
 def test_variants_sources_start_in_one_column(capsys):
     code, out, _ = run(capsys, "variants")
     assert code == 0
-    columns = {line.index(v.source) for line, v in zip(out.splitlines(), jaco.VARIANTS.values())}
-    assert len(columns) == 1 and "iaaco-printed" in jaco.VARIANTS
+    columns = {line.index(v.source) for line, v in zip(out.splitlines(), jaco.PLANNERS.values())}
+    assert len(columns) == 1 and "iaaco-printed" in jaco.PLANNERS
 
 
 def test_json_writes_each_list_on_one_line(tmp_path, capsys):

@@ -23,11 +23,11 @@ TINY = dict(n_ants=10, n_iters=6)
 PARTS = ("construct", "heuristic", "factor", "rule", "schedule", "cost", "transition", "pheromone_on", "local_search")
 
 
-@pytest.mark.parametrize("name", sorted(jaco.VARIANTS))
+@pytest.mark.parametrize("name", sorted(jaco.PLANNERS))
 def test_every_registered_planner_is_a_composition(name):
     """A registered planner is defined as ``compose(...)`` plus its own name and defaults: the
     composition it records has the very same functions and the same parameters."""
-    planner = jaco.VARIANTS[name]
+    planner = jaco.PLANNERS[name]
     composed = parse(planner.composition)
     assert composed is not None and composed.name == planner.composition
     for part in PARTS:
@@ -47,7 +47,7 @@ def test_the_docs_table_of_registered_planners_is_their_compositions():
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
         if len(cells) == 1 + len(KINDS) and cells[0].startswith("`"):
             rows[cells[0].strip("`")] = dict(zip(KINDS, cells[1:]))
-    assert rows == {name: _kinds(v.composition) for name, v in jaco.VARIANTS.items()}
+    assert rows == {name: _kinds(v.composition) for name, v in jaco.PLANNERS.items()}
 
 
 def fingerprint(name: str) -> dict:
@@ -122,12 +122,12 @@ def test_names_defaults_and_the_same_object_for_the_same_arguments():
         "compose(construct=backtrack, heuristic=iaaco, rule=mmas, transition=roulette, schedule=constant, cost=length)"
     )
     assert v is compose(construct="backtrack", heuristic="iaaco", rule="mmas") is parse(v.name)
-    assert jaco.planners.registry.get_variant(v.name) is v
+    assert jaco.planners.registry.get_planner(v.name) is v
     assert v.pheromone_on == "cells"  # backtracking ants keep pheromone on cells
     d = dict(v.defaults)
-    assert d["alpha"] == jaco.VARIANTS["mmas"].defaults["alpha"]  # the rule's α
-    assert d["beta"] == jaco.VARIANTS["iaaco"].defaults["beta"] and d["lam"] == 3.0  # the heuristic's
-    assert d["rho_local"] == jaco.VARIANTS["iaca"].defaults["rho_local"]  # the construct's
+    assert d["alpha"] == jaco.PLANNERS["mmas"].defaults["alpha"]  # the rule's α
+    assert d["beta"] == jaco.PLANNERS["iaaco"].defaults["beta"] and d["lam"] == 3.0  # the heuristic's
+    assert d["rho_local"] == jaco.PLANNERS["iaca"].defaults["rho_local"]  # the construct's
     assert compose(rule="acs").transition == "pseudo-random"  # the rule's own transition by default
     assert compose(rule="iaaco").schedule is jaco.planners.iaaco.q0_schedule
     assert "alpha" not in compose(rule="pg").params  # α ≡ 1 for the policy's logits
@@ -173,7 +173,7 @@ def test_a_composition_is_recorded_and_reruns_bit_for_bit(tmp_path):
 def test_a_sweep_over_planners_is_a_categorical_axis(tmp_path):
     planners = ["mmas", compose(construct="backtrack", rule="mmas"), "compose(heuristic=iaaco, rule=acs)"]
     table = jaco.sweep(GRID, *ENDS, planners, params={"beta": [2.0, 6.0]}, seeds=2, **TINY)
-    names = [jaco.planners.registry.get_variant(p).name for p in planners]
+    names = [jaco.planners.registry.get_planner(p).name for p in planners]
     assert list(table.columns[:1]) == ["variant"] and table["variant"].unique().tolist() == names
     assert len(table) == 3 * 2 * 2 and set(table.attrs["sweep"]) == set(names)
     for p, name in zip(planners, names):  # each planner's rows are its own sweep's
@@ -191,5 +191,5 @@ def test_a_sweep_over_planners_is_a_categorical_axis(tmp_path):
 
 
 def test_with_cost_names_resolve_too():
-    v = jaco.planners.registry.get_variant("acs+multi")
+    v = jaco.planners.registry.get_planner("acs+multi")
     assert v is jaco.planners.registry.with_cost("acs", "multi")

@@ -20,7 +20,7 @@ from jaco.planners.double import DACA, IDACA, SPLICED, assemble, best_population
 SMALL = dict(n_ants=16, n_iters=12)
 # The 12x12 map's runs all keep the pheromone, so they share one compiled run per variant.
 KEEP = dict(SMALL, keep_pheromone=True)
-VARIANTS = {"idaca": IDACA, "daca": DACA}
+PLANNERS = {"idaca": IDACA, "daca": DACA}
 SQRT2 = math.sqrt(2.0)
 
 
@@ -29,9 +29,9 @@ def maps_():
     return [jaco.maps.random_map(12, 0.2, seed=3), jaco.maps.named("utrap-15")]
 
 
-@pytest.fixture(params=sorted(VARIANTS))
+@pytest.fixture(params=sorted(PLANNERS))
 def variant(request):
-    return VARIANTS[request.param]
+    return PLANNERS[request.param]
 
 
 def _ends(grid):

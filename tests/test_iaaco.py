@@ -94,7 +94,7 @@ def test_obstacle_exclusion_by_hand():
 def test_weights_are_eq3_scaled_per_cell():
     grid = jaco.Grid.from_rows([".....", ".....", "..#..", ".....", "....."])
     prob = to_device(make_problem(grid, (0, 0), (4, 4)))
-    v = jaco.VARIANTS["iaaco"]
+    v = jaco.PLANNERS["iaaco"]
     p = v.default_params().replace(alpha=1.5, beta=12.0, lam=2.0, rs=1.0)
     n = grid.n_cells
     tau = jnp.asarray(np.random.default_rng(0).uniform(0.01, 3.0, 8 * n), jnp.float32)
@@ -198,7 +198,7 @@ def test_with_cost_any_variant_cached():
     assert acs_multi is with_cost("acs", "multi") and acs_multi.name == "acs+multi"
     assert acs_multi is jaco.planners.registry.with_cost("acs", "multi")  # the registry by its module path
     assert set(costs.COST_PARAMS) <= set(acs_multi.params)
-    assert with_cost("iaaco", "multi") is jaco.VARIANTS["iaaco"]  # already its cost
+    assert with_cost("iaaco", "multi") is jaco.PLANNERS["iaaco"]  # already its cost
     with pytest.raises(jaco.ParamError, match="unknown cost"):
         with_cost("acs", "energy")
     grid = jaco.maps.random_map(12, 0.2, seed=3)

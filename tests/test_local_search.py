@@ -24,7 +24,7 @@ from jaco.engine.checks import default_steplimit, legacy_steplimit
 from jaco.engine.run import TRACES
 from jaco.metrics import validate_path
 from jaco.moves import MOVE_LENGTHS, MOVES, neighbour_table
-from jaco.planners.registry import get_variant, with_local_search
+from jaco.planners.registry import get_planner, with_local_search
 from jaco.research.records import load_run, save_sweep
 
 needs_kernel = pytest.mark.skipif(not native.available(), reason="the native walk was not built")
@@ -181,14 +181,14 @@ def maps_():
 QUICK = ["acs"]
 
 
-@pytest.mark.parametrize("name", [n if n in QUICK else pytest.param(n, marks=pytest.mark.slow) for n in sorted(jaco.VARIANTS)])
+@pytest.mark.parametrize("name", [n if n in QUICK else pytest.param(n, marks=pytest.mark.slow) for n in sorted(jaco.PLANNERS)])
 def test_every_planner_with_local_search_keeps_the_contract(name, maps_):
     """Valid paths; in the first iteration (the same walks with and without: nothing has been
     deposited yet) the best is never longer with local search; the same key gives the same run;
     the native kernel gives the JAX definition's run bit for bit. The normal run's planner on both
     maps, the others on the U-trap (each map is a program of its own)."""
     v = with_local_search(name)
-    assert v.name == f"{name}+shortcut" and get_variant(v.name) is v and jaco.VARIANTS[name].local_search is None
+    assert v.name == f"{name}+shortcut" and get_planner(v.name) is v and jaco.PLANNERS[name].local_search is None
     for grid in maps_ if name in QUICK else maps_[1:]:
         start, goal = grid.meta["start"], grid.meta["goal"]
         plain = jaco.solve(grid, start, goal, name, seed=0, **SMALL)
@@ -219,7 +219,7 @@ def test_each_candidate_of_an_iteration_is_never_longer_after_the_search(maps_):
     valid, each cost at most its walk's, the failed ants untouched."""
     grid = maps_[1]
     start, goal = grid.meta["start"], grid.meta["goal"]
-    v = jaco.VARIANTS["iaca"]
+    v = jaco.PLANNERS["iaca"]
     problem = jax.tree.map(jnp.asarray, make_problem(grid, start, goal))
     params = jaco.engine.checks.params_from(jaco.engine.checks.resolve_params(v, {}, where="test"))
     trail = v.rule.init(jaco.engine.pheromone.Trail(jnp.zeros(grid.n_cells), jnp.float32(0), jnp.float32(jnp.inf)),
@@ -246,7 +246,7 @@ def test_the_best_k_are_searched_and_a_cost_that_would_rise_keeps_the_walk(maps_
     grid = maps_[1]
     start, goal = grid.meta["start"], grid.meta["goal"]
     for name in ("iaca", "iaaco"):
-        v = get_variant(name)
+        v = get_planner(name)
         problem = jax.tree.map(jnp.asarray, make_problem(grid, start, goal))
         params = jaco.engine.checks.params_from(jaco.engine.checks.resolve_params(v, {}, where="test"))
         trail = v.rule.init(jaco.engine.pheromone.Trail(jnp.zeros(8 * grid.n_cells if v.pheromone_on == "moves" else grid.n_cells),
@@ -278,16 +278,16 @@ def test_names_resolve_to_one_object_and_published_planners_have_no_local_search
     plain = jaco.compose(construct="backtrack", heuristic="chaos", rule="iaca")
     assert "local_search" not in plain.name and plain.local_search is None
     assert plain is jaco.compose(construct="backtrack", heuristic="chaos", rule="iaca", local_search="none")
-    assert get_variant(c.name) is c is get_variant(plain.name + "+shortcut") is with_local_search(plain)
+    assert get_planner(c.name) is c is get_planner(plain.name + "+shortcut") is with_local_search(plain)
     assert with_local_search(c, "none") is plain
-    assert all(v.local_search is None for v in jaco.VARIANTS.values())
-    assert get_variant("acs+multi+shortcut").cost is jaco.engine.cost.multi_objective
+    assert all(v.local_search is None for v in jaco.PLANNERS.values())
+    assert get_planner("acs+multi+shortcut").cost is jaco.engine.cost.multi_objective
     with pytest.raises(jaco.JacoError, match="unknown local_search 'two-opt'; local searches: none, shortcut"):
         jaco.compose(local_search="two-opt")
     with pytest.raises(jaco.JacoError, match=r"unknown variant 'iaca\+two-opt'.*\+shortcut"):
-        get_variant("iaca+two-opt")
+        get_planner("iaca+two-opt")
     with pytest.raises(jaco.JacoError, match="has a local search already"):
-        with_local_search(get_variant("iaca+shortcut+multi"))
+        with_local_search(get_planner("iaca+shortcut+multi"))
 
 
 @pytest.mark.slow  # two planners, their sweep and solves and a record rerun
@@ -323,15 +323,15 @@ def test_backtracking_ants_get_twice_the_default_step_limit_stretched_on_mazes()
     assert jaco.exact.free_extent(berlin) < 512
     assert default_steplimit(berlin) == legacy_steplimit(berlin) == 4 * 512
     for name in ("iaca", "iaca+shortcut", jaco.compose(construct="backtrack", rule="mmas").name):
-        assert default_steplimit(berlin, get_variant(name)) == 8 * 512
-    assert default_steplimit(berlin, get_variant("acs")) == default_steplimit(berlin, get_variant("idaca")) == 4 * 512
+        assert default_steplimit(berlin, get_planner(name)) == 8 * 512
+    assert default_steplimit(berlin, get_planner("acs")) == default_steplimit(berlin, get_planner("idaca")) == 4 * 512
     maze = jaco.maps.load(jaco.maps.bundled("maze-128-128-1.map"))
     assert jaco.exact.free_extent(maze) == 1208  # a perfect maze: the double sweep is exact, 4.7 × (H + W)
-    assert default_steplimit(maze) == 1024 and default_steplimit(maze, get_variant("iaca")) == 8 * 1208
+    assert default_steplimit(maze) == 1024 and default_steplimit(maze, get_planner("iaca")) == 8 * 1208
     snake = jaco.Grid.from_rows(["#....", "#.##.", "#..#.", "##.#.", "...#."])  # one corridor, 14 steps end to end
-    assert jaco.exact.free_extent(snake) == 14 and default_steplimit(snake, get_variant("iaca")) == 2 * snake.n_free
+    assert jaco.exact.free_extent(snake) == 14 and default_steplimit(snake, get_planner("iaca")) == 2 * snake.n_free
     tiny = jaco.Grid.from_rows(["..", ".."])
-    assert default_steplimit(tiny) == 4 and default_steplimit(tiny, get_variant("iaca")) == 8
+    assert default_steplimit(tiny) == 4 and default_steplimit(tiny, get_planner("iaca")) == 8
     assert jaco.exact.free_extent(jaco.Grid.from_rows(["#.#"])) == 0
 
 
@@ -341,7 +341,7 @@ def test_a_sweep_record_without_a_step_limit_reruns_with_the_default_of_its_form
     each reruns with its own bit for bit."""
     grid = jaco.maps.named("utrap-20")
     ends = grid.meta["start"], grid.meta["goal"]
-    old, new = legacy_steplimit(grid), default_steplimit(grid, get_variant("iaca"))
+    old, new = legacy_steplimit(grid), default_steplimit(grid, get_planner("iaca"))
     assert new == 2 * old
     kw = dict(seeds=2, n_ants=30, n_iters=3)
     then = jaco.sweep(grid, *ends, "iaca", steplimit=old, **kw)
@@ -360,9 +360,9 @@ def test_a_sweep_record_without_a_step_limit_reruns_with_the_default_of_its_form
     # Format 3: twice the old default for backtracking ants, 8·(H + W) before the free cells' extent
     # counted; on a maze the two differ, and a list of planners reruns each with its own.
     maze = jaco.maps.load(jaco.maps.bundled("maze-128-128-1.map"))
-    three = legacy_steplimit(maze, get_variant("iaca"), 3)
-    assert (three, legacy_steplimit(maze, get_variant("acs"), 3)) == (8 * 256, 4 * 256)
-    assert three < default_steplimit(maze, get_variant("iaca"))
+    three = legacy_steplimit(maze, get_planner("iaca"), 3)
+    assert (three, legacy_steplimit(maze, get_planner("acs"), 3)) == (8 * 256, 4 * 256)
+    assert three < default_steplimit(maze, get_planner("iaca"))
     doc.update(format_version=3, call={**doc["call"], "variant": ["iaca", "acs"]})
     sidecar.write_text(json.dumps(doc))
     rec = load_run(sidecar)
@@ -370,7 +370,7 @@ def test_a_sweep_record_without_a_step_limit_reruns_with_the_default_of_its_form
     seen = []
 
     def spy(**k):  # the sweep each planner would run, without running it
-        seen.append((get_variant(k["variant"]).name, k["steplimit"]))
+        seen.append((get_planner(k["variant"]).name, k["steplimit"]))
         table = then.iloc[:0].copy()
         table.attrs["sweep"] = {}
         return table

@@ -242,7 +242,7 @@ def _runs(variant):
 
 
 @pytest.mark.parametrize(
-    "variant", [v if v in _QUICK else pytest.param(v, marks=pytest.mark.slow) for v in sorted(jaco.VARIANTS)]
+    "variant", [v if v in _QUICK else pytest.param(v, marks=pytest.mark.slow) for v in sorted(jaco.PLANNERS)]
 )
 def test_every_planner_gives_the_same_runs_with_both_walks(variant, walk_choice):
     walk_choice("native")
@@ -388,7 +388,7 @@ def test_every_planner_sharded_with_the_jax_walk_equals_the_native_walk(tmp_path
         "import sys, jaco, pandas as pd\n"
         "g = jaco.maps.random_map(14, 0.15, seed=2)\n"
         "bad = []\n"
-        "for v in sorted(jaco.VARIANTS):\n"
+        "for v in sorted(jaco.PLANNERS):\n"
         "    tables = []\n"
         "    for walk, devices in (('native', 1), ('jax', 2)):\n"
         "        jaco.set_walk(walk)\n"

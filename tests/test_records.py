@@ -84,7 +84,7 @@ def test_record_contains_versions_map_hash_and_call(tmp_path, demo):
     call = doc["call"]
     assert (call["variant"], call["seed"], call["n_ants"], call["n_iters"]) == ("mmas", 3, 8, 6)
     assert call["steplimit"] == result.steplimit and call["connectivity"] == 4
-    assert call["params"]["alpha"] == 1.5 and set(call["params"]) == set(jaco.VARIANTS["mmas"].params)
+    assert call["params"]["alpha"] == 1.5 and set(call["params"]) == set(jaco.PLANNERS["mmas"].params)
     assert call["start"] == [17, 2] and call["goal"] == [2, 27]
     assert doc["result"]["path"] == result.path.tolist()
     assert doc["result"]["length"] == result.length

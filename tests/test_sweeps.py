@@ -110,7 +110,7 @@ def test_sweep_checks_a_design_against_the_variant_before_compiling():
         jaco.sweep(GRID, *ENDS, "as", params=designs.grid(q0=[0.5]), seeds=1, **TINY)
     # relations hold row by row: every row of this design has tau_min < tau_max ...
     rows = designs.table({"tau_min": [0.5, 0.01], "tau_max": [1.0, 0.2]})
-    values, _ = _config_table(jaco.VARIANTS["idaca"], rows)
+    values, _ = _config_table(jaco.PLANNERS["idaca"], rows)
     assert values["tau_min"].tolist() == [0.5, 0.01]
     # ... and one bad row is named
     bad = designs.table({"tau_min": [0.01, 0.5], "tau_max": [1.0, 0.2]})

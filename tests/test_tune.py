@@ -135,7 +135,7 @@ def test_tuned_parameters_beat_a_poor_start_on_held_out_seeds(poor_start):
     grid, start, goal = poor_start
     res = jaco.tune(grid, start, goal, "as", init={"beta": 0.5}, seed=0, **ES, **SMALL)
     assert res.init["beta"] == 0.5 and res.tuned == ("alpha", "beta", "rho")
-    assert set(res.params) == set(jaco.VARIANTS["as"].params)
+    assert set(res.params) == set(jaco.PLANNERS["as"].params)
     assert list(res.history.columns) == ["step", "objective", "success_rate", "alpha", "beta", "rho"]
     assert len(res.history) == ES["steps"] and np.isfinite(res.history.objective).all()
     assert res.history.beta.iloc[0] == pytest.approx(0.5, rel=1e-5)
@@ -171,7 +171,7 @@ def test_any_optax_optimiser_is_used_as_given():
                     optimizer=zero, steps=3, population=4, n_ants=4, n_iters=3)
     assert res.params["rho"] == pytest.approx(0.2, rel=1e-5) and res.params["q"] == pytest.approx(3.0, rel=1e-5)
     np.testing.assert_allclose(res.history.rho, 0.2, rtol=1e-5)
-    assert res.params["alpha"] == jaco.VARIANTS["mmas"].defaults["alpha"]  # untuned: unchanged
+    assert res.params["alpha"] == jaco.PLANNERS["mmas"].defaults["alpha"]  # untuned: unchanged
     assert callable(jaco.tune) and jaco.research.tuning.TuneResult is jaco.TuneResult
 
 

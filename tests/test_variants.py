@@ -41,7 +41,7 @@ COMPOSITIONS = [
 #: checks (``pytest -m slow``, run by CI), so that the default suite stays within five minutes on
 #: two cores.
 QUICK = ["acs", "iaca", COMPOSITIONS[0]]
-EVERY = sorted(jaco.VARIANTS) + COMPOSITIONS
+EVERY = sorted(jaco.PLANNERS) + COMPOSITIONS
 
 
 @pytest.fixture(params=[n if n in QUICK else pytest.param(n, marks=pytest.mark.slow) for n in EVERY])
@@ -92,18 +92,18 @@ def test_every_variant_is_documented(name):
 
 def test_a_check_fails_on_a_planner_that_breaks_the_contract():
     """The contract can fail: a planner whose pheromone turns negative, and one without a source."""
-    broken = jaco.VARIANTS["as"]._replace(
-        name="as-negative", rule=jaco.engine.pheromone.chain(jaco.VARIANTS["as"].rule, jaco.engine.pheromone.Rule(
+    broken = jaco.PLANNERS["as"]._replace(
+        name="as-negative", rule=jaco.engine.pheromone.chain(jaco.PLANNERS["as"].rule, jaco.engine.pheromone.Rule(
             jaco.engine.pheromone.keep_init, lambda trail, walks, problem, params: trail._replace(tau=-trail.tau))))
     with pytest.raises(AssertionError, match="pheromone not finite or negative"):
         testing.check_pheromone(broken)
     with pytest.raises(AssertionError, match="source and doc are required"):
-        testing.check_documented(jaco.VARIANTS["as"]._replace(source=""))
+        testing.check_documented(jaco.PLANNERS["as"]._replace(source=""))
 
 
 def test_pheromone_on_cells_is_supported():
     grid = jaco.maps.random_map(12, 0.2, seed=3)
-    on_cells = jaco.VARIANTS["as"]._replace(name="as-cells", pheromone_on="cells")
+    on_cells = jaco.PLANNERS["as"]._replace(name="as-cells", pheromone_on="cells")
     r = jaco.solve(grid, (0, 0), (11, 11), on_cells, seed=0, n_ants=16, n_iters=10, keep_pheromone=True)
     assert r.success and validate_path(grid, r.path, (0, 0), (11, 11)) == []
     assert r.pheromone.shape == (grid.n_cells,)

@@ -47,7 +47,7 @@ def test_path_visits_every_waypoint_in_order_and_is_valid(grid, name):
 
 def test_combined_result_is_the_sum_of_its_legs(grid):
     r = jaco.solve(grid, START, GOAL, "mmas", seed=4, waypoints=VIA, keep_pheromone=True, **SMALL)
-    v = jaco.VARIANTS["mmas"]
+    v = jaco.PLANNERS["mmas"]
     points = waypoints.check_waypoints(grid, START, GOAL, VIA)
     shape = RunShape(n_ants=8, n_iters=4, steplimit=default_steplimit(grid), connectivity=8, keep_pheromone=True)
     legs = waypoints.run_legs(grid, points, v, seed=4, shape=shape, values=resolve_params(v, {}, where="t"))

@@ -1,4 +1,4 @@
-"""Command line interface: ``jaco demo | solve | sweep | search | rerun | variants | maps | info``.
+"""Command line interface: ``jaco demo | solve | sweep | search | rerun | planners | maps | info``.
 
 Run ``jaco --help`` or ``jaco COMMAND --help`` for the options. Every user mistake (bad argument,
 unknown map / variant / parameter, missing file, blocked or unreachable start/goal, out-of-range

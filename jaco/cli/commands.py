@@ -1,4 +1,4 @@
-"""The commands: ``demo``, ``solve``, ``sweep``, ``compare``, ``rerun``, ``variants``, ``maps``, ``info`` (``cmd_*``), and
+"""The commands: ``demo``, ``solve``, ``sweep``, ``compare``, ``rerun``, ``planners`` (``variants``), ``maps``, ``info`` (``cmd_*``), and
 how a run is reported. Heavy modules are imported inside the functions."""
 
 from __future__ import annotations
@@ -129,7 +129,7 @@ def _run_and_report(grid, start, goal, args, params, *, scenario=None, scen_labe
 
     via = getattr(args, "waypoint", None)  # solve --waypoint R,C (several targets, jaco.waypoints)
     result = solve(
-        grid, start, goal, args.variant,
+        grid, start, goal, args.planner,
         seed=args.seed, n_ants=args.ants, n_iters=args.iters,
         steplimit=getattr(args, "steplimit", None), waypoints=via, **params,
     )
@@ -282,12 +282,12 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     grid = load_map(args.map)
     starts, goals, scenarios, label = resolve_queries(grid, args)
     _check_outputs(args, grid, files=(("--csv", None), ("--record", (".csv",)), ("--store", None)))
-    from ..planners.registry import get_variant
+    from ..planners.registry import get_planner
     from ..research.sweeps import sweep
     from ..research.tables import short_name
 
-    names = args.variant or [args.default_variant]
-    variants = [get_variant(v) for v in names]
+    names = args.planner or [args.default_planner]
+    variants = [get_planner(v) for v in names]
     variant = variants[0] if len(variants) == 1 else variants
     several = len(starts) > 1
     start, goal = (starts, goals) if several else (starts[0], goals[0])
@@ -369,9 +369,9 @@ def _print_sweep_summary(table, variants, axes, several) -> None:
 
 def _variant_of(row, variants):
     """The planner of a summary row (the one planner of the sweep, or the row's ``variant``)."""
-    from ..planners.registry import get_variant
+    from ..planners.registry import get_planner
 
-    return get_variant(row["variant"]) if len(variants) > 1 else variants[0]
+    return get_planner(row["variant"]) if len(variants) > 1 else variants[0]
 
 
 def _summary_table(shown, swept, lengths: bool = True) -> str:
@@ -481,11 +481,11 @@ def report_rerun(rerun: Any, what: str) -> int:
     return 1
 
 
-def cmd_variants(args: argparse.Namespace) -> int:
-    from ..planners.registry import VARIANTS
+def cmd_planners(args: argparse.Namespace) -> int:
+    from ..planners.registry import PLANNERS
 
-    width = max(len(name) for name in VARIANTS)  # the sources column starts at one place
-    for v in VARIANTS.values():
+    width = max(len(name) for name in PLANNERS)  # the sources column starts at one place
+    for v in PLANNERS.values():
         print(v.describe(width))
         if args.verbose:
             import textwrap

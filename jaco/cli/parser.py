@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from .args import _bucket, _cell, _indices, _int_at_least, _length, _nonneg_int, _Parser, _pos_int, _seed, _xy
-from .commands import cmd_compare, cmd_demo, cmd_info, cmd_maps, cmd_solve, cmd_sweep, cmd_variants
+from .commands import cmd_compare, cmd_demo, cmd_info, cmd_maps, cmd_solve, cmd_sweep, cmd_planners
 from .search import cmd_rerun, cmd_search
 
 DEMO_VARIANT = "mmas"  # on the demo map MMAS comes closer to the optimum than ACS (see --help)
@@ -14,22 +14,22 @@ DEFAULT_ANTS = 50
 DEFAULT_ITERS = 100
 
 
-def _variant_names() -> str:
-    from ..planners.registry import VARIANTS
+def _planner_names() -> str:
+    from ..planners.registry import PLANNERS
 
-    return ", ".join(VARIANTS)
+    return ", ".join(PLANNERS)
 
 
-def _add_run_options(p, *, default_variant: str, steplimit: bool = True, several: bool = False) -> None:
+def _add_run_options(p, *, default_planner: str, steplimit: bool = True, several: bool = False) -> None:
     if several:  # a sweep may run several planners, a categorical axis of the table
-        p.add_argument("--variant", action="append", metavar="V",
-                       help=f"ACO variant, repeatable to sweep over planners (default {default_variant}; "
-                       f"one of: {_variant_names()}, or a composition 'compose(construct=..., rule=...)'; "
+        p.add_argument("--planner", "--variant", dest="planner", action="append", metavar="P",
+                       help=f"ACO planner (--variant: its former name), repeatable to sweep over planners (default {default_planner}; "
+                       f"one of: {_planner_names()}, or a composition 'compose(construct=..., rule=...)'; "
                        "'<name>+shortcut' adds local search)")
-        p.set_defaults(default_variant=default_variant)
+        p.set_defaults(default_planner=default_planner)
     else:
-        p.add_argument("--variant", default=default_variant, metavar="V",
-                       help=f"ACO variant (default {default_variant}; one of: {_variant_names()}; "
+        p.add_argument("--planner", "--variant", dest="planner", default=default_planner, metavar="P",
+                       help=f"ACO planner (--variant: its former name; default {default_planner}; one of: {_planner_names()}; "
                        "'<name>+shortcut' adds local search)")
     p.add_argument("--ants", type=_pos_int, default=DEFAULT_ANTS, metavar="N",
                    help=f"ants per iteration (default {DEFAULT_ANTS})")
@@ -81,17 +81,17 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "demo", help="plan on the embedded demo map and plot the result",
         description="Run one colony on the embedded 20x30 demo map, compare with the exact optimum "
-        f"and write a PNG of both paths. The default variant is {DEMO_VARIANT}: over 32 seeds it "
+        f"and write a PNG of both paths. The default planner is {DEMO_VARIANT}: over 32 seeds it "
         "reached a 5.1% mean gap on this map, ACS 5.9%.",
     )
-    _add_run_options(p, default_variant=DEMO_VARIANT, steplimit=False)
+    _add_run_options(p, default_planner=DEMO_VARIANT, steplimit=False)
     p.add_argument("--seed", type=_seed, default=0, metavar="S", help="random seed (default 0)")
     p.add_argument("--out", default="demo.png", metavar="PNG", help="figure to write (default demo.png)")
     p.set_defaults(func=cmd_demo)
 
     p = sub.add_parser(
         "solve", help="plan one path on a map",
-        description="Plan one path with one ACO variant and report it beside the exact optimum. "
+        description="Plan one path with one ACO planner and report it beside the exact optimum. "
         "When no ant reaches the goal it prints a hint of what usually helps and exits with 4.",
     )
     p.add_argument("map", metavar="MAP",
@@ -99,7 +99,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_query_options(p)
     p.add_argument("--waypoint", action="append", type=_cell, metavar="R,C",
                    help="visit this cell on the way to the goal (repeatable, visited in the order given)")
-    _add_run_options(p, default_variant="mmas")
+    _add_run_options(p, default_planner="mmas")
     p.add_argument("--seed", type=_seed, default=0, metavar="S", help="random seed (default 0)")
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="set a hyperparameter (repeatable), e.g. --param alpha=1.5 --param rho=0.2")
@@ -122,12 +122,12 @@ def build_parser() -> argparse.ArgumentParser:
         "and print the best configurations.",
         epilog="Values: a:b:n is n values from a to b inclusive (linspace), a,b,c a list, "
         "a single number a fixed value. Example: jaco sweep demo --param alpha=0.5:3:6 "
-        "--param rho=0.1,0.3 --seeds 8 --csv sweep.csv; several planners: --variant mmas --variant acs "
+        "--param rho=0.1,0.3 --seeds 8 --csv sweep.csv; several planners: --planner mmas --planner acs "
         "(every --param must belong to every planner).",
     )
     p.add_argument("map", metavar="MAP", help="map file, named map or bundled file; see 'jaco maps'")
     _add_query_options(p)
-    _add_run_options(p, default_variant="mmas", several=True)
+    _add_run_options(p, default_planner="mmas", several=True)
     p.add_argument("--param", action="append", metavar="NAME=VALUES",
                    help="a sweep axis (repeatable): NAME=a:b:n, NAME=a,b,c or NAME=x")
     p.add_argument("--seeds", type=_pos_int, default=4, metavar="N",
@@ -147,18 +147,18 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser(
         "search", help="adaptive batched search over planners and parameters (Optuna / evosax samplers)",
-        description="Search planners (--variant, repeatable) and parameters (--param) for the smallest mean gap to "
+        description="Search planners (--planner, repeatable) and parameters (--param) for the smallest mean gap to "
         "the exact optimum: a sampler proposes a batch of trials, the batch runs as one compiled call, the "
         "results go back to the sampler. With --storage every trial is stored as its batch finishes and the "
         "same command again resumes (or extends, with more --trials) the study. Needs pip install 'jaco[search]'.",
         epilog="Values: LOW:HIGH a real range, LOW:HIGH:log log-uniform, LOW:HIGH:int integers, a,b,c a list, x a "
-        "fixed value. Example: jaco search Berlin_1_256.map --scen Berlin_1_256.map.scen --index 900 --variant iaca "
-        "--variant acs --param beta=1:20:log --param rho=0.01:0.5 --trials 256 --batch 64 --seeds 4 --sampler tpe "
+        "fixed value. Example: jaco search Berlin_1_256.map --scen Berlin_1_256.map.scen --index 900 --planner iaca "
+        "--planner acs --param beta=1:20:log --param rho=0.01:0.5 --trials 256 --batch 64 --seeds 4 --sampler tpe "
         "--storage sqlite:///study.db",
     )
     p.add_argument("map", metavar="MAP", help="map file, named map or bundled file; see 'jaco maps'")
     _add_query_options(p)
-    _add_run_options(p, default_variant="mmas", several=True)
+    _add_run_options(p, default_planner="mmas", several=True)
     p.add_argument("--param", action="append", metavar="NAME=RANGE",
                    help="a search dimension (repeatable): NAME=LOW:HIGH[:log][:int], NAME=a,b,c or NAME=x; "
                    "n_ants and n_iters may be searched too")
@@ -202,7 +202,7 @@ def build_parser() -> argparse.ArgumentParser:
         "what the data support, in words. A failed run counts as +inf: worse than any path, and two "
         "failures tie (docs/compare.md).",
         epilog="Example: jaco sweep Berlin_1_256.map --scen Berlin_1_256.map.scen --bucket 85: --count 6 "
-        "--variant iaca --variant mmas --param beta=8,16 --seeds 3 --csv b.csv; "
+        "--planner iaca --planner mmas --param beta=8,16 --seeds 3 --csv b.csv; "
         "jaco compare b.csv --by variant --by beta --cd cd.png --profile profile.png",
     )
     p.add_argument("table", metavar="TABLE.csv", help="a results table (jaco sweep --csv or --record)")
@@ -237,11 +237,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--study", metavar="NAME", help="the study's name (when the storage holds several)")
     p.set_defaults(func=cmd_rerun)
 
-    p = sub.add_parser("variants", help="list the registered ACO variants",
-                       description="One line per variant: name, source (paper and equation numbers), default "
+    p = sub.add_parser("planners", aliases=["variants"], help="list the registered ACO planners (also: jaco variants)",
+                       description="One line per planner: name, source (paper and equation numbers), default "
                                    "parameters. The equations and full references are in docs/algorithms.md.")
-    p.add_argument("-v", "--verbose", action="store_true", help="also print each variant's description")
-    p.set_defaults(func=cmd_variants)
+    p.add_argument("-v", "--verbose", action="store_true", help="also print each planner's description")
+    p.set_defaults(func=cmd_planners)
 
     p = sub.add_parser("maps", help="list the named maps and bundled map files",
                        description="List the named maps and bundled map files.")

@@ -60,9 +60,9 @@ def cmd_search(args: argparse.Namespace) -> int:
     space = parse_space(args.param)
     if not space:
         raise UsageError("jaco search needs at least one --param NAME=LOW:HIGH (or a list a,b,c) to search")
-    variants = args.variant or [args.default_variant]
+    variants = args.planner or [args.default_planner]
     if "variant" in space:
-        raise UsageError("name the planners with --variant (repeatable), not --param variant=...")
+        raise UsageError("name the planners with --planner (repeatable), not --param variant=...")
     space["variant"] = variants if len(variants) > 1 else variants[0]
     grid = load_map(args.map)
     starts, goals, scenarios, label = resolve_queries(grid, args)

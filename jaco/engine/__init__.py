@@ -2,7 +2,7 @@
 
 The five concepts (README, "Architecture"): the grid as a :class:`~.problem.Problem`
 (:mod:`.problem`), hyperparameters as :class:`~.params.Params` (:mod:`.params`), pheromone rules
-as ``(init, update)`` pairs (:mod:`.pheromone`), a planner as a :class:`~.variant.Variant`
+as ``(init, update)`` pairs (:mod:`.pheromone`), a planner as a :class:`~.variant.Planner`
 (:mod:`.variant`, with :mod:`.heuristics`, :mod:`.schedules`, :mod:`.cost` and the construction
 steps of :mod:`.colony` on the ant walk of :mod:`.walk`), and the run (:mod:`.run`, whose outcome
 is a :class:`~.result.Result`, :mod:`.result`). The engine takes variants as objects: it never

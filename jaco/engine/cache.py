@@ -1,7 +1,7 @@
 """The compile cache: every compiled program (runs, sweep chunks, waypoint legs, tuning loops) is
 built once per key and kept, so repeated calls of one shape never recompile.
 
-Keys hold the planner itself (a :class:`~jaco.engine.variant.Variant` is hashable: its functions
+Keys hold the planner itself (a :class:`~jaco.engine.planner.Planner` is hashable: its functions
 by identity, its defaults as a frozen map), the static shape of the run
 (:class:`~jaco.engine.shape.RunShape`) and whatever else the program depends on. The active walk
 (:func:`jaco.engine.native.active_walk`) is part of every key: a program traced for one walk never

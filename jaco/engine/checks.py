@@ -17,13 +17,13 @@ from ..errors import JacoError, ParamError, ProblemError, ResourceError
 from ..grid import Grid
 from .memory import check_memory, check_run_memory
 from .params import ORDERED, Params, check_order, check_values
+from .planner import Planner
 from .shape import RunShape
-from .variant import Variant
 
 KEEP_PHEROMONE = (False, True, "history")
 
 
-def default_steplimit(grid: Grid, variant: Variant | None = None) -> int:
+def default_steplimit(grid: Grid, variant: Planner | None = None) -> int:
     """Step limit when none is given: 4·(H + W), at most the number of free cells (a walk with a
     tabu list can never be longer). Ants that step back at dead ends (a construct marked
     ``back_steps``, IACA's) count their back-steps against the limit and explore dead branches,
@@ -42,7 +42,7 @@ def default_steplimit(grid: Grid, variant: Variant | None = None) -> int:
     return int(max(1, min(4 * (grid.height + grid.width), grid.n_free)))
 
 
-def legacy_steplimit(grid: Grid, variant: Variant | None = None, format_version: int = 2) -> int:
+def legacy_steplimit(grid: Grid, variant: Planner | None = None, format_version: int = 2) -> int:
     """The default step limit of the jaco that wrote a record of ``format_version`` (a sweep record
     stores ``steplimit: null`` when none was given): before format 3, 4·(H + W) at most the free
     cells for every planner; in format 3, twice that (at most twice the free cells) for
@@ -136,7 +136,7 @@ def check_relations(table: dict, names: tuple[str, ...]) -> None:
                 )
 
 
-def resolve_params(variant: Variant, values: dict, *, where: str) -> dict:
+def resolve_params(variant: Planner, values: dict, *, where: str) -> dict:
     """Validated parameter values (numpy float arrays) over the variant's defaults."""
     merged = {k: np.asarray(v, np.float64) for k, v in variant.default_params().to_dict().items()}
     merged.update(check_values(values, variant.params, where))
@@ -156,7 +156,7 @@ def check_grid(grid) -> Grid:
     return grid
 
 
-def prepare(grid: Grid, variant: Variant, *, seed: int, n_ants: int, n_iters: int, steplimit: int | None, params: dict,
+def prepare(grid: Grid, variant: Planner, *, seed: int, n_ants: int, n_iters: int, steplimit: int | None, params: dict,
             runs: int = 1, keep_pheromone: bool | str = False) -> tuple[int, dict]:
     """Validate one call with numpy before anything compiles: the map's type, the sizes and their
     memory estimate (``runs`` runs at once), the seed and every parameter (unknown names list the

@@ -1,4 +1,4 @@
-"""What a path costs: a ``Variant.cost`` is ``(tours, problem, params) -> cost per ant``.
+"""What a path costs: a ``Planner.cost`` is ``(tours, problem, params) -> cost per ant``.
 
 The default is the path length (thesis eq. 3-2). The multi-objective cost
 J = kL·L + kS·S + kE·E of Miao et al. 2021 (its §3.4; ``docs/algorithms.md`` §5) weighs in the
@@ -58,7 +58,7 @@ def energy(tours, problem, params):
 
 def multi_objective(tours, problem, params):
     """J = kL·L + kS·S + kE·E (Miao et al. 2021, §3.4; ``docs/algorithms.md`` §5): L the path
-    length (cells), S :func:`safety`, E :func:`energy`; a ``Variant.cost`` for any variant."""
+    length (cells), S :func:`safety`, E :func:`energy`; a ``Planner.cost`` for any variant."""
     return (
         params.k_len * tours.length
         + params.k_safe * safety(tours, problem, params)

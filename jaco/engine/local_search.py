@@ -3,7 +3,7 @@
 The ACO literature applies a local search to the ants' solutions inside the loop, so that the
 colony learns from the improved solutions: MMAS and ACS with 2-opt/3-opt on the TSP (Stützle &
 Hoos 2000; Dorigo & Gambardella 1997), the "daemon actions" of Dorigo & Stützle 2004. Here a
-variant's ``local_search`` (:class:`~jaco.engine.variant.Variant`) is a function
+variant's ``local_search`` (:class:`~jaco.engine.planner.Planner`) is a function
 ``(variant, problem, colony, params) -> colony`` that the run (:mod:`jaco.engine.run`) calls
 after the construct step of every iteration: what it returns is what the pheromone rule deposits
 and what the best-so-far is chosen from. ``None`` (every published planner) calls nothing.
@@ -50,7 +50,7 @@ from .walk import Tours
 
 
 class ShortcutSearch(Protocol):
-    """What :func:`shortcut_search` returns: a ``Variant.local_search`` that also carries its
+    """What :func:`shortcut_search` returns: a ``Planner.local_search`` that also carries its
     static choices as attributes, for whoever inspects a variant."""
 
     window: int
@@ -270,7 +270,7 @@ def path_tours(problem, cells, arrived, n_steps, visited) -> Tours:
 
 
 def shortcut_search(*, window: int, passes: int, best: int | None) -> ShortcutSearch:
-    """A ``Variant.local_search``: the octile shortcut (``window`` path cells ahead, at most
+    """A ``Planner.local_search``: the octile shortcut (``window`` path cells ahead, at most
     ``passes`` passes) of the ``best`` lowest-cost successful candidates of each iteration
     (``None``: every candidate). A candidate takes its shortened path where its cost (the
     variant's ``cost``) is not higher: always with the length as the cost."""

@@ -5,7 +5,7 @@ Iterations are a ``lax.scan``; the ants of an iteration walk together (vectorise
 axis, see :mod:`jaco.engine.walk`); a sweep is ``jit(vmap(run))``. The key is always the first
 argument and is never stored in state, so the same key gives the same result bit for bit.
 
-Everything here takes a :class:`~jaco.engine.variant.Variant` itself: names are resolved one layer
+Everything here takes a :class:`~jaco.engine.planner.Planner` itself: names are resolved one layer
 up, by :func:`jaco.solve` (:mod:`jaco.api`) through the registry, so the engine never imports the
 planners. :func:`solve` is the plain single run; several targets (:mod:`jaco.waypoints`) are
 built on top of it.
@@ -31,10 +31,10 @@ from .cache import cached
 from .checks import check_keep_pheromone, check_sizes, params_from, prepare
 from .params import Params
 from .pheromone import Trail, Walks
+from .planner import Planner
 from .problem import Problem, make_problem
 from .result import Result, to_result
 from .shape import RunShape
-from .variant import Variant
 
 TRACES: Counter = Counter()  # how often each variant's run was traced (tests check "once")
 
@@ -71,7 +71,7 @@ class _Best(NamedTuple):
     iteration: jax.Array
 
 
-def make_run(variant: Variant, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromone: bool | str = False,
+def make_run(variant: Planner, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromone: bool | str = False,
              report: bool | str = False) -> Callable[[jax.Array, Problem, Params], RunOutput]:
     """Build ``run(key, problem, params) -> RunOutput`` for fixed shapes (not jitted here).
 
@@ -83,8 +83,8 @@ def make_run(variant: Variant, *, n_ants: int, n_iters: int, steplimit: int, kee
     batch, so the batch reports once). A report is also where an interrupted call ends
     (:func:`jaco.progress.run_interruptibly`).
     """
-    if not isinstance(variant, Variant):
-        raise JacoError(f"make_run takes a Variant, got {variant!r} (by name: jaco.make_run or jaco.VARIANTS[name])")
+    if not isinstance(variant, Planner):
+        raise JacoError(f"make_run takes a Planner, got {variant!r} (by name: jaco.make_run or jaco.PLANNERS[name])")
     check_keep_pheromone(keep_pheromone)
     check_sizes(n_ants, n_iters, steplimit)
 
@@ -158,7 +158,7 @@ def make_run(variant: Variant, *, n_ants: int, n_iters: int, steplimit: int, kee
 
 
 # -- the compiled run, cached so repeated calls of one shape never recompile -----------------
-def compiled_run(variant: Variant, shape: RunShape, batched: bool, report: bool = False) -> Callable:
+def compiled_run(variant: Planner, shape: RunShape, batched: bool, report: bool = False) -> Callable:
     """The jitted run for these static choices (cached by the variant and
     :attr:`RunShape.program <jaco.engine.shape.RunShape.program>`).
 
@@ -180,7 +180,7 @@ def compiled_run(variant: Variant, shape: RunShape, batched: bool, report: bool 
     return cached(key + (("report",) if report and not batched else ()), build)
 
 
-def solve(grid: Grid, start, goal, variant: Variant, *, seed: int, n_ants: int, n_iters: int, steplimit: int | None,
+def solve(grid: Grid, start, goal, variant: Planner, *, seed: int, n_ants: int, n_iters: int, steplimit: int | None,
           connectivity: int, keep_pheromone: bool | str, progress: bool | None = None, **params) -> Result:
     """One run of ``variant`` from ``start`` to ``goal``: the body of :func:`jaco.solve` without
     waypoints (whose signature has the defaults). The call is validated by :func:`prepare` and

@@ -1,9 +1,9 @@
-"""The planners: one module per source, each defining its :class:`~jaco.engine.variant.Variant`\\ s.
+"""The planners: one module per source, each defining its :class:`~jaco.engine.planner.Planner`\\ s.
 
 ``classic`` (AS, its density/quantity forms, EAS, RAS, ACS, MMAS), ``double`` (DACA, IDACA),
 ``iaca``, ``iaaco``, ``apf_guided`` (APF-ACO, PF-ACO), ``chaos`` and ``pg``: each declares its
 components (:func:`jaco.planners.compose.component`) and defines its planners as compositions of
-them (``PLANNERS``); :mod:`.registry` collects those in ``jaco.VARIANTS``. A planner module imports
+them (``PLANNERS``); :mod:`.registry` collects those in ``jaco.PLANNERS``. A planner module imports
 the engine and :mod:`.compose` (and :mod:`jaco.potential`, :mod:`jaco.metrics`), never the
 registry or anything above it. docs/adding_a_planner.md says how to add one.
 """

@@ -1,7 +1,7 @@
 """Planners composed from the sources' components by name.
 
 ``compose(construct=..., heuristic=..., rule=..., transition=..., schedule=..., cost=...)`` builds a
-:class:`~jaco.engine.variant.Variant` from one component of each kind, taken from the planners of
+:class:`~jaco.engine.planner.Planner` from one component of each kind, taken from the planners of
 this folder:
 
 ====================  ========================================================================
@@ -41,7 +41,7 @@ schedule sets α and β). Pheromone lives on cells when a component needs it (``
 A composition is named by its components, ``compose(construct=backtrack, heuristic=iaaco,
 rule=mmas, transition=roulette, schedule=constant, cost=length)`` (a local search other than
 ``none`` is appended: ``..., cost=length, local_search=shortcut)``); the registry resolves such a
-name (:func:`jaco.planners.registry.get_variant`), so records store and rerun compositions, and
+name (:func:`jaco.planners.registry.get_planner`), so records store and rerun compositions, and
 the same arguments give the same object (no recompiles). Every registered planner is defined as a
 composition with its own name and defaults (``MMAS = compose(rule="mmas").named("mmas", ...)`` in
 :mod:`jaco.planners.classic`); docs/compose.md has the table.
@@ -59,7 +59,7 @@ from ..engine import pheromone as ph
 from ..engine import schedules as sch
 from ..engine.colony import BETA, Q0, eta_factor, single_colony
 from ..engine.params import Param, declare
-from ..engine.variant import FrozenMap, Variant, constant
+from ..engine.planner import FrozenMap, Planner, constant
 from ..errors import JacoError
 
 __all__ = ["compose", "component", "parse", "default_transition", "Component", "COMPONENTS", "KINDS", "LOCAL_SEARCHES"]
@@ -70,7 +70,7 @@ ORDER = ("construct", "rule", "heuristic", "transition", "schedule", "cost")
 
 
 class Component(NamedTuple):
-    """One component of a planner: what it sets on the :class:`~jaco.engine.variant.Variant`
+    """One component of a planner: what it sets on the :class:`~jaco.engine.planner.Planner`
     (``parts``: ``heuristic``, ``factor``, ``construct``, ``rule``, ``schedule``, ``cost`` or
     ``transition``; a ``rule`` part of a non-rule component, such as a table the heuristic keeps
     in the trail, is chained before the pheromone rule), the parameters it reads with its
@@ -132,7 +132,7 @@ component("cost", "multi", cost=costs.multi_objective, params=costs.MULTI_PARAMS
           source="Miao et al. 2021: J = kL·L + kS·S + kE·E")
 
 #: The local searches (``compose(..., local_search=...)``, ``"<planner>+<local search>"``): beyond the
-#: sources, none of them is part of a published planner. Each is a ``Variant.local_search`` with
+#: sources, none of them is part of a published planner. Each is a ``Planner.local_search`` with
 #: its static choices (:func:`jaco.engine.local_search.shortcut_search`; docs/compose.md says why these).
 LOCAL_SEARCHES: dict = {
     "none": None,
@@ -162,7 +162,7 @@ def default_transition(rule: str) -> str:
 
 
 def compose(construct: str = "dying", heuristic: str = "distance", rule: str = "as", transition: str | None = None,
-            schedule: str = "constant", cost: str = "length", local_search: str = "none") -> Variant:
+            schedule: str = "constant", cost: str = "length", local_search: str = "none") -> Planner:
     """A planner made of one component of each kind (the module docstring lists them).
 
     ``transition=None`` takes the rule's own: ``q0`` for ``acs`` and ``iaca``, ``adaptive-q0`` for
@@ -191,7 +191,7 @@ def compose(construct: str = "dying", heuristic: str = "distance", rule: str = "
     return hit
 
 
-def _searching(base: Variant, local_search: str) -> Variant:
+def _searching(base: Planner, local_search: str) -> Planner:
     """``base`` (a composition) with a local search: its name gets ``local_search=...``."""
     source = f"{base.source}; local_search {local_search}: {LOCAL_SEARCH_SOURCES[local_search]}"
     name = base.name[:-1] + f", local_search={local_search})"
@@ -200,7 +200,7 @@ def _searching(base: Variant, local_search: str) -> Variant:
                          local_search=LOCAL_SEARCHES[local_search])
 
 
-def _build(c: dict) -> Variant:
+def _build(c: dict) -> Planner:
     pieces = {kind: COMPONENTS[kind][c[kind]] for kind in ORDER}
     for p in pieces.values():
         why = p.why_not(c) if p.why_not is not None else None
@@ -234,7 +234,7 @@ def _build(c: dict) -> Variant:
     doc = (f"A composition: {c['construct']} construct, {c['heuristic']} heuristic, the {c['rule']} pheromone "
            f"rule, {c['transition']} transition, {c['schedule']} schedule, {c['cost']} cost (jaco.compose). "
            f"Pheromone on {'cells' if cells else 'moves'}. Sources: {source}.")
-    return Variant(
+    return Planner(
         name=name,
         source=source,
         doc=doc,
@@ -248,7 +248,7 @@ def _build(c: dict) -> Variant:
     )
 
 
-def parse(name: str) -> Variant | None:
+def parse(name: str) -> Planner | None:
     """The composition a name made by :func:`compose` stands for (None for any other name)."""
     m = _NAME.match(name.strip()) if isinstance(name, str) else None
     if m is None:

@@ -18,7 +18,7 @@ import optax
 from ..engine import pheromone as ph
 from ..engine.colony import move_weights, single_colony
 from ..engine.params import INF, Param, declare
-from ..engine.variant import Variant
+from ..engine.planner import Planner
 from ..errors import JacoError
 from .compose import component, compose
 
@@ -163,7 +163,7 @@ component("rule", "pg", rule=pg_init(_ADAM), construct=make_pg_colony(_ADAM), ph
 
 def make_pg_aco(
     optimizer: optax.GradientTransformation | None = None, *, baseline: str = "all", name: str = "pg-aco"
-) -> Variant:
+) -> Planner:
     """A policy-gradient ACO planner stepped by ``optimizer``: the composition
     ``compose(rule="pg")`` with this optimiser and baseline.
 

@@ -1,7 +1,7 @@
-"""The registry: every planner of :mod:`jaco.planners` by name, in :data:`VARIANTS`.
+"""The registry: every planner of :mod:`jaco.planners` by name, in :data:`PLANNERS`.
 
 ``jaco.solve(..., "mmas")`` and every other entry point that takes a name resolves it here
-(:func:`get_variant`), and the contract test (``tests/test_variants.py``) runs on every entry, so
+(:func:`get_planner`), and the contract test (``tests/test_variants.py``) runs on every entry, so
 a planner added to the folder and listed below is checked with no other edit
 (docs/adding_a_planner.md). The registry imports the planners; no planner imports the registry.
 """
@@ -9,7 +9,7 @@ a planner added to the folder and listed below is checked with no other edit
 from __future__ import annotations
 
 from ..engine.cost import COSTS, MULTI_PARAMS
-from ..engine.variant import FrozenMap, Variant
+from ..engine.planner import FrozenMap, Planner
 from ..errors import JacoError, ParamError
 from . import (
     apf_guided,  # APF-ACO and its PF-ACO baseline (Dong & Zhao 2021)
@@ -22,64 +22,66 @@ from . import (
 )
 from .compose import LOCAL_SEARCHES, parse
 
-__all__ = ["VARIANTS", "get_variant", "register", "with_cost", "with_local_search"]
+__all__ = ["PLANNERS", "VARIANTS", "get_planner", "get_variant", "register", "with_cost", "with_local_search"]
 
 #: Every planner the modules define (their ``PLANNERS``), by name: the classic family, the thesis's,
 #: the papers' and pg-aco (docs/algorithms.md §2–§8).
-VARIANTS: dict[str, Variant] = {
+PLANNERS: dict[str, Planner] = {
     v.name: v for module in (classic, double, iaca, iaaco, apf_guided, chaos, pg) for v in module.PLANNERS
 }
+#: The name before planners had one name (jaco 0.1), kept because users' code types it: the same dict.
+VARIANTS = PLANNERS
 
 
-def get_variant(variant) -> Variant:
-    """A :class:`Variant` as it is, or one by name: a registered planner, a composition's name
+def get_planner(variant) -> Planner:
+    """A :class:`Planner` as it is, or one by name: a registered planner, a composition's name
     (``compose(construct=..., ...)``, :func:`jaco.planners.compose.compose`), or either with
     another cost (``"acs+multi"``, :func:`with_cost`) or a local search (``"iaca+shortcut"``,
     :func:`with_local_search`)."""
-    if isinstance(variant, Variant):
+    if isinstance(variant, Planner):
         return variant
     if isinstance(variant, str):
-        if variant in VARIANTS:
-            return VARIANTS[variant]
+        if variant in PLANNERS:
+            return PLANNERS[variant]
         composed = parse(variant)
         if composed is not None:
             return composed
         base, _, suffix = variant.rpartition("+")
         if base and (suffix in COSTS or (suffix in LOCAL_SEARCHES and suffix != "none")):
             try:
-                found = get_variant(base)
+                found = get_planner(base)
             except JacoError:
                 found = None
             if found is not None:
                 return with_cost(found, suffix) if suffix in COSTS else with_local_search(found, suffix)
     if not isinstance(variant, str):
         several = " (several planners are a sweep axis: jaco.sweep(..., variant=[...]))" if isinstance(variant, (list, tuple)) else ""
-        raise JacoError(f"variant must be a planner name (str) or a Variant, got {type(variant).__name__} {variant!r}{several}")
+        raise JacoError(f"variant must be a planner name (str) or a Planner, got {type(variant).__name__} {variant!r}{several}")
     raise JacoError(
-        f"unknown variant {variant!r}; registered: {', '.join(sorted(VARIANTS))} "
+        f"unknown variant {variant!r}; registered: {', '.join(sorted(PLANNERS))} "
         "(or a composition: compose(construct=..., heuristic=..., rule=...); a suffix adds a cost or a local "
         f"search: +{', +'.join(sorted(COSTS))}, +{', +'.join(k for k in LOCAL_SEARCHES if k != 'none')})"
     )
 
 
-def register(variant: Variant) -> Variant:
-    """Add a planner defined outside :mod:`jaco.planners` to :data:`VARIANTS` (so it is found by
+def register(variant: Planner) -> Planner:
+    """Add a planner defined outside :mod:`jaco.planners` to :data:`PLANNERS` (so it is found by
     name, recorded and rerun like the built-in ones); returns it. Registering the same object
     twice is harmless; another variant under a taken name is an error."""
-    if not isinstance(variant, Variant):
-        raise JacoError(f"only a Variant can be registered, got {type(variant).__name__}")
-    taken = VARIANTS.get(variant.name)
+    if not isinstance(variant, Planner):
+        raise JacoError(f"only a Planner can be registered, got {type(variant).__name__}")
+    taken = PLANNERS.get(variant.name)
     if taken is not None and taken is not variant:
         raise JacoError(f"a different variant is already registered as {variant.name!r}")
-    VARIANTS[variant.name] = variant
+    PLANNERS[variant.name] = variant
     return variant
 
 
 _WITH_COST: dict = {}
 
 
-def with_cost(variant, cost: str = "multi") -> Variant:
-    """``variant`` (a name or a :class:`Variant`) with another cost: ``"multi"``
+def with_cost(variant, cost: str = "multi") -> Planner:
+    """``variant`` (a name or a :class:`Planner`) with another cost: ``"multi"``
     (:func:`jaco.engine.cost.multi_objective`, and its weights become sweepable parameters) or
     ``"length"``.
 
@@ -93,7 +95,7 @@ def with_cost(variant, cost: str = "multi") -> Variant:
     """
     if cost not in COSTS:
         raise ParamError(f"unknown cost {cost!r}; valid: {', '.join(sorted(COSTS))}")
-    base = get_variant(variant)
+    base = get_planner(variant)
     key = (base, cost)
     hit = _WITH_COST.get(key)
     if hit is None:
@@ -111,8 +113,8 @@ def with_cost(variant, cost: str = "multi") -> Variant:
 _WITH_SEARCH: dict = {}
 
 
-def with_local_search(variant, local_search: str = "shortcut") -> Variant:
-    """``variant`` (a name or a :class:`Variant`) with a local search of the compose vocabulary
+def with_local_search(variant, local_search: str = "shortcut") -> Planner:
+    """``variant`` (a name or a :class:`Planner`) with a local search of the compose vocabulary
     (:data:`jaco.planners.compose.LOCAL_SEARCHES`, :mod:`jaco.engine.local_search`), named
     ``"<name>+<local search>"``; a composition gets its own name's ``local_search=...`` instead
     (``compose(..., local_search="shortcut")``). ``"none"`` gives the variant without one.
@@ -121,14 +123,14 @@ def with_local_search(variant, local_search: str = "shortcut") -> Variant:
 
     >>> import jaco
     >>> v = jaco.planners.registry.with_local_search("iaca")
-    >>> v.name, v is jaco.planners.registry.get_variant("iaca+shortcut"), jaco.VARIANTS["iaca"].local_search is None
+    >>> v.name, v is jaco.planners.registry.get_planner("iaca+shortcut"), jaco.PLANNERS["iaca"].local_search is None
     ('iaca+shortcut', True, True)
     """
     from .compose import LOCAL_SEARCH_SOURCES, compose
 
     if not isinstance(local_search, str) or local_search not in LOCAL_SEARCHES:
         raise JacoError(f"unknown local search {local_search!r}; valid: {', '.join(LOCAL_SEARCHES)}")
-    base = get_variant(variant)
+    base = get_planner(variant)
     key = (base, local_search)
     hit = _WITH_SEARCH.get(key)
     if hit is None:
@@ -149,3 +151,7 @@ def with_local_search(variant, local_search: str = "shortcut") -> Variant:
 def _composition_kwargs(name: str) -> dict:
     inner = name.strip()[len("compose("):-1]
     return dict((k.strip(), v.strip()) for k, _, v in (p.partition("=") for p in inner.split(",") if p.strip()))
+
+
+#: The name before planners had one name (jaco 0.1), kept because users' code types it.
+get_variant = get_planner

@@ -300,14 +300,14 @@ _HISTORY_DTYPE = np.float32
 
 
 def recordable_name(variant) -> str:
-    """The name a record stores for ``variant`` (a name or a Variant): one the registry resolves
+    """The name a record stores for ``variant`` (a name or a Planner): one the registry resolves
     to that same planner — a registered planner, a composition of :func:`jaco.compose`, or a
     registered planner with another cost (``"acs+multi"``). Anything else cannot be rerun."""
-    from ..planners.registry import get_variant
+    from ..planners.registry import get_planner
 
     name = variant if isinstance(variant, str) else variant.name
     try:
-        same = get_variant(name) is variant or isinstance(variant, str)
+        same = get_planner(name) is variant or isinstance(variant, str)
     except JacoError:
         same = False
     if not same:

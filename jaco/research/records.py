@@ -36,8 +36,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..engine.planner import Planner
 from ..engine.result import Result
-from ..engine.variant import Variant
+from ..errors import resolve_aliases
 from ..grid import Grid
 from ..metrics import gap
 from ..outputs import as_path, atomic_paths, check_output, write_text
@@ -259,7 +260,7 @@ def save_sweep(table, path, *args, **kwargs) -> Path:
     ``progress`` is not. The table must have as many rows, and the same seeds, as those
     arguments give, so a wrong argument is caught here; the rest is checked by a rerun.
     """
-    from ..planners.registry import get_variant
+    from ..planners.registry import get_planner
     from . import sweeps
 
     path = check_output(path, "sweep record")
@@ -267,14 +268,15 @@ def save_sweep(table, path, *args, **kwargs) -> Path:
         raise RecordError(f"a sweep record is a .csv table plus a .json sidecar; got {path.name!r} (use a .csv name)")
     check_output(_sidecar(path), "sweep record sidecar")
     try:
-        bound = inspect.signature(sweeps.sweep).bind(*args, **kwargs)
+        bound = inspect.signature(sweeps.sweep).bind(*args, **resolve_aliases(dict(kwargs)))
     except TypeError as e:
         raise RecordError(f"save_sweep: {e} (pass the arguments of jaco.sweep)") from None
     bound.apply_defaults()
-    given = dict(bound.arguments)
+    # the record's field keeps the name records have always used, "variant"
+    given = {("variant" if k == "planner" else k): v for k, v in bound.arguments.items()}
     given.pop("progress", None)
-    several = isinstance(given["variant"], (list, tuple)) and not isinstance(given["variant"], Variant)
-    variant_names = [recordable_name(get_variant(v)) for v in (given["variant"] if several else [given["variant"]])]
+    several = isinstance(given["variant"], (list, tuple)) and not isinstance(given["variant"], Planner)
+    variant_names = [recordable_name(get_planner(v)) for v in (given["variant"] if several else [given["variant"]])]
     from .designs import as_design
 
     design = as_design(given["params"])  # a dict of axes is a full grid; a Design or DataFrame as given
@@ -357,17 +359,17 @@ class SweepRecord:
     def _rerun_old_default(self, kw):
         """The sweep with the default step limit of the jaco that wrote the record, each planner's."""
         from ..engine.checks import legacy_steplimit
-        from ..planners.registry import get_variant
+        from ..planners.registry import get_planner
         from .sweeps import _over_variants, sweep
 
         grid = self.grids if isinstance(self.grids, Grid) else self.grids[0]
 
         def one(v):
-            v = get_variant(v)
+            v = get_planner(v)
             return sweep(**{**kw, "variant": v, "steplimit": legacy_steplimit(grid, v, self.format_version)})
 
         variants = kw["variant"]
-        if isinstance(variants, (list, tuple)) and not isinstance(variants, Variant):
+        if isinstance(variants, (list, tuple)) and not isinstance(variants, Planner):
             return _over_variants(variants, one, kw.get("params"))
         return one(variants)
 

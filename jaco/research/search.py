@@ -62,7 +62,7 @@ import numpy as np
 import pandas as pd
 
 from .. import progress as _progress
-from ..errors import JacoError
+from ..errors import JacoError, accepts_aliases
 from .samplers import EVOSAX_PREFIX, EvosaxProposer, check_sampler, optuna_sampler, require, suggest
 from .space import SIZES, VARIANT, Space, parse_space
 
@@ -391,13 +391,14 @@ def _plain_runs(runs: dict) -> dict:
 
 
 # -- the search ---------------------------------------------------------------------------------
+@accepts_aliases
 def search(
     grid,
     start,
     goal,
     space: dict | Space,
     *,
-    variant=None,
+    planner=None,
     trials: int = 128,
     batch: int = 32,
     seeds=4,
@@ -425,7 +426,7 @@ def search(
     ``"tpe"``, ``"cmaes"``, ``"random"``, ``"qmc"``, ``"grid"``, ``"gp"``, ``"nsga2"``, an
     ``"evosax:NAME"`` strategy or an Optuna sampler (:mod:`jaco.research.samplers`),
     ``sampler_options`` passed to an evosax strategy; ``seed`` seeds the sampler; ``objective``,
-    ``penalty``, ``fidelity``, ``storage`` and ``study_name``: see the module. ``variant``: the
+    ``penalty``, ``fidelity``, ``storage`` and ``study_name``: see the module. ``planner``: the
     planner when ``space`` has no ``"variant"`` (default ``"mmas"``).
 
     Returns a :class:`Study`: ``best_params`` (ready for ``jaco.solve(grid, start, goal,
@@ -438,7 +439,7 @@ def search(
     from .sweeps import check_budget, prepare_queries
 
     require("optuna", "jaco.search")
-    space = parse_space(space, variant)
+    space = parse_space(space, planner)
     objectives = _objectives(objective)
     trials = _positive_int("trials", trials)
     batch = _positive_int("batch", batch)

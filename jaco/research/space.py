@@ -28,7 +28,7 @@ import numpy as np
 
 from .. import planners as _planners  # noqa: F401 (its modules declare every component's parameters)
 from ..engine.params import ORDERED, SPECS, check_values
-from ..engine.variant import Variant
+from ..engine.planner import Planner
 from ..errors import ParamError
 
 #: Sizes a search may choose (static shapes: each distinct value compiles its own program, so a
@@ -143,7 +143,7 @@ def _check_size(name: str, dim) -> Dim | int:
 
 @dataclass(frozen=True)
 class Space:
-    """A checked search space: ``planners`` (name -> :class:`Variant`, in the given order),
+    """A checked search space: ``planners`` (name -> :class:`Planner`, in the given order),
     ``dims`` (name -> dimension: the planner's, the sizes', the parameters'), ``fixed`` (name ->
     value, parameters and sizes that are not searched)."""
 
@@ -176,7 +176,7 @@ class Space:
 def parse_space(space, variant=None) -> Space:
     """Check ``space`` (see the module) and resolve its planners; ``variant`` is the planner when
     the space names none (default ``"mmas"``)."""
-    from ..planners.registry import get_variant
+    from ..planners.registry import get_planner
 
     if not isinstance(space, Mapping):
         raise SpaceError(f"space must be a dict of name -> range, values or number, got {type(space).__name__}")
@@ -187,13 +187,13 @@ def parse_space(space, variant=None) -> Space:
     if VARIANT in entries and variant is not None:
         raise SpaceError("the planner is given twice: as variant= and as space['variant']; keep one")
     chosen = entries.pop(VARIANT, "mmas" if variant is None else variant)
-    several = isinstance(chosen, (list, tuple, Categorical)) and not isinstance(chosen, Variant)
+    several = isinstance(chosen, (list, tuple, Categorical)) and not isinstance(chosen, Planner)
     names = list(chosen.choices if isinstance(chosen, Categorical) else chosen) if several else [chosen]
     if not names:
         raise SpaceError("space['variant']: an empty list of planners")
     planners = {}
     for v in names:
-        resolved = get_variant(v)  # an unknown planner: one JacoError line listing the registered ones
+        resolved = get_planner(v)  # an unknown planner: one JacoError line listing the registered ones
         planners[resolved.name] = resolved
     if len(planners) != len(names):
         raise SpaceError(f"space['variant']: a planner is listed twice in {names}")

@@ -39,14 +39,14 @@ from ..engine.cache import cached, is_cached
 from ..engine.checks import check_relations, check_seeds, check_sizes, default_steplimit, params_from, resolve_params
 from ..engine.memory import CONFIG_BYTES, bytes_per_run, check_memory, check_run_memory
 from ..engine.params import check_values
+from ..engine.planner import Planner
 from ..engine.problem import make_problem, stack
 from ..engine.run import make_run
 from ..engine.shape import RunShape
-from ..engine.variant import Variant
-from ..errors import JacoError, ParamError, check_keywords
+from ..errors import JacoError, ParamError, accepts_aliases, check_keywords
 from ..grid import Grid
 from ..metrics import gap
-from ..planners.registry import get_variant
+from ..planners.registry import get_planner
 from .designs import Design, as_design
 
 AXIS = "config"
@@ -119,7 +119,7 @@ def _devices(devices) -> list:
 _PER_CONFIG: dict = {}  # (walk, variant, shape, batch shapes) -> measured bytes per configuration and device
 
 
-def _program(variant: Variant, shape: RunShape, mesh: Mesh, paths: bool = False):
+def _program(variant: Planner, shape: RunShape, mesh: Mesh, paths: bool = False):
     """The jitted chunk program (cached): ``(seeds, problems, params) -> (cost, length, best
     iteration, covered[, best cells])``, each ``(queries, configurations)``; ``paths`` adds the
     best ant's cells (for path metrics such as turns)."""
@@ -153,7 +153,7 @@ def _shapes(batch) -> tuple:
     return tuple((tuple(x.shape), str(x.dtype)) for x in jax.tree.leaves(batch))
 
 
-def _executable(variant: Variant, shape: RunShape, mesh: Mesh, batch, n_params: int, chunk: int, on_compile=None,
+def _executable(variant: Planner, shape: RunShape, mesh: Mesh, batch, n_params: int, chunk: int, on_compile=None,
                 paths: bool = False):
     """The compiled chunk program for ``chunk`` configurations per device (cached), and whether
     it was compiled by this call (``on_compile()`` is called first when it is)."""
@@ -191,7 +191,7 @@ def _fit(budget: int, fixed: int, per: float, rows_per_device: int) -> int:
     return math.ceil(rows_per_device / n_chunks)
 
 
-def _plan(variant: Variant, shape: RunShape, mesh: Mesh, batch, n_params: int, n_rows: int, budget: int,
+def _plan(variant: Planner, shape: RunShape, mesh: Mesh, batch, n_params: int, n_rows: int, budget: int,
           on_compile=None, paths: bool = False):
     """Choose the chunk size under the budget from the compiled program's memory analysis: as
     many of ``n_rows`` runs per chunk as fit (``n_rows`` is also the cap: a caller that wants
@@ -238,7 +238,7 @@ def _plan(variant: Variant, shape: RunShape, mesh: Mesh, batch, n_params: int, n
 _PATH_LEN: dict = {}
 
 
-def _path_len(variant: Variant, shape: RunShape, batch) -> int:
+def _path_len(variant: Planner, shape: RunShape, batch) -> int:
     """Length of the construct step's candidate buffer (shape only, traced once per shapes)."""
     key = (variant, *shape.sizes.values(), _shapes(batch))
     if key not in _PATH_LEN:
@@ -325,7 +325,7 @@ class Runner:
     numpy arrays ``(queries, rows)``. Every row equals :func:`jaco.solve` with its values and seed,
     whatever the chunk it ran in. Built by :func:`jaco.sweep` and :func:`jaco.search`."""
 
-    def __init__(self, variant: Variant, queries: Queries, *, shape: RunShape, mesh: Mesh, rows: int, budget: int,
+    def __init__(self, variant: Planner, queries: Queries, *, shape: RunShape, mesh: Mesh, rows: int, budget: int,
                  on_compile=None, paths: bool = False):
         self.variant, self.queries, self.mesh, self.paths, self.shape = variant, queries, mesh, paths, shape
         batch = stack(queries.problems)
@@ -376,7 +376,7 @@ class _Setup(NamedTuple):
 def _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices,
            on_compile=None, chunk=None):
     """Validate everything (before compiling), then plan the chunks and compile the program."""
-    variant = get_variant(variant)
+    variant = get_planner(variant)
     qs, steplimit = prepare_queries(grid, start, goal, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,
                                     connectivity=connectivity, variant=variant)
     seed_list = check_seeds(seeds)
@@ -401,11 +401,12 @@ def _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit
     return _Setup(variant, qs.queries, qs.problems, values, config, seed_arr, runner, info)
 
 
+@accepts_aliases
 def plan_sweep(
     grid,
     start,
     goal,
-    variant="mmas",
+    planner="mmas",
     params: dict | Design | None = None,
     seeds=4,
     *,
@@ -423,7 +424,7 @@ def plan_sweep(
     ``bytes_per_chunk`` from XLA's memory analysis, ``bytes_per_config_estimate`` and
     ``_measured``, ``compiles``...). The compiled program is cached, so the sweep reuses it."""
     return _setup(
-        grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices,
+        grid, start, goal, planner, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices,
         chunk=chunk,
     ).info
 
@@ -438,7 +439,7 @@ def sweep(
     grid,
     start,
     goal,
-    variant="mmas",
+    planner="mmas",
     params: dict | Design | None = None,
     seeds=4,
     *,
@@ -483,24 +484,24 @@ def sweep(
     ``success, length, cost, best_iteration, optimal, gap, coverage``. ``table.attrs["sweep"]``
     holds the plan (:func:`plan_sweep`).
 
-    ``variant`` may also be a list of planners (names, compositions of :func:`jaco.compose`,
-    ``Variant`` objects): a categorical axis. Each planner runs the same
+    ``planner`` may also be a list of planners (names, compositions of :func:`jaco.compose`,
+    ``Planner`` objects): a categorical axis. Each planner runs the same
     configurations × seeds × queries as its own compiled batch (a planner's structure is part of
     the program), every ``params`` axis must be a parameter of every planner, and the tables are
-    stacked with a first column ``variant``; ``attrs["sweep"]`` maps each planner to its plan.
+    stacked with a first column ``planner``; ``attrs["sweep"]`` maps each planner to its plan.
     """
-    if isinstance(variant, (list, tuple)) and not isinstance(variant, Variant):  # a Variant is a tuple too
+    if isinstance(planner, (list, tuple)) and not isinstance(planner, Planner):  # a Planner is a tuple too
         kwargs = dict(n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, connectivity=connectivity,
                       memory_budget=memory_budget, progress=progress, devices=devices, store=store, chunk=chunk)
-        return _over_variants(variant, lambda v: sweep(grid, start, goal, v, params, seeds, **kwargs), params)
-    name = get_variant(variant).name
+        return _over_variants(planner, lambda v: sweep(grid, start, goal, v, params, seeds, **kwargs), params)
+    name = get_planner(planner).name
     if store is not None:
         from .store import check_store_path
 
         store = check_store_path(store)
     bar = _progress.Bar(_progress.enabled(progress) and jax.process_index() == 0, f"sweep {name}", "run")
     try:
-        return _sweep(bar, grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity,
+        return _sweep(bar, grid, start, goal, planner, params, seeds, n_ants, n_iters, steplimit, connectivity,
                       memory_budget, devices, store, chunk)
     finally:
         bar.close()
@@ -557,7 +558,7 @@ def _run_sweep(bar, st, outs, todo, store=None, key=None) -> pd.DataFrame:
 def _over_variants(variants, run, params) -> pd.DataFrame:
     """One sweep per planner, stacked with a ``variant`` column; every planner and its parameter
     axes are checked before anything compiles."""
-    variants = [get_variant(v) for v in variants]
+    variants = [get_planner(v) for v in variants]
     if not variants:
         raise JacoError("variant: an empty list of planners")
     names = [v.name for v in variants]

@@ -45,12 +45,12 @@ from ..engine.cache import cached
 from ..engine.checks import check_grid, check_seed, check_sizes, default_steplimit, params_from, resolve_params
 from ..engine.memory import check_run_memory
 from ..engine.params import ORDERED, SPECS, Params, param_names
+from ..engine.planner import Planner
 from ..engine.problem import make_problem
 from ..engine.run import make_run
-from ..engine.variant import Variant
 from ..errors import JacoError, ParamError, check_keywords, did_you_mean
 from ..grid import Grid
-from ..planners.registry import get_variant
+from ..planners.registry import get_planner
 
 
 #: Parameters that can be tuned: every parameter with a range, except those in an order relation
@@ -125,7 +125,7 @@ def member_objective(cost, penalty) -> jax.Array:
 
 
 # -- the compiled loop -----------------------------------------------------------------------
-def _compiled(variant: Variant, names, optimizer, *, n_ants, n_iters, steplimit, steps, population, n_seeds):
+def _compiled(variant: Planner, names, optimizer, *, n_ants, n_iters, steplimit, steps, population, n_seeds):
     """The jitted tuning loop for these static choices, cached by the variant and the optimiser
     themselves (both hashable: an optax transformation is a tuple of its functions)."""
     key = ("tune", variant, optimizer, names, n_ants, n_iters, steplimit, steps, population, n_seeds)
@@ -190,7 +190,7 @@ class TuneResult:
     penalty: float
 
 
-def _names(variant: Variant, tune) -> tuple[str, ...]:
+def _names(variant: Planner, tune) -> tuple[str, ...]:
     try:
         names = (tune,) if isinstance(tune, str) else tuple(tune)
     except TypeError:
@@ -241,7 +241,7 @@ def tune(
     grid: Grid,
     start,
     goal,
-    variant="mmas",
+    planner="mmas",
     *,
     tune=("alpha", "beta", "rho"),
     init: dict | None = None,
@@ -258,23 +258,23 @@ def tune(
     connectivity: int = 8,
     progress: bool | None = None,
 ) -> TuneResult:
-    """Tune continuous hyperparameters of ``variant`` on one query by evolution strategies.
+    """Tune continuous hyperparameters of ``planner`` on one query by evolution strategies.
 
-    ``tune``: the parameters to tune (each must be used by the variant and have a range in
+    ``tune``: the parameters to tune (each must be used by the planner and have a range in
     :data:`jaco.engine.params.SPECS`); ``init``: starting values of the tuned parameters and fixed
-    values of any other parameter of the variant (default: the variant's defaults); ``steps``
+    values of any other parameter of the planner (default: the variant's defaults); ``steps``
     optimiser steps of ``population`` members (even: antithetic pairs), each run on ``n_seeds``
     seeds; ``sigma``: the perturbation in the unconstrained coordinates (about ±50 % of a value
     for log-transformed parameters); ``optimizer``: any optax ``GradientTransformation``
     (default ``optax.adam(0.1)``; build it once and reuse it, the compiled loop is cached by its
     identity); ``penalty``: the cost of a failed run (default √2 × the run's path buffer, an upper
     bound of any path length the run can return, so a failure is never better than a success;
-    give one for a variant whose cost is not the path length); ``seed``: the key of the
+    give one for a planner whose cost is not the path length); ``seed``: the key of the
     perturbations and of the runs; ``n_ants``, ``n_iters``, ``steplimit``: the planner's sizes;
     ``progress``: a bar of the steps on stderr; None (default) shows it on a terminal or in a
     notebook, True always, False never (:mod:`jaco.progress`; the results are the same either way).
 
-    Everything is validated before anything compiles. Repeated calls with the same variant,
+    Everything is validated before anything compiles. Repeated calls with the same planner,
     optimiser, names and sizes reuse one compiled loop (any map of the same shape, any start,
     goal, seed, init, sigma and penalty).
 
@@ -284,10 +284,10 @@ def tune(
     >>> sorted(res.params), list(res.history.columns)
     (['alpha', 'beta', 'q', 'rho', 'tau0'], ['step', 'objective', 'success_rate', 'beta'])
     """
-    variant = get_variant(variant)
-    names = _names(variant, tune)
+    planner = get_planner(planner)
+    names = _names(planner, tune)
     check_grid(grid)
-    steplimit = default_steplimit(grid, variant) if steplimit is None else steplimit
+    steplimit = default_steplimit(grid, planner) if steplimit is None else steplimit
     check_sizes(n_ants, n_iters, steplimit)
     steps = _positive_int("steps", steps)
     population = _positive_int("population", population, even=True)
@@ -301,7 +301,7 @@ def tune(
         raise JacoError(f"optimizer must be an optax GradientTransformation, got {type(optimizer).__name__}")
     if init is not None and not isinstance(init, Mapping):
         raise ParamError(f"init must be a mapping of parameter names to values, got {type(init).__name__} {init!r}")
-    values = resolve_params(variant, dict(init or {}), where=f"variant {variant.name!r}")
+    values = resolve_params(planner, dict(init or {}), where=f"variant {planner.name!r}")
     for k, v in values.items():
         if v.ndim:
             raise JacoError(f"init takes one value per parameter; {k!r} has {v.size}")
@@ -309,7 +309,7 @@ def tune(
         penalty = _positive_float("penalty", penalty)
 
     loop, run = _compiled(
-        variant, names, optimizer, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,
+        planner, names, optimizer, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,
         steps=steps, population=population, n_seeds=n_seeds,
     )
     base = params_from(values)
@@ -318,16 +318,16 @@ def tune(
         penalty = math.sqrt(2.0) * path_buffer(run, key, problem, base)
 
     z0 = jnp.asarray(to_unconstrained(names, [values[n] for n in names]), jnp.float32)
-    bar = _progress.Bar(_progress.enabled(progress), f"tune {variant.name}", "step")
+    bar = _progress.Bar(_progress.enabled(progress), f"tune {planner.name}", "step")
     bar.start(steps)
     with _progress.listening(bar):
         final, x, objective, success = _progress.run_interruptibly(
             lambda: jax.device_get(loop(key, problem, base, z0, jnp.float32(sigma), jnp.float32(penalty)))
         )
-    start_values = {k: float(values[k]) for k in variant.params}
+    start_values = {k: float(values[k]) for k in planner.params}
     tuned = dict(start_values)
     tuned.update({n: float(final[i]) for i, n in enumerate(names)})
     history = pd.DataFrame({"step": np.arange(steps), "objective": objective, "success_rate": success})
     for i, n in enumerate(names):
         history[n] = x[:, i]
-    return TuneResult(tuned, history, start_values, names, variant.name, penalty)
+    return TuneResult(tuned, history, start_values, names, planner.name, penalty)

@@ -1,7 +1,7 @@
-"""What a planner is: a :class:`Variant`, a NamedTuple of pure functions and small static
+"""What a planner is: a :class:`Planner`, a NamedTuple of pure functions and small static
 choices (the fourth of the five concepts), and the protocols of its components (the public
 extension contract; :func:`jaco.testing.check_planner` runs a planner through it). The planners
-(:mod:`jaco.planners`) are compositions of components (:func:`jaco.compose`); :func:`make_variant`
+(:mod:`jaco.planners`) are compositions of components (:func:`jaco.compose`); :func:`make_planner`
 builds one from functions directly.
 """
 
@@ -21,7 +21,7 @@ from .pheromone import Trail
 
 
 class FrozenMap(Mapping):
-    """A read-only, hashable mapping (a planner's defaults), so that a :class:`Variant` is hashable
+    """A read-only, hashable mapping (a planner's defaults), so that a :class:`Planner` is hashable
     and compiled programs are cached by the planner itself."""
 
     __slots__ = ("_items",)
@@ -65,7 +65,7 @@ class Factor(Protocol):
     """``factor(variant, trail, problem, params, t, n_iters) -> (N, 8)``: the log of a move's weight
     besides τ^α (by default β·log η, :func:`jaco.engine.colony.eta_factor`)."""
 
-    def __call__(self, variant: "Variant", trail: Trail, problem: Any, params: Params, t: Any,
+    def __call__(self, variant: "Planner", trail: Trail, problem: Any, params: Params, t: Any,
                  n_iters: int) -> jax.Array: ...
 
 
@@ -73,7 +73,7 @@ class Construct(Protocol):
     """``construct(variant, problem, trail, params, t, n_iters, key, *, n_ants, steplimit) ->
     (trail, Colony)``: an iteration's candidate paths (:mod:`jaco.engine.colony`)."""
 
-    def __call__(self, variant: "Variant", problem: Any, trail: Trail, params: Params, t: Any, n_iters: int,
+    def __call__(self, variant: "Planner", problem: Any, trail: Trail, params: Params, t: Any, n_iters: int,
                  key: jax.Array, *, n_ants: int, steplimit: int) -> tuple[Trail, Any]: ...
 
 
@@ -93,10 +93,10 @@ class LocalSearch(Protocol):
     """``local_search(variant, problem, colony, params) -> colony``: improves an iteration's
     candidates before the pheromone update (:mod:`jaco.engine.local_search`)."""
 
-    def __call__(self, variant: "Variant", problem: Any, colony: Any, params: Params) -> Any: ...
+    def __call__(self, variant: "Planner", problem: Any, colony: Any, params: Params) -> Any: ...
 
 
-class Variant(NamedTuple):
+class Planner(NamedTuple):
     """One planner. ``params`` names the parameters it reads and ``defaults`` holds a default for
     each (their ranges and meaning: :data:`jaco.engine.params.SPECS`); ``pheromone_on`` is
     ``"moves"`` (τ_ij) or ``"cells"`` (τ_j); ``transition`` is ``"roulette"`` or
@@ -105,7 +105,7 @@ class Variant(NamedTuple):
     :class:`Factor`, :class:`Construct`, :class:`Schedule`, :class:`Cost`, :class:`LocalSearch`;
     ``local_search`` None: none, as every published planner); ``rule`` is a pheromone
     :class:`~jaco.engine.pheromone.Rule`. Planners are built by :func:`jaco.compose` (components
-    by name) or :func:`make_variant` (functions given directly)."""
+    by name) or :func:`make_planner` (functions given directly)."""
 
     name: str
     source: str
@@ -132,7 +132,7 @@ class Variant(NamedTuple):
         shown = ", ".join(f"{k}={self.defaults[k]:g}" for k in self.params)
         return f"{self.name:<{name_width}} {self.source}  [{shown}]"
 
-    def named(self, name: str, *, source: str, doc: str, **defaults: float) -> "Variant":
+    def named(self, name: str, *, source: str, doc: str, **defaults: float) -> "Planner":
         """This planner under its own name, source and description, with other defaults for some
         of its parameters (a registered planner is a composition plus such overrides). The names
         given in ``defaults`` come first in :attr:`params`, in their order."""
@@ -166,13 +166,13 @@ def declared(params: Iterable[Param | str], defaults: Mapping[str, float] = Froz
     return tuple(names), FrozenMap(values)
 
 
-def make_variant(name: str, source: str, doc: str, params: Iterable[Param | str], defaults: Mapping[str, float],
-                 rule: ph.Rule, **kw: Any) -> Variant:
-    """A :class:`Variant` from its functions. ``params``: :class:`~jaco.engine.params.Param`
+def make_planner(name: str, source: str, doc: str, params: Iterable[Param | str], defaults: Mapping[str, float],
+                 rule: ph.Rule, **kw: Any) -> Planner:
+    """A :class:`Planner` from its functions. ``params``: :class:`~jaco.engine.params.Param`
     declarations (a new hyperparameter is declared right here) or names of declared parameters;
     ``defaults`` overrides theirs. ``heuristic`` defaults to η = 1/L_goal."""
     names, values = declared(params, defaults)
-    return Variant(
+    return Planner(
         name=name,
         source=source,
         doc=doc,
@@ -182,3 +182,9 @@ def make_variant(name: str, source: str, doc: str, params: Iterable[Param | str]
         rule=rule,
         **kw,
     )
+
+
+#: The names before planners had one name (jaco 0.1): ``Variant`` is :class:`Planner` and
+#: ``make_variant`` is :func:`make_planner`, kept because users' code types them.
+Variant = Planner
+make_variant = make_planner
