@@ -84,7 +84,7 @@ PAPER_SG = {"simple-20": 20 * SQRT2, "complex-30": 30 * SQRT2}
 def table1_planners() -> dict:
     """Dong & Zhao 2021's table 1 rows: label -> (Planner, parameter values). PF-ACO and APF-ACO run with
     the paper's printed α = 2, β = 6, ρ = 0.7, Q = 1 (``jaco.planners.apf_guided.PAPER_PARAMS``), not jaco's
-    defaults (β = 20, ρ = 0.3, chosen for dense maps: docs/variants.md)."""
+    defaults (β = 20, ρ = 0.3, chosen for dense maps: docs/planners.md)."""
     from jaco.planners.apf_guided import PAPER_PARAMS
 
     out = {"ACO": (ACO_003, {})}

@@ -9,7 +9,7 @@ heuristic of ``apf-aco`` and ``pf-aco``, :mod:`jaco.planners.apf_guided`) are te
 ``kind="classic"`` walks the classic APF (attraction plus repulsion) of the paper's PF-ACO
 baseline instead.
 
-Interpretations (equations in ``docs/algorithms.md`` §6; also in ``docs/variants.md``, section
+Interpretations (equations in ``docs/algorithms.md`` §6; also in ``docs/planners.md``, section
 APF-ACO):
 
 * **Geometry.** Cell (row, col) is the unit square centred on (row, col). A segment between cell

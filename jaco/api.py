@@ -65,7 +65,7 @@ def solve(
     planner = get_planner(planner)
     for name in params:  # a misspelt keyword of solve lands among the parameters: suggest both
         if name not in planner.params:
-            raise ParamError(unknown_parameter(name, planner.params, f"variant {planner.name!r}", SOLVE_KEYWORDS,
+            raise ParamError(unknown_parameter(name, planner.params, f"planner {planner.name!r}", SOLVE_KEYWORDS,
                                                "jaco.solve"))
     kw: dict[str, Any] = dict(seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, connectivity=connectivity,
               keep_pheromone=keep_pheromone, **params)

@@ -39,7 +39,7 @@ __all__ = [
 ]
 
 #: Classic APF (PF-ACO baseline): attraction gain (fixed: only k_rep/k_att matters), default
-#: repulsion gain and range (cells). The sources print none of them; see docs/variants.md.
+#: repulsion gain and range (cells). The sources print none of them; see docs/planners.md.
 K_ATT = 1.0
 K_REP = 100.0
 D0 = 3.0

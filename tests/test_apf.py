@@ -327,7 +327,7 @@ def test_variants_defaults_and_sources():
     a, c = jaco.PLANNERS["apf-aco"], jaco.PLANNERS["pf-aco"]
     for v in (a, c):
         d = v.default_params()
-        assert (d.alpha, d.beta, d.rho, d.q) == (2.0, 20.0, 0.3, 1.0)  # tuned (docs/variants.md)
+        assert (d.alpha, d.beta, d.rho, d.q) == (2.0, 20.0, 0.3, 1.0)  # tuned (docs/planners.md)
         assert apf_guided.PAPER_PARAMS == dict(alpha=2.0, beta=6.0, rho=0.7, q=1.0)  # the paper's
         assert v.doc.startswith("Dong & Zhao 2021") or "Dong & Zhao 2021" in v.doc
     assert set(c.params) - set(a.params) == {"k_rep", "d0"}
@@ -336,7 +336,7 @@ def test_variants_defaults_and_sources():
 
 def test_apf_aco_paths_near_the_optimum_on_small_random_maps():
     """Best of 2 seeds, 30 ants x 30 iterations, on three 16x16 maps with 20 % obstacles; the
-    gap to the exact optimum is printed and bounded (measured: docs/variants.md, APF-ACO)."""
+    gap to the exact optimum is printed and bounded (measured: docs/planners.md, APF-ACO)."""
     gaps = {}
     for seed in (1, 2, 4):
         grid = jaco.maps.random_map(16, 0.2, seed=seed)

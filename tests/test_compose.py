@@ -157,7 +157,7 @@ def test_combinations_that_cannot_work_are_clear_errors(kw, match):
 def test_a_name_that_is_not_a_composition_is_a_clear_error():
     with pytest.raises(jaco.JacoError, match="expected compose\\(kind=value"):
         parse("compose(walk=dying)")
-    with pytest.raises(jaco.JacoError, match="unknown variant 'compose'"):
+    with pytest.raises(jaco.JacoError, match="unknown planner 'compose'"):
         jaco.solve(GRID, *ENDS, "compose", **TINY)
 
 

@@ -146,8 +146,8 @@ def test_movingai_suite_smoke(tmp_path):
 @pytest.mark.parametrize("argv, message", [
     (["--select-maps", "nosuch.map"], "unknown MovingAI map 'nosuch.map'"),
     (["--maps", "map.yaml"], "unknown MovingAI map 'map.yaml'"),  # a ROS map: no scenario file
-    (["--planners", "iaca", "nosuch"], "unknown variant 'nosuch'"),
-    (["--skip", "nosuch"], "unknown variant 'nosuch'"),
+    (["--planners", "iaca", "nosuch"], "unknown planner 'nosuch'"),
+    (["--skip", "nosuch"], "unknown planner 'nosuch'"),
 ])
 def test_movingai_suite_refuses_unknown_names_before_running(argv, message, tmp_path, capsys):
     sys.path.insert(0, str(ROOT / "experiments"))

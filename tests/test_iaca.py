@@ -195,7 +195,7 @@ def test_as_ants_die_in_a_u_trap_where_iaca_ants_back_out():
         assert validate_path(grid, backing.path, start, goal) == []
 
 
-# -- quality (a small version of the table in docs/variants.md, IACA) ---------------------------------
+# -- quality (a small version of the table in docs/planners.md, IACA) ---------------------------------
 def test_quality_on_random_maps_median_gap_within_3_percent():
     names = ["random-30-05", "random-30-10", "random-30-30", "random-30-50"]
     grids = [jaco.maps.named(n) for n in names]

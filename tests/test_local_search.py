@@ -284,7 +284,7 @@ def test_names_resolve_to_one_object_and_published_planners_have_no_local_search
     assert get_planner("acs+multi+shortcut").cost is jaco.engine.cost.multi_objective
     with pytest.raises(jaco.JacoError, match="unknown local_search 'two-opt'; local searches: none, shortcut"):
         jaco.compose(local_search="two-opt")
-    with pytest.raises(jaco.JacoError, match=r"unknown variant 'iaca\+two-opt'.*\+shortcut"):
+    with pytest.raises(jaco.JacoError, match=r"unknown planner 'iaca\+two-opt'.*\+shortcut"):
         get_planner("iaca+two-opt")
     with pytest.raises(jaco.JacoError, match="has a local search already"):
         with_local_search(get_planner("iaca+shortcut+multi"))

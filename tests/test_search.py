@@ -55,7 +55,7 @@ def test_space_forms_and_conditional_parameters():
     ({"rho": (0.0, 0.5, "log")}, None, "log range needs low > 0"),
     ({"bta": (1.0, 2.0)}, None, "unknown parameter 'bta'"),
     ({"q0": (0.5, 0.9)}, "mmas", "not used by planner 'mmas'"),
-    ({"variant": ["acs", "nope"], "beta": (1.0, 2.0)}, None, "unknown variant 'nope'"),
+    ({"variant": ["acs", "nope"], "beta": (1.0, 2.0)}, None, "unknown planner 'nope'"),
     ({"beta": (1.0, 40.0)}, None, "out of range"),
     ({"n_ants": (1.0, 5.0)}, None, "a size is an integer"),
     ({"variant": [], "beta": (1.0, 2.0)}, None, "empty list of planners"),

@@ -106,7 +106,7 @@ def test_bad_designs_are_param_errors(call, match):
 
 def test_sweep_checks_a_design_against_the_variant_before_compiling():
     before = sum(TRACES.values())
-    with pytest.raises(jaco.ParamError, match="unknown parameter 'q0' for variant 'as'"):
+    with pytest.raises(jaco.ParamError, match="unknown parameter 'q0' for planner 'as'"):
         jaco.sweep(GRID, *ENDS, "as", params=designs.grid(q0=[0.5]), seeds=1, **TINY)
     # relations hold row by row: every row of this design has tau_min < tau_max ...
     rows = designs.table({"tau_min": [0.5, 0.01], "tau_max": [1.0, 0.2]})

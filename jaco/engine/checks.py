@@ -168,7 +168,7 @@ def prepare(grid: Grid, variant: Planner, *, seed: int, n_ants: int, n_iters: in
     check_sizes(n_ants, n_iters, steplimit)
     check_seed(seed)
     check_run_memory(grid.n_cells, n_ants, n_iters, steplimit, runs=runs, keep_pheromone=keep_pheromone)
-    values = resolve_params(variant, params, where=f"variant {variant.name!r}")
+    values = resolve_params(variant, params, where=f"planner {variant.name!r}")
     for k, v in values.items():
         if v.ndim:
             raise JacoError(f"solve takes one value per parameter; {k!r} has {v.size} (use jaco.sweep)")

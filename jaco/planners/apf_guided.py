@@ -5,7 +5,7 @@ Source: Dong Xuanliang, Zhao Guiqing, *Robot navigation path planning based on a
 guided by artificial potential field*, Machinery Design & Manufacture 2021(6):169–173. The APF
 table r_jg is :mod:`jaco.potential`'s, the improved APF itself :mod:`jaco.apf`.
 
-Equations: docs/algorithms.md §6; every interpretation and the defaults: docs/variants.md,
+Equations: docs/algorithms.md §6; every interpretation and the defaults: docs/planners.md,
 "APF-ACO and PF-ACO".
 """
 
@@ -112,7 +112,7 @@ component("rule", "apf", rule=ph.chain(ph.init_constant(), ph.evaporate(), depos
 #: The paper prints α = 2, β = 6, ρ = 0.7, Q = 1 (``PAPER_PARAMS``). The defaults move β to 20 and
 #: ρ to 0.3: with β = 6 no ant of 50 × 100 ever reached the goal on two dense 30 % maps and the
 #: maze of tests/test_quality.py (before the first arrival only β steers), and ρ = 0.7 locks in
-#: the first iterations' paths (docs/variants.md, APF-ACO).
+#: the first iterations' paths (docs/planners.md, APF-ACO).
 PAPER_PARAMS = dict(alpha=2.0, beta=6.0, rho=0.7, q=1.0)
 _APF_DEFAULTS = dict(alpha=2.0, beta=20.0, rho=0.3, q=1.0, tau0=1.0)
 
@@ -126,7 +126,7 @@ APF_ACO = compose(heuristic="apf", rule="apf").named(
     "moves; Euclidean where it loops or is stuck), computed once per run for every cell; roulette "
     "rule; no deposit while walking; after each iteration τ ← (1−ρ)τ and the best half of the "
     "successful ants deposit (fit_i/Σfit)·Q/L_i. Pheromone on moves. Interpretations: jaco.apf "
-    "and docs/variants.md (APF-ACO).",
+    "and docs/planners.md (APF-ACO).",
     **_APF_DEFAULTS,
 )
 
@@ -136,7 +136,7 @@ PF_ACO = compose(heuristic="pf", rule="apf").named(
     doc="The PF-ACO baseline of Dong & Zhao 2021 (their ref. 10): APF-ACO with r_jg from the classic "
     "artificial potential field, U = ½ρ_g² + ½k_rep(1/d − 1/d0)² within d0 (descent to the lowest "
     "neighbour; Euclidean where it ends in a local minimum). Everything else as apf-aco "
-    "(eqs. 6, 10, 11, 12). Interpretations: jaco.apf and docs/variants.md (APF-ACO).",
+    "(eqs. 6, 10, 11, 12). Interpretations: jaco.apf and docs/planners.md (APF-ACO).",
     **_APF_DEFAULTS, k_rep=K_REP_PARAM.default, d0=D0_PARAM.default,
 )
 

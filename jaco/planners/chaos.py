@@ -5,7 +5,7 @@ copy we worked from names neither title nor authors and has lost its formulas): 
 function P_free·P_θ (free-cell share, angle to the goal) in the transition rule (11) and a
 Logistic-chaos perturbation of the pheromone (14) before the global update (15).
 
-The interpretation built here: docs/algorithms.md §7 and docs/variants.md, "Chaos ACO".
+The interpretation built here: docs/algorithms.md §7 and docs/planners.md, "Chaos ACO".
 """
 
 from __future__ import annotations
@@ -194,7 +194,7 @@ CHAOS_ACO = compose(heuristic="chaos", rule="chaos").named(
     "after each iteration the paths above the mean length get their pheromone re-drawn by i_c steps "
     "of the Logistic map (μ = 4) between the smallest and largest pheromone on those paths, then "
     "τ ← (1−ρ)τ + Σ Q/L_k over the paths at or below the mean. η = 1/(distance to the goal) "
-    "(thesis eq. 3-7) as for the classic variants; pheromone on moves (τ_ij). See docs/variants.md.",
+    "(thesis eq. 3-7) as for the classic variants; pheromone on moves (τ_ij). See docs/planners.md.",
     alpha=1.0, beta=8.0, rho=0.3, q=1.0, tau0=0.1, gamma=4.0, chaos_iters=10.0, chaos_mu=4.0,
 )
 

@@ -5,7 +5,7 @@ Hangkong University, 2011, chapter 3; its ref. 58, Sun, Lin, Lou et al., *Double
 complete crossover algorithm for global path planning with concave obstacles*, Trans. CSAM, 2008.
 
 :func:`double_colony` is the construct step: two colonies, complete crossover, best population.
-Equations: docs/algorithms.md §3; the iteration and every interpretation: docs/variants.md,
+Equations: docs/algorithms.md §3; the iteration and every interpretation: docs/planners.md,
 "Double colonies: IDACA and DACA".
 """
 

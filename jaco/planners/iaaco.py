@@ -5,7 +5,7 @@ adaptive ant colony algorithm*, Computers & Industrial Engineering 156 (2021) 10
 multi-objective cost (:func:`jaco.engine.cost.multi_objective`) is open to every variant through
 ``jaco.planners.registry.with_cost``.
 
-Equations: docs/algorithms.md §5; every interpretation and the defaults: docs/variants.md, "IAACO".
+Equations: docs/algorithms.md §5; every interpretation and the defaults: docs/planners.md, "IAACO".
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ Hangkong University, 2011, chapter 4 (eqs. 4-1..4-6, sections 4.2.2-4.4). Pherom
 :func:`iaca_colony` replaces the engine's single colony, because the local update changes τ while
 the ants walk and the heuristic (4-5) depends on each ant's tabu list.
 
-Equations: docs/algorithms.md §4; every interpretation and the defaults: docs/variants.md, "IACA".
+Equations: docs/algorithms.md §4; every interpretation and the defaults: docs/planners.md, "IACA".
 """
 
 from __future__ import annotations
@@ -371,7 +371,7 @@ IACA = compose(construct="backtrack", heuristic="iaca", rule="iaca").named(
     "along their path (4.3), back-steps count toward the step limit and the path is the stack "
     "without dead branches; after the walks, the piecewise rule (4-6) on the cells of failed "
     "ants and of popped dead branches; then, MMAS-style, evaporation (1−ρ), a deposit σ·Q/L* on "
-    "the best-so-far path and the clamp to [τmin, τmax]. Every interpretation: docs/variants.md (IACA).",
+    "the best-so-far path and the clamp to [τmin, τmax]. Every interpretation: docs/planners.md (IACA).",
     alpha=1.0, beta=8.0, rho=0.05, q=0.1, sigma=1000.0, q0=0.9, tau_min=0.01, tau_max=20.0, k_init=10.0,
     rho_local=0.1, q1=1.0, q2=5.0, q3=15.0, rho1=0.7, rho2=0.2, q_step=0.5,
 )

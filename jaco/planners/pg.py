@@ -6,7 +6,7 @@ Life 8(2), 2002 (Ant System's update as stochastic gradient descent), taken lite
 Williams's REINFORCE (1992) as the estimator. :class:`PGTrail` carries the logits and the
 optimiser's state through the engine's loop; :func:`make_pg_aco` picks the optimiser.
 
-Equations (1)-(4): docs/algorithms.md §8; choices, defaults: docs/variants.md, "Policy-gradient ACO".
+Equations (1)-(4): docs/algorithms.md §8; choices, defaults: docs/planners.md, "Policy-gradient ACO".
 """
 
 from __future__ import annotations

@@ -56,9 +56,9 @@ def get_planner(variant) -> Planner:
                 return with_cost(found, suffix) if suffix in COSTS else with_local_search(found, suffix)
     if not isinstance(variant, str):
         several = " (several planners are a sweep axis: jaco.sweep(..., variant=[...]))" if isinstance(variant, (list, tuple)) else ""
-        raise JacoError(f"variant must be a planner name (str) or a Planner, got {type(variant).__name__} {variant!r}{several}")
+        raise JacoError(f"a planner must be a name (str) or a Planner, got {type(variant).__name__} {variant!r}{several}")
     raise JacoError(
-        f"unknown variant {variant!r}; registered: {', '.join(sorted(PLANNERS))} "
+        f"unknown planner {variant!r}; registered: {', '.join(sorted(PLANNERS))} "
         "(or a composition: compose(construct=..., heuristic=..., rule=...); a suffix adds a cost or a local "
         f"search: +{', +'.join(sorted(COSTS))}, +{', +'.join(k for k in LOCAL_SEARCHES if k != 'none')})"
     )

@@ -312,7 +312,7 @@ def recordable_name(variant) -> str:
         same = False
     if not same:
         raise RecordError(
-            f"variant {name!r} is neither registered nor a composition (jaco.compose): a record can "
+            f"planner {name!r} is neither registered nor a composition (jaco.compose): a record can "
             "only be rerun with a planner the registry finds by name"
         )
     return name

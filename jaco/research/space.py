@@ -184,8 +184,12 @@ def parse_space(space, variant=None) -> Space:
     for name in entries:
         if not isinstance(name, str):
             raise SpaceError(f"space: names must be strings, got {name!r}")
+    if "planner" in entries:  # the planner's name; "variant" is the key tables and stored studies use
+        if VARIANT in entries:
+            raise SpaceError("space['planner'] and space['variant'] are the same entry: give one")
+        entries[VARIANT] = entries.pop("planner")
     if VARIANT in entries and variant is not None:
-        raise SpaceError("the planner is given twice: as variant= and as space['variant']; keep one")
+        raise SpaceError("the planner is given twice: as planner= and as space['planner']; keep one")
     chosen = entries.pop(VARIANT, "mmas" if variant is None else variant)
     several = isinstance(chosen, (list, tuple, Categorical)) and not isinstance(chosen, Planner)
     names = list(chosen.choices if isinstance(chosen, Categorical) else chosen) if several else [chosen]

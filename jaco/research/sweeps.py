@@ -267,7 +267,7 @@ def _fetch(x) -> np.ndarray:
 # -- configurations -------------------------------------------------------------------------
 def _config_table(variant, params) -> tuple[dict, list[str]]:
     """Per-configuration values (float64, one array per Params field) and the swept names."""
-    where = f"variant {variant.name!r}"
+    where = f"planner {variant.name!r}"
     if isinstance(params, dict):
         check_values(params, variant.params, where)  # the variant's own names in the message
         n = math.prod(np.size(v) for v in params.values())

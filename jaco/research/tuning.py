@@ -212,7 +212,7 @@ def _names(variant: Planner, tune) -> tuple[str, ...]:
             )
         if name not in variant.params:
             raise ParamError(
-                f"variant {variant.name!r} does not use parameter {name!r}; tunable: {', '.join(usable)}"
+                f"planner {variant.name!r} does not use parameter {name!r}; tunable: {', '.join(usable)}"
             )
     if len(set(names)) != len(names):
         raise ParamError(f"tune: a parameter is named twice in {names!r}")
@@ -301,7 +301,7 @@ def tune(
         raise JacoError(f"optimizer must be an optax GradientTransformation, got {type(optimizer).__name__}")
     if init is not None and not isinstance(init, Mapping):
         raise ParamError(f"init must be a mapping of parameter names to values, got {type(init).__name__} {init!r}")
-    values = resolve_params(planner, dict(init or {}), where=f"variant {planner.name!r}")
+    values = resolve_params(planner, dict(init or {}), where=f"planner {planner.name!r}")
     for k, v in values.items():
         if v.ndim:
             raise JacoError(f"init takes one value per parameter; {k!r} has {v.size}")
