@@ -6,10 +6,10 @@ import argparse
 import sys
 
 from .args import _bucket, _cell, _indices, _int_at_least, _length, _nonneg_int, _Parser, _pos_int, _seed, _xy
-from .commands import cmd_compare, cmd_demo, cmd_info, cmd_maps, cmd_solve, cmd_sweep, cmd_planners
+from .commands import cmd_compare, cmd_demo, cmd_info, cmd_maps, cmd_planners, cmd_solve, cmd_sweep
 from .search import cmd_rerun, cmd_search
 
-DEMO_VARIANT = "mmas"  # on the demo map MMAS comes closer to the optimum than ACS (see --help)
+DEMO_PLANNER = "mmas"  # on the demo map MMAS comes closer to the optimum than ACS (see --help)
 DEFAULT_ANTS = 50
 DEFAULT_ITERS = 100
 
@@ -81,10 +81,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "demo", help="plan on the embedded demo map and plot the result",
         description="Run one colony on the embedded 20x30 demo map, compare with the exact optimum "
-        f"and write a PNG of both paths. The default planner is {DEMO_VARIANT}: over 32 seeds it "
+        f"and write a PNG of both paths. The default planner is {DEMO_PLANNER}: over 32 seeds it "
         "reached a 5.1% mean gap on this map, ACS 5.9%.",
     )
-    _add_run_options(p, default_planner=DEMO_VARIANT, steplimit=False)
+    _add_run_options(p, default_planner=DEMO_PLANNER, steplimit=False)
     p.add_argument("--seed", type=_seed, default=0, metavar="S", help="random seed (default 0)")
     p.add_argument("--out", default="demo.png", metavar="PNG", help="figure to write (default demo.png)")
     p.set_defaults(func=cmd_demo)
