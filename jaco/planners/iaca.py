@@ -2,8 +2,8 @@
 
 Source: Hua Lu, *Research on path planning based on ant colony algorithm*, MSc thesis, Nanchang
 Hangkong University, 2011, chapter 4 (eqs. 4-1..4-6, sections 4.2.2-4.4). Pheromone on cells;
-:func:`iaca_colony` replaces the engine's single colony, because the local update changes τ while
-the ants walk and the heuristic (4-5) depends on each ant's tabu list.
+the construct :func:`backtrack_colony` replaces the engine's single colony, because the local
+update changes τ while the ants walk and the heuristic (4-5) depends on each ant's tabu list.
 
 Equations: docs/algorithms.md §4; every interpretation and the defaults: docs/planners.md, "IACA".
 """

@@ -3,8 +3,8 @@ optax optimiser from a REINFORCE estimate of the expected path cost.
 
 Source: Meuleau & Dorigo, *Ant colony optimization and stochastic gradient descent*, Artificial
 Life 8(2), 2002 (Ant System's update as stochastic gradient descent), taken literally, with
-Williams's REINFORCE (1992) as the estimator. :class:`PGTrail` carries the logits and the
-optimiser's state through the engine's loop; :func:`make_pg_aco` picks the optimiser.
+Williams's REINFORCE (1992) as the estimator. The rule's state in the trail (``"pg"``) carries
+the logits and the optimiser's state through the engine's loop; :func:`make_pg_aco` picks the optimiser.
 
 Equations (1)-(4): docs/algorithms.md §8; choices, defaults: docs/planners.md, "Policy-gradient ACO".
 """
