@@ -105,6 +105,28 @@ def test_every_combination_composes_or_says_why_in_one_line():
     assert built > 5 * refused > 0
 
 
+@pytest.mark.slow  # a program per composition
+def test_a_sample_of_the_compositions_runs_cleanly():
+    """Eight compositions drawn from every combination that builds: each runs, with no NaN in its
+    history, a valid path whenever it succeeds, and most of them succeed on a small map."""
+    import random
+
+    combos = []
+    for combo in itertools.product(*(COMPONENTS[k] for k in KINDS)):
+        try:
+            combos.append(compose(**dict(zip(KINDS, combo))))
+        except jaco.JacoError:
+            pass
+    succeeded = 0
+    for v in random.Random(0).sample(combos, 8):
+        r = jaco.solve(GRID, *ENDS, v, seed=0, **TINY)
+        assert not np.isnan(r.history["best"]).any() and not np.isnan(r.history["mean"]).any(), v.name
+        if r.success:
+            assert jaco.metrics.validate_path(GRID, r.path, *ENDS) == [], v.name
+            succeeded += 1
+    assert succeeded >= 5
+
+
 def test_apf_guidance_with_policy_gradient_pheromone_works():
     """Two components with state of their own (the APF table, the logits and adam's moments) in one
     trail: the composition runs, finds a valid path, and its pheromone is the learned policy."""
