@@ -17,15 +17,32 @@ from __future__ import annotations
 
 import io
 import tempfile
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from matplotlib.axes import Axes
 from matplotlib.colors import ListedColormap, LogNorm, Normalize
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator, NullLocator
 
 from .errors import ParamError, ProblemError
-from .outputs import check_output, write_bytes
+from .outputs import PathArg, check_output, write_bytes
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from matplotlib.animation import Animation, FuncAnimation
+    from numpy.typing import ArrayLike
+
+    from .grid import Grid
+    from .research.compare import Comparison
+    from .research.search import Study
+
+    #: Paths to draw: one ``(K, 2)`` path, a list of paths, or a dict label -> path (None: no path).
+    Paths = ArrayLike | Sequence[ArrayLike | None] | Mapping[Any, ArrayLike | None] | None
+    #: One search study, a list of them, or a dict label -> study.
+    Studies = Study | Sequence[Study] | Mapping[str, Study]
 
 __all__ = [
     "plot_map", "plot_paths", "plot_pheromone", "plot_convergence", "plot_sweep_heatmap", "plot_sweep_box",
@@ -122,7 +139,7 @@ def _is_single_path(paths) -> bool:
     return arr.ndim == 2 and arr.shape[1] == 2
 
 
-def _normalise_paths(paths, labels):
+def _normalise_paths(paths, labels) -> tuple[list[np.ndarray], list[str] | None]:
     """``(list of (K,2) arrays, labels or None)`` from a path, a list of paths or a dict."""
     if isinstance(paths, dict):
         if labels is not None:
@@ -149,7 +166,8 @@ def _draw_path(ax, path, **style):
 
 
 # -- maps and paths ----------------------------------------------------------------------------
-def plot_map(grid, *, start=None, goal=None, ax=None, title=None) -> Figure:
+def plot_map(grid: Grid, *, start: ArrayLike | None = None, goal: ArrayLike | None = None, ax: Axes | None = None,
+             title: str | None = None) -> Figure:
     """The occupancy grid: obstacles dark, free cells light, start (green dot) and goal (red star)."""
     _check_grid(grid)
     fig, ax = _figure_axes(ax)
@@ -160,7 +178,8 @@ def plot_map(grid, *, start=None, goal=None, ax=None, title=None) -> Figure:
     return fig
 
 
-def plot_paths(grid, paths, *, labels=None, start=None, goal=None, ax=None, title=None) -> Figure:
+def plot_paths(grid: Grid, paths: Paths, *, labels: str | Sequence[str] | None = None, start: ArrayLike | None = None,
+               goal: ArrayLike | None = None, ax: Axes | None = None, title: str | None = None) -> Figure:
     """The map with one or several paths drawn through cell centres.
 
     ``paths`` is one ``(K, 2)`` path, a list of paths, or a dict ``label -> path``. With labels
@@ -212,7 +231,8 @@ def _per_cell(grid, tau) -> np.ndarray:
     return t
 
 
-def plot_pheromone(grid, tau, *, path=None, ax=None, log=False, title=None) -> Figure:
+def plot_pheromone(grid: Grid, tau: ArrayLike, *, path: ArrayLike | None = None, ax: Axes | None = None,
+                   log: bool = False, title: str | None = None) -> Figure:
     """Heatmap of the pheromone over the map, obstacles masked (dark), with a colorbar.
 
     ``tau`` is ``(H, W)``, ``(N,)`` per cell (``N = H*W``, flat index ``row*W + col``) or ``(N, 8)``
@@ -255,7 +275,9 @@ def _masked(values) -> np.ma.MaskedArray:
     return np.ma.masked_invalid(np.asarray(values, dtype=float).ravel())
 
 
-def plot_convergence(history, *, ax=None, optimal=None, label=None, title=None, ylabel="path cost") -> Figure:
+def plot_convergence(history: dict[str, Any] | Sequence[dict[str, Any]], *, ax: Axes | None = None,
+                     optimal: float | None = None, label: str | Sequence[str] | None = None, title: str | None = None,
+                     ylabel: str = "path cost") -> Figure:
     """Best-so-far (solid) and iteration mean (dashed) cost per iteration, for one run or several.
 
     ``history`` is a dict with arrays under ``"best"`` (iteration best or best-so-far: the running
@@ -367,7 +389,7 @@ def _finite_mean(values) -> float:
     return float(v.mean()) if v.size and np.isfinite(v).all() else float("inf")
 
 
-def sweep_grid(table, x: str, y: str, value: str = "gap"):
+def sweep_grid(table: pd.DataFrame, x: str, y: str, value: str = "gap") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(xs, ys, Z)``: the mean of ``value`` over every other column (seeds, other parameters)
     for each pair of ``x`` and ``y`` values, ``Z[i, j]`` at ``ys[i], xs[j]``; inf where a run
     failed, NaN where the sweep has no such pair. ``x`` and ``y`` may be columns of numbers
@@ -386,7 +408,8 @@ def sweep_grid(table, x: str, y: str, value: str = "gap"):
     return xs, ys, Z
 
 
-def plot_sweep_heatmap(table, x: str, y: str, value: str = "gap", *, ax=None, title=None, percent=None) -> Figure:
+def plot_sweep_heatmap(table: pd.DataFrame, x: str, y: str, value: str = "gap", *, ax: Axes | None = None,
+                       title: str | None = None, percent: bool | None = None) -> Figure:
     """Heatmap of a sweep table (:func:`jaco.sweep`): the mean ``value`` over seeds (and over any
     other swept parameter) for every ``(x, y)`` pair, each cell annotated with its number.
 
@@ -434,7 +457,8 @@ def _box_label(by, key, fails) -> str:
     return ", ".join(parts) + (f"\n({fails} failed)" if fails else "")
 
 
-def plot_sweep_box(table, by, value: str = "length", *, ax=None, title=None, optimal=None) -> Figure:
+def plot_sweep_box(table: pd.DataFrame, by: str | Sequence[str], value: str = "length", *, ax: Axes | None = None,
+                   title: str | None = None, optimal: float | None = None) -> Figure:
     """Box plots of ``value`` across seeds, one box per configuration (the distinct values of the
     column(s) ``by``: parameters, or text such as the planner, ``"variant"``, shown by its short
     name). Failed runs (inf) are left out of the boxes and counted in the labels. Numbers are
@@ -478,7 +502,7 @@ def plot_sweep_box(table, by, value: str = "length", *, ax=None, title=None, opt
 
 
 # -- searches (jaco.search) ---------------------------------------------------------------------
-def _studies(studies) -> dict:
+def _studies(studies: Studies) -> dict[str, Study]:
     """A :class:`jaco.research.search.Study`, a list of them or a dict label -> study."""
     from .research.search import Study
 
@@ -501,7 +525,8 @@ def _objective_axis(ax, name: str, axis: str = "y") -> bool:
     return percent
 
 
-def plot_search_history(studies, *, x: str = "trials", ax=None, title=None, log: bool = False) -> Figure:
+def plot_search_history(studies: Studies, *, x: str = "trials", ax: Axes | None = None, title: str | None = None,
+                        log: bool = False) -> Figure:
     """The anytime curve of one or several searches: the best objective so far (a step line) against
     finished ``trials``, ant-``iterations`` spent (fair across multi-fidelity searches) or wall
     ``time`` (seconds since the first trial started); one line per study (e.g. per sampler), with a
@@ -535,7 +560,7 @@ def plot_search_history(studies, *, x: str = "trials", ax=None, title=None, log:
     return fig
 
 
-def plot_param_importance(study, *, ax=None, title=None) -> Figure:
+def plot_param_importance(study: Studies, *, ax: Axes | None = None, title: str | None = None) -> Figure:
     """How much each searched parameter matters to the objective (Optuna's PED-ANOVA, Watanabe et al.
     2023: how differently a parameter is distributed in the best trials than in all, over the finished
     trials; parameters that only some planners use are left
@@ -565,7 +590,7 @@ def plot_param_importance(study, *, ax=None, title=None) -> Figure:
     return fig
 
 
-def plot_search_contour(study, x: str, y: str, *, ax=None, title=None) -> Figure:
+def plot_search_contour(study: Studies, x: str, y: str, *, ax: Axes | None = None, title: str | None = None) -> Figure:
     """The objective over two searched parameters: every finished trial as a point coloured by
     its value, over a contour interpolated between them (log axes for log ranges); the best trial
     is starred."""
@@ -615,7 +640,7 @@ def plot_search_contour(study, x: str, y: str, *, ax=None, title=None) -> Figure
 OBJECTIVE_MAX = {"success": True}  # objectives a search maximises (the rest are minimised)
 
 
-def plot_pareto(study, a: str, b: str, *, ax=None, title=None) -> Figure:
+def plot_pareto(study: Studies, a: str, b: str, *, ax: Axes | None = None, title: str | None = None) -> Figure:
     """Two objectives of a search: every finished trial, with the Pareto front (the trials no
     other trial beats on both) joined by a line."""
     study = next(iter(_studies(study).values()))
@@ -638,7 +663,8 @@ def plot_pareto(study, a: str, b: str, *, ax=None, title=None) -> Figure:
 
 
 # -- animation -----------------------------------------------------------------------------------
-def animate_pheromone(grid, history, *, path=None, every: int = 1, interval: int = 150, log=True, title="pheromone"):
+def animate_pheromone(grid: Grid, history: Iterable[ArrayLike], *, path: ArrayLike | None = None,
+                      every: int = 1, interval: int = 150, log: bool = True, title: str = "pheromone") -> FuncAnimation:
     """A :class:`matplotlib.animation.FuncAnimation` of the pheromone over the iterations.
 
     ``history`` is ``(T, N)`` or ``(T, N*8)`` — ``Result.pheromone`` of
@@ -679,7 +705,7 @@ def animate_pheromone(grid, history, *, path=None, every: int = 1, interval: int
     return FuncAnimation(fig, draw, frames=len(frames), interval=interval, blit=False)
 
 
-def save_gif(animation, path, fps: int = 8) -> Path:
+def save_gif(animation: Animation, path: PathArg, fps: int = 8) -> Path:
     """Write an animation as an animated GIF with matplotlib's Pillow writer; returns the path."""
     from matplotlib.animation import PillowWriter
 
@@ -712,7 +738,7 @@ def _cliques(ranks: np.ndarray, cd: float) -> list[tuple[int, int]]:
     return out
 
 
-def plot_critical_difference(comparison, *, ax=None, title=None) -> Figure:
+def plot_critical_difference(comparison: Comparison, *, ax: Axes | None = None, title: str | None = None) -> Figure:
     """Critical-difference diagram (Demšar 2006) of a :func:`jaco.compare` result: the mean rank
     of each configuration over the blocks on an axis (rank 1, the best, on the left), the Nemenyi
     critical difference CD as a bar above it, and thick bars joining configurations whose mean
@@ -753,7 +779,8 @@ def plot_critical_difference(comparison, *, ax=None, title=None) -> Figure:
     return fig
 
 
-def plot_performance_profile(comparison, *, ax=None, title=None, log2: bool = True) -> Figure:
+def plot_performance_profile(comparison: Comparison, *, ax: Axes | None = None, title: str | None = None,
+                             log2: bool = True) -> Figure:
     """Performance profile (Dolan & Moré 2002) of a :func:`jaco.compare` result: for each
     configuration the share ρ(τ) of pairs on which its path length is within a factor τ of the
     best length any configuration reached there (a step function; τ on a log₂ axis by default).
@@ -795,13 +822,14 @@ def figure_suffixes() -> tuple[str, ...]:
     return tuple(sorted("." + s for s in FigureCanvasBase.get_supported_filetypes()))
 
 
-def check_figure_path(path, what: str = "figure", inputs=(), format=None, how="format=") -> Path:
+def check_figure_path(path: PathArg, what: str = "figure", inputs: Iterable[Any] = (), format: str | None = None,
+                      how: str = "format=") -> Path:
     """:func:`jaco.outputs.check_output` for a figure: a suffix matplotlib can write, or ``format``
     (``"png"``, ``"svg"`` ...) naming one."""
     return check_output(path, what, suffixes=figure_suffixes(), inputs=inputs, format=format, how=how)
 
 
-def save(fig, path, format: str | None = None) -> Path:
+def save(fig: Figure, path: PathArg, format: str | None = None) -> Path:
     """Write ``fig`` in the format its suffix names (``.png`` at dpi 120, ``.svg``, ``.pdf``, ...;
     tight bounding box), or in ``format`` when given (needed for ``-``, a device or a FIFO, whose
     names have no suffix); atomically to a file, creating parent folders (see

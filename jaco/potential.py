@@ -15,7 +15,7 @@ two cell by cell.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -23,6 +23,9 @@ import numpy as np
 
 from .engine.params import INF, Param, declare
 from .moves import MOVES
+
+if TYPE_CHECKING:
+    from .engine.params import Params
 
 __all__ = [
     "K_ATT",
@@ -312,7 +315,7 @@ def _apf_next_cell(problem, m: _Map, i):
 _WALKERS = 256
 
 
-def native_apf_next(free, nbr, goal, offsets) -> jax.Array:
+def native_apf_next(free: jax.Array, nbr: jax.Array, goal: Any, offsets: Any) -> jax.Array:
     """The C++ kernel's table of the improved APF's next cells (``jaco_apf_next`` of
     ``jaco/engine/walk.cc``, through :func:`jaco.engine.native.ffi_call`); same result as
     :func:`jax_apf_next` (``free (N,)``, ``nbr (N, 8)``, -1 where not allowed)."""
@@ -322,7 +325,7 @@ def native_apf_next(free, nbr, goal, offsets) -> jax.Array:
     return call(free, nbr, goal, offsets, jnp.asarray(MOVES, jnp.int32))
 
 
-def apf_next(problem) -> jax.Array:
+def apf_next(problem: Any) -> jax.Array:
     """``next (N,)`` of the improved APF for every cell: the cell it moves to, −1 where it is
     stuck or blocked, the goal at the goal. On CPU with the native walk active
     (:func:`jaco.engine.native.active_walk`) the C++ kernel computes it, the same integers as
@@ -333,7 +336,7 @@ def apf_next(problem) -> jax.Array:
                            problem.clearance > 0, problem.nbr, problem.goal, problem.offsets)
 
 
-def jax_apf_next(problem) -> jax.Array:
+def jax_apf_next(problem: Any) -> jax.Array:
     """:func:`apf_next` in JAX: one walker per free cell, vmapped in batches of free cells only
     (a batch runs as many loop steps as its slowest walker)."""
     m = _map(problem)
@@ -352,7 +355,7 @@ def jax_apf_next(problem) -> jax.Array:
     return jax.lax.fori_loop(0, (n_free + batch - 1) // batch, one_batch, jnp.full((n,), -1, jnp.int32))
 
 
-def obstacle_distance(problem) -> jax.Array:
+def obstacle_distance(problem: Any) -> jax.Array:
     """Distance ``(N,)`` from each cell centre to the nearest blocked cell centre, the map's
     outside **not** counting (inf on a map without obstacles; ``problem.clearance`` counts the
     outside, which would make every goal on the border a local maximum of the repulsion).
@@ -396,7 +399,7 @@ def obstacle_distance(problem) -> jax.Array:
     return jnp.sqrt(d2)
 
 
-def classic_next(problem, k_rep, d0, k_att=K_ATT) -> jax.Array:
+def classic_next(problem: Any, k_rep: jax.Array | float, d0: jax.Array | float, k_att: float = K_ATT) -> jax.Array:
     """``next (N,)`` of the classic APF: the allowed neighbour of lowest
     ``U = ½k_att·ρ_g² + ½k_rep(1/d − 1/d0)²·[d ≤ d0]`` if lower than U here, else −1 (a local
     minimum); the goal maps to itself. ``d`` = :func:`obstacle_distance` (ρ_g and d Euclidean,
@@ -416,7 +419,7 @@ def classic_next(problem, k_rep, d0, k_att=K_ATT) -> jax.Array:
 
 
 
-def chain_lengths(problem, nxt):
+def chain_lengths(problem: Any, nxt: jax.Array) -> tuple[jax.Array, jax.Array]:
     """Length of the walk ``j, next(j), next(next(j)), …`` to the goal for every cell j, by
     pointer doubling (⌈log2 N⌉ rounds of every walker jumping 2^k steps at once): ``(r (N,),
     reached (N,))``; r is ``n_straight + √2·n_diagonal`` where the walk reaches the goal and the
@@ -437,12 +440,12 @@ def chain_lengths(problem, nxt):
     return jnp.where(reached, r, euclid), reached
 
 
-def apf_distance(problem, params=None) -> jax.Array:
+def apf_distance(problem: Any, params: Params | None = None) -> jax.Array:
     """r_jg (N,) of the improved APF (Dong & Zhao 2021, 3.1–3.2), Euclidean where it fails."""
     return chain_lengths(problem, apf_next(problem))[0]
 
 
-def classic_distance(problem, params) -> jax.Array:
+def classic_distance(problem: Any, params: Params) -> jax.Array:
     """r_jg (N,) of the classic APF with ``params.k_rep``, ``params.d0`` (PF-ACO, ref. 10),
     Euclidean where it ends in a local minimum."""
     return chain_lengths(problem, classic_next(problem, params.k_rep, params.d0))[0]

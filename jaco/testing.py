@@ -57,7 +57,7 @@ def _other_value(v: Planner) -> tuple[str, float, float]:
     return name, x, x
 
 
-def check_paths(planner, maps: Sequence[Grid] | None = None) -> None:
+def check_paths(planner: str | Planner, maps: Sequence[Grid] | None = None) -> None:
     """On every map: the run succeeds, its path is valid (free cells, 8-connected, no corner cut)
     and never shorter than the exact optimum, the gap is (L − L*)/L*, the history holds no NaN,
     the best-so-far never rises and the best iteration lies in the run."""
@@ -77,7 +77,7 @@ def check_paths(planner, maps: Sequence[Grid] | None = None) -> None:
         assert 0 <= r.best_iteration < SMALL["n_iters"], f"{v.name}: best iteration {r.best_iteration}"
 
 
-def check_pheromone(planner, grid: Grid | None = None) -> None:
+def check_pheromone(planner: str | Planner, grid: Grid | None = None) -> None:
     """The final pheromone is finite and non-negative."""
     v = get_planner(planner)
     grid = grid or default_maps()[0]
@@ -87,7 +87,7 @@ def check_pheromone(planner, grid: Grid | None = None) -> None:
     assert np.isfinite(tau).all() and (tau >= 0).all(), f"{v.name}: pheromone not finite or negative"
 
 
-def check_seeds(planner, grid: Grid | None = None) -> None:
+def check_seeds(planner: str | Planner, grid: Grid | None = None) -> None:
     """The same seed gives the same run bit for bit; other seeds give other walks (some history or
     the cells the ants covered differ: a planner may find the optimum every time)."""
     v = get_planner(planner)
@@ -102,7 +102,7 @@ def check_seeds(planner, grid: Grid | None = None) -> None:
         f"{v.name}: other seeds gave the same walks")
 
 
-def check_sweep(planner, grid: Grid | None = None) -> None:
+def check_sweep(planner: str | Planner, grid: Grid | None = None) -> None:
     """Each row of a sweep (two values of the planner's first parameter × two seeds) equals the
     single run with that value and seed."""
     v = get_planner(planner)
@@ -119,7 +119,7 @@ def check_sweep(planner, grid: Grid | None = None) -> None:
         assert row.coverage == r.coverage
 
 
-def check_compiles_once(planner) -> None:
+def check_compiles_once(planner: str | Planner) -> None:
     """Repeated calls of one shape (other parameter values, maps and queries) compile nothing new."""
     v = get_planner(planner)
     a = random_map(12, 0.2, seed=1)
@@ -135,7 +135,7 @@ def check_compiles_once(planner) -> None:
     assert TRACES[v.name] == before, f"{v.name}: recompiled for a call of the same shape"
 
 
-def check_unreachable(planner) -> None:
+def check_unreachable(planner: str | Planner) -> None:
     """An unreachable goal is a :class:`~jaco.errors.ProblemError` before anything compiles."""
     v = get_planner(planner)
     grid = Grid.from_rows(["..#..", "..#..", "..#.."])
@@ -149,7 +149,7 @@ def check_unreachable(planner) -> None:
     assert TRACES[v.name] == before, f"{v.name}: compiled before refusing an unreachable goal"
 
 
-def check_failed_runs(planner) -> None:
+def check_failed_runs(planner: str | Planner) -> None:
     """Runs that cannot succeed (two steps to the far corner) are inf, never NaN, with best
     iteration −1, inside a batch."""
     v = get_planner(planner)
@@ -162,7 +162,7 @@ def check_failed_runs(planner) -> None:
     assert (table.best_iteration == -1).all()
 
 
-def check_trivial_query(planner, grid: Grid | None = None) -> None:
+def check_trivial_query(planner: str | Planner, grid: Grid | None = None) -> None:
     """Start = goal: success, length 0, the path is the one cell."""
     v = get_planner(planner)
     grid = grid or default_maps()[0]
@@ -171,7 +171,7 @@ def check_trivial_query(planner, grid: Grid | None = None) -> None:
     assert r.success and r.length == 0 and r.path.tolist() == [list(start)], f"{v.name}: trivial query"
 
 
-def check_documented(planner) -> None:
+def check_documented(planner: str | Planner) -> None:
     """A name, a source and a description; every parameter has a finite default."""
     v = get_planner(planner)
     assert isinstance(v, Planner) and v.name and v.source and v.doc, f"{v!r}: name, source and doc are required"
@@ -179,7 +179,7 @@ def check_documented(planner) -> None:
     assert all(math.isfinite(float(v.defaults[k])) for k in v.params), f"{v.name}: a default is not finite"
 
 
-def check_planner(planner, maps: Sequence[Grid] | None = None) -> None:
+def check_planner(planner: str | Planner, maps: Sequence[Grid] | None = None) -> None:
     """Every check of this module on ``planner`` (a name, a composition or a Planner); raises
     :class:`AssertionError` naming the first that fails. About a minute on two cores: each check
     compiles the planner's programs for its own shapes."""

@@ -30,7 +30,7 @@ EXP_TABLE = np.round(np.exp2(_I) * 2**23).astype(np.int32)  # 2^(i/1024), 2^-23 
 TABLES = np.concatenate([LOG_TABLE, EXP_TABLE])  # what the kernel receives
 
 
-def rounded(x):
+def rounded(x: jax.Array) -> jax.Array:
     """``x`` rounded to float32 on its own: XLA:CPU fuses a product into a following add (one
     rounding, an FMA) where the C++ kernel rounds twice; this select stops the fusion and is the
     identity (NaN stays NaN)."""
@@ -41,7 +41,7 @@ def _bits_to_float(b):
     return jax.lax.bitcast_convert_type(b.astype(jnp.int32), jnp.float32)
 
 
-def log2(x):
+def log2(x: jax.Array | float) -> jax.Array:
     """log2 of positive normal float32 ``x`` (float32)."""
     b = jax.lax.bitcast_convert_type(jnp.asarray(x, jnp.float32), jnp.int32)
     e = (b >> 23) - 127
@@ -54,7 +54,7 @@ def log2(x):
     return e.astype(jnp.float32) + frac.astype(jnp.float32) * jnp.float32(2.0**-24)
 
 
-def exp2(y):
+def exp2(y: jax.Array | float) -> jax.Array:
     """2^y for float32 ``y`` (0 below 2^-126, inf from 2^128)."""
     y = jnp.asarray(y, jnp.float32)
     n = jnp.floor(y)
@@ -71,7 +71,7 @@ def exp2(y):
     return jnp.where(n < -126, 0.0, jnp.where(n > 127, jnp.inf, value)).astype(jnp.float32)
 
 
-def power(x, a):
+def power(x: jax.Array | float, a: jax.Array | float) -> jax.Array:
     """``x^a`` for float32 ``x`` and ``a`` (0 where ``x ≤ 0``)."""
     x = jnp.asarray(x, jnp.float32)
     pos = x > 0

@@ -9,13 +9,17 @@ provide their own. Everything after construction (best-so-far, pheromone rule, h
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import jax
 import jax.numpy as jnp
 
 from .params import Param, declare
 from .walk import walk
+
+if TYPE_CHECKING:
+    from .params import Params
+    from .pheromone import Trail
 
 ALPHA, BETA, Q0 = declare(
     Param("alpha", 1.0, 0, 20, "pheromone exponent α of a move's weight τ^α·η^β (thesis eq. 2-1)"),
@@ -45,7 +49,7 @@ class Colony(NamedTuple):
 _TINY = float(jnp.finfo(jnp.float32).tiny)
 
 
-def eta_factor(variant, trail, problem, params, t, n_iters):
+def eta_factor(variant: Any, trail: Trail, problem: Any, params: Params, t: Any, n_iters: int) -> jax.Array:
     """log(η^β) of every move ``(N, 8)``: the part of a move's weight besides the pheromone, for
     a variant whose ``heuristic`` is an η table (thesis eq. 2-1). Planners whose weights have
     more factors (angle guidance, selection shares, potential fields) provide their own."""
@@ -53,7 +57,7 @@ def eta_factor(variant, trail, problem, params, t, n_iters):
     return params.beta * jnp.log(jnp.where(valid, variant.heuristic(problem, params, t, n_iters), 1.0))
 
 
-def scaled(log_w, valid):
+def scaled(log_w: jax.Array, valid: jax.Array) -> jax.Array:
     """``exp(log_w)`` scaled so that each cell's largest allowed weight is 1: exactly 0 where the
     map forbids the move, in [1e-30, 1] elsewhere. The roulette and the argmax only compare the
     weights of one cell, so the scaling changes no choice; it keeps large exponents away from
@@ -65,14 +69,14 @@ def scaled(log_w, valid):
     return jnp.where(valid, jnp.clip(jnp.exp(log_w - top), 1e-30, 1.0), 0.0)
 
 
-def move_tau(variant, trail, problem):
+def move_tau(variant: Any, trail: Trail, problem: Any) -> jax.Array:
     """The pheromone of every move ``(N, 8)``: τ_ij, or τ_j of the cell it enters."""
     if variant.pheromone_on == "cells":
         return trail.tau[jnp.where(problem.nbr >= 0, problem.nbr, 0)]
     return trail.tau.reshape(problem.nbr.shape)
 
 
-def move_weights(variant, trail, problem, params, t, n_iters):
+def move_weights(variant: Any, trail: Trail, problem: Any, params: Params, t: Any, n_iters: int) -> jax.Array:
     """The roulette weights ``(N, 8)``: τ^α times the variant's factor (``variant.factor``, by
     default η^β), :func:`scaled` per cell.
 
@@ -84,7 +88,7 @@ def move_weights(variant, trail, problem, params, t, n_iters):
     return scaled(log_w, problem.nbr >= 0)
 
 
-def step_targets(pheromone_on: str, cells, moves, start, n_cells: int):
+def step_targets(pheromone_on: str, cells: jax.Array, moves: jax.Array, start: Any, n_cells: int) -> jax.Array:
     """Pheromone element of every step: the entered cell (cells) or ``from·8 + move`` (moves);
     out of range (``N`` or ``8N``) where no step was taken."""
     if pheromone_on == "cells":
@@ -93,13 +97,14 @@ def step_targets(pheromone_on: str, cells, moves, start, n_cells: int):
     return jnp.where(moves >= 0, prev * 8 + moves, 8 * n_cells)
 
 
-def single_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
+def single_colony(variant: Any, problem: Any, trail: Trail, params: Params, t: Any, n_iters: int, key: jax.Array,
+                  *, n_ants: int, steplimit: int) -> tuple[Trail, Colony]:
     """One colony walks start → goal with the random-proportional (or q0) rule; dead ants fail."""
     weights = move_weights(variant, trail, problem, params, t, n_iters)
     return trail, walk_colony(variant, problem, weights, params, key, n_ants=n_ants, steplimit=steplimit)
 
 
-def walk_colony(variant, problem, weights, params, key, *, n_ants: int, steplimit: int) -> Colony:
+def walk_colony(variant: Any, problem: Any, weights: jax.Array, params: Params, key: jax.Array, *, n_ants: int, steplimit: int) -> Colony:
     """The :class:`Colony` of ``n_ants`` ants walking start → goal on the move weights ``weights``
     (``(N, 8)``, 0 exactly on forbidden moves), with the variant's transition rule and cost."""
     exploit = variant.transition == "pseudo-random"

@@ -10,6 +10,9 @@ metrics of its path never disagree.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -17,10 +20,14 @@ from .. import metrics
 from ..moves import MOVES
 from .params import INF, Param, declare
 
+if TYPE_CHECKING:
+    from .params import Params
+    from .walk import Tours
+
 __all__ = ["path_length", "TURN", "safety", "energy", "multi_objective", "COSTS", "COST_PARAMS", "MULTI_PARAMS"]
 
 
-def path_length(tours, problem, params):
+def path_length(tours: Tours, problem: Any, params: Params) -> jax.Array:
     """Cost = path length (thesis eq. 3-2); multi-objective costs replace this function."""
     return tours.length
 
@@ -39,7 +46,7 @@ def _turn_table() -> np.ndarray:
 TURN = _turn_table()
 
 
-def safety(tours, problem, params):
+def safety(tours: Tours, problem: Any, params: Params) -> jax.Array:
     """S per ant ``(A,)``: :func:`jaco.metrics.safety_terms` with radius ``rs_cost`` summed over
     the start and every cell entered (the same cells and formula as :func:`jaco.metrics.safety_cost`)."""
     took = tours.cells >= 0
@@ -48,7 +55,7 @@ def safety(tours, problem, params):
     return jnp.sum(terms, axis=0) + metrics.safety_terms(problem.clearance[problem.start], params.rs_cost, xp=jnp)
 
 
-def energy(tours, problem, params):
+def energy(tours: Tours, problem: Any, params: Params) -> jax.Array:
     """E per ant ``(A,)``: total absolute heading change in radians (:func:`jaco.metrics.heading_change`)."""
     prev, nxt = tours.moves[:-1], tours.moves[1:]
     both = (prev >= 0) & (nxt >= 0)
@@ -56,7 +63,7 @@ def energy(tours, problem, params):
     return jnp.sum(jnp.where(both, turn, 0.0), axis=0)
 
 
-def multi_objective(tours, problem, params):
+def multi_objective(tours: Tours, problem: Any, params: Params) -> jax.Array:
     """J = kL·L + kS·S + kE·E (Miao et al. 2021, §3.4; ``docs/algorithms.md`` §5): L the path
     length (cells), S :func:`safety`, E :func:`energy`; a ``Planner.cost`` for any variant."""
     return (

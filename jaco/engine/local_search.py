@@ -37,7 +37,7 @@ definition, used everywhere else.
 from __future__ import annotations
 
 import functools
-from typing import Any, Protocol, cast
+from typing import TYPE_CHECKING, Any, Protocol, cast
 
 import jax
 import jax.numpy as jnp
@@ -47,6 +47,11 @@ from ..moves import MOVES
 from . import native
 from .colony import Colony, step_targets
 from .walk import Tours
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from ..grid import Grid
 
 
 class ShortcutSearch(Protocol):
@@ -76,7 +81,7 @@ BEST = 5
 CHUNK = 16
 
 
-def allowed_bits(nbr) -> jax.Array:
+def allowed_bits(nbr: jax.Array) -> jax.Array:
     """``(N,) uint8``: bit k of cell i set when the map allows move k from i (``nbr[i, k] ≥ 0``)."""
     bits = jnp.zeros(nbr.shape[:-1], jnp.uint8)
     for k in range(8):
@@ -84,7 +89,8 @@ def allowed_bits(nbr) -> jax.Array:
     return bits
 
 
-def shortcut(cells, start, bits, offsets, diagonal, *, window: int, passes: int):
+def shortcut(cells: ArrayLike, start: Any, bits: ArrayLike, offsets: ArrayLike, diagonal: Any, *, window: int,
+             passes: int) -> jax.Array:
     """The octile shortcut (module docstring) of every column of ``cells (S, C)``: each a path
     from ``start`` (the cells entered, -1 after the goal). ``bits (N,)``: :func:`allowed_bits`;
     ``offsets (8,)``: the flat-index change of each move; ``diagonal``: whether the map allows
@@ -92,11 +98,12 @@ def shortcut(cells, start, bits, offsets, diagonal, *, window: int, passes: int)
     it where it is active and the program runs on CPU, this module's JAX code everywhere else."""
     args = (jnp.asarray(cells, jnp.int32), jnp.asarray(bits, jnp.uint8), jnp.asarray(start, jnp.int32),
             jnp.asarray(offsets, jnp.int32), jnp.asarray(diagonal, bool), jnp.asarray(MOVE_OF))
-    kw = dict(window=int(window), passes=int(passes))
+    kw: dict[str, Any] = dict(window=int(window), passes=int(passes))
     return native.dispatch(functools.partial(native.shortcut, **kw), functools.partial(jax_shortcut, **kw), *args)
 
 
-def jax_shortcut(cells, bits, start, offsets, diagonal, move_of, *, window: int, passes: int):
+def jax_shortcut(cells: jax.Array, bits: jax.Array, start: Any, offsets: Any, diagonal: Any, move_of: Any, *,
+                 window: int, passes: int) -> jax.Array:
     """:func:`shortcut` in JAX: the definition. Columns are independent (vmapped)."""
     one = functools.partial(_shortcut_path, bits=bits, start=start, offsets=offsets, diagonal=diagonal,
                             move_of=move_of, window=window, passes=passes)
@@ -212,7 +219,7 @@ def _one_pass(path, bits, start, offsets, diagonal, move_of, window):
     return jnp.where(jnp.arange(s) < o, out[:s], -1), changed
 
 
-def shorten_path(grid, path, *, connectivity: int = 8, window: int = WINDOW, passes: int = PASSES) -> np.ndarray:
+def shorten_path(grid: Grid, path: ArrayLike, *, connectivity: int = 8, window: int = WINDOW, passes: int = PASSES) -> np.ndarray:
     """The octile shortcut of one path on ``grid``, outside any run: ``path`` ``(K, 2)`` (row, col)
     cells, start first, a valid path of the move model (:func:`jaco.metrics.validate_path`);
     returns the shortened path ``(K', 2)``, ``K' ≤ K``, never longer, with the same ends.
@@ -247,7 +254,7 @@ def _shorten_one(cells, bits, start, offsets, diagonal, *, window, passes, walk)
     return shortcut(cells, start, bits, offsets, diagonal, window=window, passes=passes)
 
 
-def path_tours(problem, cells, arrived, n_steps, visited) -> Tours:
+def path_tours(problem: Any, cells: jax.Array, arrived: jax.Array, n_steps: jax.Array, visited: jax.Array) -> Tours:
     """Step-major :class:`~jaco.engine.walk.Tours` of paths given by their cells ``(S, C)``
     (from ``problem.start``, -1 padded): the moves from the cells' coordinates, the step lengths
     and the path lengths from integer counts (as the walks compute them)."""

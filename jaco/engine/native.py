@@ -20,6 +20,7 @@ from __future__ import annotations
 import ctypes
 import importlib.util
 import os
+from typing import Any, Callable
 
 import jax
 import jax.numpy as jnp
@@ -86,7 +87,7 @@ def active_walk() -> str:
     return choice
 
 
-def ffi_call(target: str, result_shapes, **kwargs):
+def ffi_call(target: str, result_shapes: Any, **kwargs: Any) -> Callable[..., Any]:
     """``jax.ffi.ffi_call`` of one of the kernels (``target``, a name of walk.cc's FFI targets),
     the library loaded and its targets registered first; the planners' own kernel wrappers
     (:func:`jaco.planners.iaca.native_backtrack_walk`, :func:`jaco.potential.native_apf_next`)
@@ -95,7 +96,7 @@ def ffi_call(target: str, result_shapes, **kwargs):
     return jax.ffi.ffi_call(target, result_shapes, vmap_method="broadcast_all", **kwargs)
 
 
-def dispatch(native_fn, jax_fn, *args):
+def dispatch(native_fn: Callable[..., Any], jax_fn: Callable[..., Any], *args: Any) -> Any:
     """``native_fn(*args)`` where the program runs on CPU with the native walk active, else
     ``jax_fn(*args)``: the one switch between a kernel and the JAX code that it equals."""
     if active_walk() == "native":
@@ -103,7 +104,8 @@ def dispatch(native_fn, jax_fn, *args):
     return jax_fn(*args)
 
 
-def walk(weights, words, start, goal, q0, offsets, *, n_ants: int, steplimit: int, exploit: bool):
+def walk(weights: jax.Array, words: jax.Array, start: Any, goal: Any, q0: jax.Array | float, offsets: Any, *,
+         n_ants: int, steplimit: int, exploit: bool) -> Any:
     """The kernel's walk; same arguments and results as :func:`jaco.engine.walk.jax_walk`."""
     _load()
     n = weights.shape[-2]
@@ -119,7 +121,7 @@ def walk(weights, words, start, goal, q0, offsets, *, n_ants: int, steplimit: in
     return call(weights, words, start, goal, q0, offsets, steplimit=np.int64(steplimit), exploit=bool(exploit))
 
 
-def deposit(tau, targets, amounts):
+def deposit(tau: jax.Array, targets: jax.Array, amounts: jax.Array) -> jax.Array:
     """The kernel's scatter-add ``tau[targets] += amounts`` (out-of-range targets dropped), in
     XLA's order: same arguments and result as :func:`jaco.engine.pheromone.deposit`'s JAX form;
     ``targets (S, C)`` or ``(S,)``, each column a walk (the steps it took first, then targets out
@@ -134,7 +136,8 @@ def deposit(tau, targets, amounts):
     return call(tau, flat, per)
 
 
-def shortcut(cells, bits, start, offsets, diagonal, move_of, *, window: int, passes: int):
+def shortcut(cells: jax.Array, bits: jax.Array, start: Any, offsets: Any, diagonal: Any, move_of: Any, *, window: int,
+             passes: int) -> jax.Array:
     """The kernel's octile shortcut; same arguments and result as
     :func:`jaco.engine.local_search.jax_shortcut` (``cells (S, C)``, each column a path)."""
     _load()
@@ -142,7 +145,7 @@ def shortcut(cells, bits, start, offsets, diagonal, move_of, *, window: int, pas
     return call(cells, bits, start, offsets, diagonal, move_of, window=np.int64(window), passes=np.int64(passes))
 
 
-def power(x, a):
+def power(x: jax.Array, a: jax.Array | float) -> jax.Array:
     """The kernel's :func:`jaco.engine.bitexact.power` (for tests)."""
     from .bitexact import TABLES
 
@@ -152,7 +155,7 @@ def power(x, a):
     return call(x, jnp.broadcast_to(jnp.asarray(a, jnp.float32), x.shape), jnp.asarray(TABLES))
 
 
-def uniforms(words, ants, steps):
+def uniforms(words: jax.Array, ants: jax.Array, steps: jax.Array) -> jax.Array:
     """The kernel's uniforms of ``(ant, step)`` pairs (for tests against
     :func:`jaco.engine.walk.step_uniforms`)."""
     _load()

@@ -13,13 +13,16 @@ example, is ``chain(init_mmas(), evaporate(), deposit_iteration_best(), mmas_bou
 
 from __future__ import annotations
 
-from typing import Any, Callable, Mapping, NamedTuple, Protocol
+from typing import TYPE_CHECKING, Any, Callable, Mapping, NamedTuple, Protocol
 
 import jax
 import jax.numpy as jnp
 
 from . import native
 from .params import INF, Param, declare
+
+if TYPE_CHECKING:
+    from .params import Params
 
 RHO, Q, TAU0, XI, SIGMA, W, P_BEST, TAU_MIN, TAU_MAX = declare(
     Param("rho", 0.1, 0, 1, "evaporation rate ρ: τ ← (1−ρ)τ + Δτ (thesis eq. 2-2)", lo_open=True),
@@ -129,13 +132,13 @@ def chain(*rules: Rule) -> Rule:
     return _CHAINS.setdefault(rules, Rule(init, update))
 
 
-def inverse(cost):
+def inverse(cost: jax.Array) -> jax.Array:
     """1/cost for finite positive costs, 0 otherwise (failed ants and empty paths deposit nothing)."""
     ok = jnp.isfinite(cost) & (cost > 0)
     return jnp.where(ok, 1.0 / jnp.where(ok, cost, 1.0), 0.0)
 
 
-def deposit(tau, targets, amounts):
+def deposit(tau: jax.Array, targets: jax.Array, amounts: jax.Array | float):
     """``tau[targets] += amounts`` in the order of ``targets`` (row-major), targets outside
     ``[0, M)`` dropped (steps not taken); ``amounts`` is a scalar, one value per ant (the last
     axis of ``targets``) or one per target.
@@ -160,7 +163,7 @@ def on_path(tau: jax.Array, targets: jax.Array) -> jax.Array:
     return deposit(jnp.zeros(tau.shape, jnp.float32), targets, 1.0) > 0
 
 
-def octile(problem) -> jax.Array:
+def octile(problem: Any) -> jax.Array:
     """Octile distance start→goal: the obstacle-free lower bound of the path length."""
     d = jnp.abs(problem.xy[problem.start] - problem.xy[problem.goal])
     return jnp.max(d) + (jnp.sqrt(2.0) - 1.0) * jnp.min(d)
@@ -205,17 +208,17 @@ def deposit_all(amount: Callable) -> Rule:
     return Rule(keep_init, update)
 
 
-def ant_cycle(walks, params):
+def ant_cycle(walks: Walks, params: Params) -> jax.Array:
     """Δτ^k = Q/L_k on every step of ant k (thesis eq. 2-6), one amount per ant."""
     return params.q * inverse(walks.cost)
 
 
-def ant_density(walks, params):
+def ant_density(walks: Walks, params: Params) -> jax.Array:
     """Δτ^k = Q on every step of a successful ant (thesis eq. 2-4), one amount per ant."""
     return jnp.where(jnp.isfinite(walks.cost), params.q, 0.0)
 
 
-def ant_quantity(walks, params):
+def ant_quantity(walks: Walks, params: Params) -> jax.Array:
     """Δτ^k = Q/d_ij on every step of a successful ant (thesis eqs. 2-5, 4-4)."""
     ok = jnp.isfinite(walks.cost)[None, :] & (walks.step_len > 0)
     return jnp.where(ok, params.q / jnp.where(ok, walks.step_len, 1.0), 0.0)

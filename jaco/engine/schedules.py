@@ -21,7 +21,7 @@ The sources count iterations from 1, so every schedule below uses ``i = t + 1``.
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Any, Callable
 
 import jax.numpy as jnp
 
@@ -45,7 +45,7 @@ def _iteration(t):
     return jnp.asarray(t).astype(jnp.float32) + 1.0
 
 
-def alpha_beta(params: Params, t, n_iters) -> Params:
+def alpha_beta(params: Params, t: Any, n_iters: int) -> Params:
     """Linear α, β ramps up to a break iteration, then plateaus (thesis eqs. 3-8, 3-9).
 
     For ``0 < i ≤ break_iter``: ``α = alpha_slope·i`` and ``β = beta_start − beta_slope·i``;
@@ -60,7 +60,7 @@ def alpha_beta(params: Params, t, n_iters) -> Params:
     return params.replace(alpha=alpha, beta=beta)
 
 
-def rho_decay(params: Params, t, n_iters) -> Params:
+def rho_decay(params: Params, t: Any, n_iters: int) -> Params:
     """Decaying evaporation rate with a floor (thesis eq. 3-10).
 
     ``ρ(i+1) = ρ(i)·a^(−i/Nc)`` while ``ρ(i) > ρmin``, then ``ρmin``, with ``ρ(1) = params.rho``

@@ -49,12 +49,12 @@ class Tours(NamedTuple):
     visited: jax.Array
 
 
-def key_words(key) -> jax.Array:
+def key_words(key: jax.Array) -> jax.Array:
     """The two 32-bit words ``(2,) uint32`` the walk's uniforms are hashed with, from a key."""
     return jax.random.bits(key, (2,), jnp.uint32)
 
 
-def step_uniforms(words, ants, t) -> jax.Array:
+def step_uniforms(words: jax.Array, ants: jax.Array, t: Any) -> jax.Array:
     """Uniforms on [0, 1) of ants ``ants`` at step ``t``: word ``t % 2`` of
     Threefry-2x32(``words``; ``ants``, ``t // 2``), its top 23 bits as the mantissa (as
     ``jax.random.uniform`` makes a float from bits)."""
@@ -66,7 +66,7 @@ def step_uniforms(words, ants, t) -> jax.Array:
     return jax.lax.bitcast_convert_type((bits >> 9) | jnp.uint32(0x3F800000), jnp.float32) - 1.0
 
 
-def choose(w, u, q0, exploit: bool):
+def choose(w: jax.Array, u: jax.Array, q0: jax.Array | float, exploit: bool) -> jax.Array:
     """Pick a move index from weights ``w (A, 8)`` (zero = not allowed) with uniforms ``u (A,)``.
 
     Roulette wheel: the first index whose cumulative weight exceeds ``u·Σw`` (thesis 2-1); the
@@ -91,7 +91,7 @@ def choose(w, u, q0, exploit: bool):
     return k
 
 
-def walk(problem, weights, key, q0, *, n_ants: int, steplimit: int, exploit: bool) -> Tours:
+def walk(problem: Any, weights: jax.Array, key: jax.Array, q0: jax.Array | float, *, n_ants: int, steplimit: int, exploit: bool) -> Tours:
     """Walk ``n_ants`` ants from ``problem.start`` with move weights ``weights (N, 8)``.
 
     ``weights`` must be 0 exactly on the moves the map forbids and > 0 elsewhere; ``key`` is the
@@ -104,7 +104,8 @@ def walk(problem, weights, key, q0, *, n_ants: int, steplimit: int, exploit: boo
     return _tours(*native.dispatch(functools.partial(native.walk, **kw), functools.partial(jax_walk, **kw), *args))
 
 
-def jax_walk(weights, words, start, goal, q0, offsets, *, n_ants: int, steplimit: int, exploit: bool):
+def jax_walk(weights: jax.Array, words: jax.Array, start: Any, goal: Any, q0: jax.Array | float, offsets: Any, *,
+             n_ants: int, steplimit: int, exploit: bool) -> tuple[jax.Array, ...]:
     """The walk in JAX, every ant on its own lane until the last one stops.
 
     Returns ``moves (steplimit, A) int8`` and ``cells (steplimit, A) int32`` of every step (-1

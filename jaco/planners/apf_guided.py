@@ -11,6 +11,8 @@ Equations: docs/algorithms.md §6; every interpretation and the defaults: docs/p
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any, Callable
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -19,6 +21,10 @@ from ..engine import pheromone as ph
 from ..engine.colony import ALPHA, BETA
 from ..potential import D0_PARAM, K_REP_PARAM, apf_distance, classic_distance
 from .compose import component, compose
+
+if TYPE_CHECKING:
+    from ..engine.params import Params
+    from ..engine.planner import Planner
 
 __all__ = [
     "apf_eta",
@@ -32,7 +38,7 @@ __all__ = [
 ]
 
 
-def apf_eta(problem, r, t, n_iters) -> jax.Array:
+def apf_eta(problem: Any, r: jax.Array, t: Any, n_iters: int) -> jax.Array:
     """Eq. (10): ``η_ij = 1/(d_ij + r_jg) · (Nmax − Nc + 1)/Nmax`` ``(N, 8)``, Nc = t + 1
     (0 where the map forbids the move)."""
     valid = problem.nbr >= 0
@@ -50,7 +56,7 @@ def _heuristic(table):
     return heuristic
 
 
-def apf_table(table) -> ph.Rule:
+def apf_table(table: Callable[[Any, Params], jax.Array]) -> ph.Rule:
     """Keep the APF distance ``r = table(problem, params) (N,)`` in the trail (its state ``"apf"``),
     computed once per run inside the run; the pheromone itself is left to the other pieces."""
 
@@ -60,7 +66,7 @@ def apf_table(table) -> ph.Rule:
     return ph.Rule(init, ph.keep_update)
 
 
-def apf_init(table) -> ph.Rule:
+def apf_init(table: Callable[[Any, Params], jax.Array]) -> ph.Rule:
     """τ = τ0 everywhere and ``r = table(problem, params)`` (once per run, inside the run)."""
     return ph.chain(apf_table(table), ph.init_constant())
 
@@ -83,7 +89,7 @@ def deposit_best_half() -> ph.Rule:
     return ph.Rule(ph.keep_init, update)
 
 
-def apf_factor(variant, trail, problem, params, t, n_iters) -> jax.Array:
+def apf_factor(variant: Planner, trail: ph.Trail, problem: Any, params: Params, t: Any, n_iters: int) -> jax.Array:
     """The factor of rule (6) besides τ^α, in log space: ``β·log η`` ``(N, 8)`` with η of eq. (10)
     from the table the heuristic's init stored in the trail (its state ``"apf"``, once per run). The
     engine scales each cell's weights to a top of 1, so large β cannot underflow."""

@@ -10,6 +10,8 @@ The interpretation built here: docs/algorithms.md §7 and docs/planners.md, "Cha
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import jax
 import jax.numpy as jnp
 
@@ -19,6 +21,10 @@ from ..engine.colony import ALPHA, BETA, eta_factor
 from ..engine.params import Param, declare
 from ..moves import MOVES
 from .compose import component, compose
+
+if TYPE_CHECKING:
+    from ..engine.params import Params
+    from ..engine.planner import Planner
 
 GAMMA, CHAOS_ITERS, CHAOS_MU = declare(
     Param("gamma", 4.0, 0, 20, "chaos ACO eq. 11: exponent γ of the selection function (P_free·P_θ)^γ"),
@@ -47,7 +53,7 @@ def _free_neighbours(problem) -> jax.Array:
     return jnp.sum(inside & free[idx], axis=1)
 
 
-def free_share(problem) -> jax.Array:
+def free_share(problem: Any) -> jax.Array:
     """P_free ``(N, 8)`` of every move i→j: (free neighbours of j other than i) / 7.
 
     Every free neighbour of j counts, whether or not the move to it would cut a corner (the paper
@@ -57,7 +63,7 @@ def free_share(problem) -> jax.Array:
     return jnp.where(valid, (count - 1).astype(jnp.float32) / 7.0, 0.0)
 
 
-def move_angles(problem) -> jax.Array:
+def move_angles(problem: Any) -> jax.Array:
     """θ ``(N, 8)`` in [0, π]: the angle between move k from cell i and the direction i→goal
     (0 at the goal itself, where that direction is undefined)."""
     to_goal = problem.xy[problem.goal][None, :] - problem.xy  # (N, 2)
@@ -67,7 +73,7 @@ def move_angles(problem) -> jax.Array:
     return jnp.arctan2(jnp.abs(cross), dot)  # atan2(0, 0) = 0 at the goal
 
 
-def angle_share(problem) -> jax.Array:
+def angle_share(problem: Any) -> jax.Array:
     """P_θ ``(N, 8)``: 1 − θ_j / Σ_s θ_s over the moves s the map allows from i;
     1 where Σθ = 0 (guard), 0 where the move is forbidden.
 
@@ -80,13 +86,13 @@ def angle_share(problem) -> jax.Array:
     return jnp.where(valid, share, 0.0)
 
 
-def selection(problem) -> jax.Array:
+def selection(problem: Any) -> jax.Array:
     """The probability-selection function P_free·P_θ ``(N, 8)`` (the product is
     our interpretation: the paper's text omits the formula)."""
     return free_share(problem) * angle_share(problem)
 
 
-def selection_factor(variant, trail, problem, params, t, n_iters) -> jax.Array:
+def selection_factor(variant: Planner, trail: ph.Trail, problem: Any, params: Params, t: Any, n_iters: int) -> jax.Array:
     """The factor of transition rule (11) besides τ^α, in log space: ``β·log η + γ·log(P_free·P_θ)``
     ``(N, 8)``.
 
@@ -102,7 +108,7 @@ def selection_factor(variant, trail, problem, params, t, n_iters) -> jax.Array:
 
 
 # -- Logistic-chaos pheromone update (eqs. 14, 15) ------------------------------------------
-def logistic(h0, mu, n):
+def logistic(h0: jax.Array | float, mu: jax.Array | float, n: jax.Array | int) -> jax.Array:
     """``n`` steps of the Logistic map h ← μh(1−h) from ``h0`` (the paper's chaos iteration; fully
     chaotic at μ = 4 with h0 ∈ [0, 1]). ``n`` may be traced: the loop is a ``while_loop`` with a
     traced trip count, so i_c can be swept like any parameter."""
@@ -110,14 +116,14 @@ def logistic(h0, mu, n):
     return jax.lax.fori_loop(0, n, lambda _, h: mu * h * (1.0 - h), jnp.asarray(h0, jnp.float32))
 
 
-def ordered_sum(x) -> jax.Array:
+def ordered_sum(x: jax.Array) -> jax.Array:
     """Sum over the leading axis, added strictly in order. A plain ``jnp.sum`` may reduce in
     another order inside a vmapped sweep than in a single run; the Logistic map amplifies that
     last-bit difference (×4 per step), and sweep rows must equal solves bit for bit."""
     return jax.lax.scan(lambda acc, row: (acc + row, None), jnp.zeros_like(x[0]), x)[0]
 
 
-def above_mean(cost) -> tuple[jax.Array, jax.Array]:
+def above_mean(cost: jax.Array) -> tuple[jax.Array, jax.Array]:
     """Masks ``(A,)`` of the successful paths above the iteration's mean length (the N_L paths)
     and of those at or below it; failed ants (cost inf) are in neither."""
     ok = jnp.isfinite(cost)
@@ -167,7 +173,7 @@ def chaos_perturb() -> ph.Rule:
     return ph.Rule(ph.keep_init, update)
 
 
-def at_or_below_mean_cycle(walks, params):
+def at_or_below_mean_cycle(walks: ph.Walks, params: Params) -> jax.Array:
     """Δτ^k = Q/L_k on every step of a successful ant whose length is at or below the mean
     (eq. 15: these "update directly"; the longer ones were perturbed instead)."""
     _, below = above_mean(walks.cost)

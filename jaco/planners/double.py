@@ -12,7 +12,7 @@ Equations: docs/algorithms.md §3; the iteration and every interpretation: docs/
 from __future__ import annotations
 
 import dataclasses
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -23,6 +23,10 @@ from ..engine.colony import ALPHA, Colony, move_weights, step_targets
 from ..engine.walk import Tours, walk
 from ..moves import MOVES
 from .compose import component, compose
+
+if TYPE_CHECKING:
+    from ..engine.params import Params
+    from ..engine.planner import Planner
 
 SQRT2 = np.float32(np.sqrt(2.0))
 
@@ -55,7 +59,7 @@ def _full(cells, first):
     return jnp.concatenate([head, cells], axis=0)
 
 
-def distance_along(moves):
+def distance_along(moves: jax.Array) -> jax.Array:
     """``(S+1, A)`` distance from a walk's first cell to its cell at each position (inf past its
     end), from integer counts of straight and diagonal steps, so the value is exact and the same
     however runs are batched."""
@@ -67,7 +71,8 @@ def distance_along(moves):
     return jnp.where(on, straight.astype(jnp.float32) + SQRT2 * diagonal.astype(jnp.float32), jnp.inf)
 
 
-def crossover(cells1, moves1, cells2, moves2, start, goal, n_cells: int) -> Splice:
+def crossover(cells1: jax.Array, moves1: jax.Array, cells2: jax.Array, moves2: jax.Array, start: Any, goal: Any,
+              n_cells: int) -> Splice:
     """Complete crossover of two colonies' walks (Sun et al. 2008, the thesis's ref. 58;
     docs/algorithms.md §3).
 
@@ -109,7 +114,8 @@ def crossover(cells1, moves1, cells2, moves2, start, goal, n_cells: int) -> Spli
     return Splice(jnp.where(ok, partner, 0), jnp.where(ok, s1, 0), jnp.where(ok, s2, 0), length)
 
 
-def assemble(cells1, moves1, a, s1, cells2, moves2, b, s2, goal):
+def assemble(cells1: jax.Array, moves1: jax.Array, a: jax.Array, s1: jax.Array, cells2: jax.Array, moves2: jax.Array,
+             b: jax.Array, s2: jax.Array, goal: Any) -> tuple[jax.Array, jax.Array]:
     """Paths ``(2S, C)`` made of the first ``s1[c]`` steps of colony-1 walk ``a[c]`` followed by
     the first ``s2[c]`` steps of colony-2 walk ``b[c]`` run backwards (ending on the goal).
 
@@ -146,7 +152,7 @@ def _candidates(cells, moves, arrived, n_steps, visited) -> Tours:
     )
 
 
-def mean_feasible(cost):
+def mean_feasible(cost: jax.Array) -> jax.Array:
     """Mean of the finite costs along the last axis; inf when there is none."""
     ok = jnp.isfinite(cost)
     n = jnp.sum(ok, axis=-1)
@@ -154,7 +160,7 @@ def mean_feasible(cost):
     return jnp.where(n > 0, total / jnp.maximum(n, 1), jnp.inf)
 
 
-def best_population(costs):
+def best_population(costs: jax.Array) -> jax.Array:
     """Index of the population ``costs (P, C)`` with the lowest mean feasible cost (Step 4).
 
     Ties go to the lower index (colony 1, then colony 2, then the splices); when no population
@@ -173,7 +179,8 @@ class Crossed(NamedTuple):
     population: jax.Array  # the chosen one: COLONY1, COLONY2 or SPLICED
 
 
-def double_walk(variant, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int) -> Crossed:
+def double_walk(variant: Planner, problem: Any, trail: ph.Trail, params: Params, t: Any, n_iters: int, key: jax.Array, *, n_ants: int,
+                steplimit: int) -> Crossed:
     """Walk both colonies, cross them over and cost the three populations.
 
     Colony 2 walks the problem with start and goal swapped, so a heuristic must read the goal
@@ -213,7 +220,8 @@ def double_walk(variant, problem, trail, params, t, n_iters, key, *, n_ants: int
     return Crossed(tours1, tours2, sp, cand, cost, best_population(cost))
 
 
-def double_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
+def double_colony(variant: Planner, problem: Any, trail: ph.Trail, params: Params, t: Any, n_iters: int, key: jax.Array, *,
+                  n_ants: int, steplimit: int) -> tuple[ph.Trail, Colony]:
     """Construct step of a double colony with complete crossover (thesis 3.5, Steps 2–4).
 
     ``n_ants`` ants per colony (2·n_ants walks per iteration). Returns the candidates of the best
@@ -240,7 +248,7 @@ def init_max() -> ph.Rule:
     return ph.Rule(init, lambda trail, walks, problem, params: trail)
 
 
-def rho_ant_cycle(walks, params):
+def rho_ant_cycle(walks: ph.Walks, params: Params) -> jax.Array:
     """ρ·Q/L_k on every step of feasible candidate k: with :func:`jaco.engine.pheromone.evaporate`,
     τ ← (1−ρ)τ + ρ·Σ_k Q/L_k (thesis 3.4.2)."""
     return params.rho * ph.ant_cycle(walks, params)

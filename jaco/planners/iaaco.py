@@ -10,6 +10,9 @@ Equations: docs/algorithms.md §5; every interpretation and the defaults: docs/p
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any, Callable
+
+import jax
 import jax.numpy as jnp
 
 from ..engine import pheromone as ph
@@ -17,6 +20,10 @@ from ..engine.colony import ALPHA, BETA
 from ..engine.heuristics import goal_distance
 from ..engine.params import INF, Param, declare
 from .compose import component, compose
+
+if TYPE_CHECKING:
+    from ..engine.params import Params
+    from ..engine.planner import Factor
 
 __all__ = [
     "adaptive_eps",
@@ -52,12 +59,12 @@ def _ratio(t, n_iters):
 
 
 # -- heuristic (1, 2) ------------------------------------------------------------------------
-def adaptive_eps(t, n_iters):
+def adaptive_eps(t: Any, n_iters: int) -> jax.Array:
     """ε = exp(−2 (Nc/Nmax)²) (eq. 2)."""
     return jnp.exp(-2.0 * _ratio(t, n_iters) ** 2)
 
 
-def iaaco_heuristic(problem, params, t, n_iters):
+def iaaco_heuristic(problem: Any, params: Params, t: Any, n_iters: int) -> jax.Array:
     """η_ij = ε / (σ1·d_ij + σ2·d_jG) (eq. 1), d_jG Euclidean; the denominator is floored at 1e-6
     (it is σ1·d_ij at the goal, 0 only when σ1 = 0)."""
     den = params.sigma1 * problem.step + params.sigma2 * goal_distance(problem)
@@ -65,7 +72,7 @@ def iaaco_heuristic(problem, params, t, n_iters):
 
 
 # -- angle guidance (4) and obstacle exclusion (5) -------------------------------------------
-def target_cells(problem):
+def target_cells(problem: Any) -> jax.Array:
     """Flat index ``(N, 8)`` of the cell each move leads to (the own cell where not allowed)."""
     return jnp.where(problem.nbr >= 0, problem.nbr, jnp.arange(problem.nbr.shape[0])[:, None])
 
@@ -76,14 +83,14 @@ def _to_goal(problem):
     return v, jnp.sqrt(jnp.sum(v * v, axis=-1))
 
 
-def mu_printed(problem, params):
+def mu_printed(problem: Any, params: Params) -> jax.Array:
     """μ = |y_j − y_G| / d_jG as printed (eq. 4), y the row; 1 at the goal; floored at μ_min."""
     v, d = _to_goal(problem)
     mu = jnp.where(d > 0, jnp.abs(v[..., 0]) / jnp.where(d > 0, d, 1.0), 1.0)
     return jnp.maximum(mu, params.mu_min)
 
 
-def mu_robust(problem, params):
+def mu_robust(problem: Any, params: Params) -> jax.Array:
     """μ = max(μ_min, cos∠(j→G, S→G)) (the robust form of eq. 4); 1 at the goal and when S = G."""
     v, d = _to_goal(problem)
     sg = problem.xy[problem.goal] - problem.xy[problem.start]
@@ -94,7 +101,7 @@ def mu_robust(problem, params):
     return jnp.maximum(cos, params.mu_min)
 
 
-def obstacle_exclusion(problem, params):
+def obstacle_exclusion(problem: Any, params: Params) -> jax.Array:
     """ξ (eq. 5) of every move's target j from its obstacle distance d_b: 0 below Rs, Rs/d_b on
     [Rs, 2Rs], 1 above; 1 at the goal (the target is entered whatever its clearance)."""
     j = target_cells(problem)
@@ -104,7 +111,7 @@ def obstacle_exclusion(problem, params):
     return jnp.where(j == problem.goal, 1.0, xi)
 
 
-def guided_factor(mu):
+def guided_factor(mu: Callable[[Any, Params], jax.Array]) -> Factor:
     """The factor of eq. (3) besides τ^α, in log space: ``β·log η + λ·log μ + log ξ`` ``(N, 8)``
     (−inf where ξ = 0), with ``mu`` one of :func:`mu_robust`, :func:`mu_printed` (a static
     choice). The engine's :func:`jaco.engine.colony.move_weights` adds α·log τ and scales each
@@ -125,13 +132,13 @@ def guided_factor(mu):
 
 
 # -- adaptive pseudo-random rule (6, 7) ------------------------------------------------------
-def q0_schedule(params, t, n_iters):
+def q0_schedule(params: Params, t: Any, n_iters: int) -> Params:
     """q0 = δ0·exp(−½ (Nc/Nmax)²) (eq. 7), read by the engine's pseudo-random rule (eq. 6)."""
     return params.replace(q0=params.delta0 * jnp.exp(-0.5 * _ratio(t, n_iters) ** 2))
 
 
 # -- pheromone (8, 9, 10) --------------------------------------------------------------------
-def adaptive_rho(problem, j_best, params):
+def adaptive_rho(problem: Any, j_best: jax.Array, params: Params) -> jax.Array:
     """ρ = k·L_SG/J_best (eq. 10), clipped to [0, ``params.rho``]; 0 when J_best is not a
     positive finite number."""
     sg = problem.xy[problem.goal] - problem.xy[problem.start]

@@ -11,7 +11,7 @@ Equations: docs/algorithms.md §4; every interpretation and the defaults: docs/p
 from __future__ import annotations
 
 import functools
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -26,6 +26,10 @@ from ..engine.params import INF, Param, declare
 from ..engine.walk import CHUNK, Tours, choose, key_words, step_uniforms
 from ..moves import MOVE_LENGTHS, MOVES
 from .compose import component, compose
+
+if TYPE_CHECKING:
+    from ..engine.params import Params
+    from ..engine.planner import Planner
 
 K_INIT, RHO_LOCAL, Q1, Q2, Q3, RHO1, RHO2, Q_STEP = declare(
     Param("k_init", 10.0, 0, INF, "IACA 4.2.3: initial pheromone K·η_goal(j)", lo_open=True, hi_open=True),
@@ -48,12 +52,12 @@ for _k, (_dr, _dc) in enumerate(MOVES):
 
 
 # -- heuristic (4-5) -------------------------------------------------------------------------
-def detour(problem) -> jax.Array:
+def detour(problem: Any) -> jax.Array:
     """``d_AB + d_BE`` for every move A→B ``(N, 8)`` (Euclidean; 0 where the map forbids it)."""
     return jnp.where(problem.nbr >= 0, problem.step + goal_distance(problem), 0.0)
 
 
-def eta_45(r, allowed) -> jax.Array:
+def eta_45(r: jax.Array, allowed: jax.Array) -> jax.Array:
     """Eq. (4-5) on rows ``r (..., 8)`` of :func:`detour` over the ``allowed`` moves:
     ``η_B = 1 − r_B / Σ_{C allowed} r_C``; 1 when B is the only allowed move; floored at
     :data:`ETA_FLOOR`; 0 where not allowed."""
@@ -66,7 +70,7 @@ def eta_45(r, allowed) -> jax.Array:
     return jnp.where(allowed, jnp.maximum(eta, ETA_FLOOR), 0.0)
 
 
-def iaca_heuristic(problem, params, t, n_iters) -> jax.Array:
+def iaca_heuristic(problem: Any, params: Params, t: Any, n_iters: int) -> jax.Array:
     """Eq. (4-5) with ``M_A`` = every move the map allows (no tabu list): the static form, for
     tools that want one ``(N, 8)`` table. The IACA walk recomputes it per step with the tabu."""
     return eta_45(detour(problem), problem.nbr >= 0)
@@ -78,7 +82,7 @@ iaca_heuristic.per_step = True  # type: ignore[attr-defined]
 
 
 # -- pheromone pieces ------------------------------------------------------------------------
-def goal_closeness(problem) -> jax.Array:
+def goal_closeness(problem: Any) -> jax.Array:
     """``η_goal(j) = 1 − d_jE / max_j d_jE`` over free cells (Euclidean; 4.2.3), 0 on obstacles."""
     d = jnp.sqrt(jnp.sum((problem.xy - problem.xy[problem.goal][None, :]) ** 2, axis=-1))
     free = problem.clearance > 0
@@ -97,7 +101,7 @@ def iaca_init() -> ph.Rule:
     return ph.Rule(init, ph.keep_update)
 
 
-def infeasible_update(tau, params):
+def infeasible_update(tau: jax.Array, params: Params) -> jax.Array:
     """Eq. (4-6) on pheromone values ``P``: ``P + q`` (P ≤ Q1), ``ρ1·P`` (Q1 < P ≤ Q2),
     ``ρ2·P`` (Q2 < P ≤ Q3), ``P − q`` (P > Q3); no clamp here."""
     return jnp.where(
@@ -107,7 +111,7 @@ def infeasible_update(tau, params):
     )
 
 
-def int_power(x, k):
+def int_power(x: jax.Array | float, k: jax.Array | int) -> jax.Array:
     """``x^k`` for integer ``k`` in [0, 2^16) by binary exponentiation: multiplications in a fixed
     order, so the kernel gets the same bits (``x^1`` is ``x`` exactly)."""
     k = jnp.asarray(k, jnp.int32)
@@ -119,7 +123,8 @@ def int_power(x, k):
     return out
 
 
-def local_update(tau, lo, hi, n_straight, n_diagonal, params):
+def local_update(tau: jax.Array, lo: jax.Array, hi: jax.Array, n_straight: jax.Array, n_diagonal: jax.Array,
+                 params: Any) -> jax.Array:
     """Eqs. (4-2..4-4) for the forward steps of one walk step, all ants together.
 
     ``n_straight``, ``n_diagonal`` ``(N,)``: how many ants entered each cell by a straight or a
@@ -139,7 +144,7 @@ def local_update(tau, lo, hi, n_straight, n_diagonal, params):
     return jnp.where(k > 0, new, tau)
 
 
-def step_weights(tau_nb, r, allowed, params):
+def step_weights(tau_nb: jax.Array, r: jax.Array, allowed: jax.Array, params: Any) -> jax.Array:
     """Eq. (4-1) for one step of every ant: ``τ_B^α η_B^β`` ``(A, 8)`` over the ``allowed`` moves
     with η of eq. (4-5) from the detour rows ``r``, floored at 1e-30 (0 where not allowed). The
     powers are :func:`jaco.engine.bitexact.power`, so the kernel computes the same weights."""
@@ -150,7 +155,8 @@ def step_weights(tau_nb, r, allowed, params):
 
 # -- the backtracking walk --------------------------------------------------------------------
 def native_backtrack_walk(
-    tau, rows, factors, words, start, goal, scalars, offsets, *, n_ants: int, steplimit: int, exploit: bool, table: bool
+    tau: jax.Array, rows: jax.Array, factors: jax.Array, words: jax.Array, start: Any, goal: Any, scalars: jax.Array,
+    offsets: Any, *, n_ants: int, steplimit: int, exploit: bool, table: bool
 ) -> tuple:
     """The C++ kernel's backtracking walk (``jaco_backtrack`` of ``jaco/engine/walk.cc``, called
     through :func:`jaco.engine.native.ffi_call`); same arguments and results as
@@ -189,7 +195,8 @@ class Backtracked(NamedTuple):
 
 
 def backtrack_walk(
-    problem, trail, params, key, *, n_ants: int, steplimit: int, exploit: bool = True, factors=None
+    problem: Any, trail: ph.Trail, params: Params, key: jax.Array, *, n_ants: int, steplimit: int, exploit: bool = True,
+    factors: jax.Array | None = None
 ) -> Backtracked:
     """Walk ``n_ants`` backtracking ants (thesis 4.3) with the local update (4-2..4-4), in JAX or,
     on CPU when it is active, in the native kernel (:mod:`jaco.engine.native`): the same results
@@ -210,8 +217,9 @@ def backtrack_walk(
 
 
 def jax_backtrack_walk(
-    tau, rows, factors, words, start, goal, scalars, offsets, *, n_ants: int, steplimit: int, exploit: bool, table: bool
-):
+    tau: jax.Array, rows: jax.Array, factors: jax.Array, words: jax.Array, start: Any, goal: Any, scalars: jax.Array,
+    offsets: Any, *, n_ants: int, steplimit: int, exploit: bool, table: bool
+) -> tuple[jax.Array, ...]:
     """The backtracking walk in JAX, all ants in lock-step (the definition; :class:`Backtracked`).
     ``rows``: the detour table of eq. (4-5) (> 0 exactly on the moves the map allows); with
     ``table``, the weights use ``factors (N, 8)`` instead of η^β of eq. (4-5)."""
@@ -284,7 +292,7 @@ class _Scalars(NamedTuple):
     q: jax.Array
 
 
-def stack_tours(problem, walks: Backtracked) -> Tours:
+def stack_tours(problem: Any, walks: Backtracked) -> Tours:
     """Step-major :class:`~jaco.engine.walk.Tours` ``(steplimit, A)`` of the final stacks."""
     cells = walks.stack[:, 1:].T
     n_ants = cells.shape[1]
@@ -306,7 +314,7 @@ def stack_tours(problem, walks: Backtracked) -> Tours:
     )
 
 
-def infeasible_cells(stack, arrived, tabu) -> jax.Array:
+def infeasible_cells(stack: jax.Array, arrived: jax.Array, tabu: jax.Array) -> jax.Array:
     """Cells ``(N,)`` for eq. (4-6): visited by a failed ant or popped by backtracking, and on no
     arrived ant's final path (``stack (A, D)``: the final paths, -1 padded; ``tabu (A, N)``: the
     cells each ant entered)."""
@@ -318,7 +326,8 @@ def infeasible_cells(stack, arrived, tabu) -> jax.Array:
     return bad & ~good
 
 
-def backtrack_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
+def backtrack_colony(variant: Planner, problem: Any, trail: ph.Trail, params: Params, t: Any, n_iters: int, key: jax.Array, *,
+                     n_ants: int, steplimit: int) -> tuple[ph.Trail, Colony]:
     """One iteration of IACA's backtracking ants (thesis 4.4, Steps 2–5): walks with the local
     update (4-2..4-4), then the infeasible-path update (4-6); returns the updated trail and the
     final stacks as a :class:`~jaco.engine.colony.Colony` (the rule's update follows). With IACA's

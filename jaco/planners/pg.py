@@ -11,6 +11,8 @@ Equations (1)-(4): docs/algorithms.md §8; choices, defaults: docs/planners.md, 
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import jax
 import jax.numpy as jnp
 import optax
@@ -22,6 +24,9 @@ from ..engine.planner import Planner
 from ..errors import JacoError
 from .compose import component, compose
 
+if TYPE_CHECKING:
+    from ..engine.planner import Construct
+
 (PENALTY,) = declare(
     Param("penalty", 0.3, 0, INF, "pg-aco: a failed ant costs (1 + penalty)·L̄, L̄ the mean cost of the "
           "iteration's successful ants", hi_open=True),
@@ -31,7 +36,7 @@ from .compose import component, compose
 LOGIT_MAX = 20.0
 
 
-def first_visit(problem, cells) -> jax.Array:
+def first_visit(problem: Any, cells: jax.Array) -> jax.Array:
     """``(A, N)`` position at which each ant first stood on each cell: 0 for the start, ``t + 1``
     for the cell entered at step t, a large number for cells never visited. Tabu lists make
     every visit a first visit, so the scatter indices are unique."""
@@ -44,7 +49,8 @@ def first_visit(problem, cells) -> jax.Array:
     return time.at[lanes.ravel(), jnp.where(cells >= 0, cells, n).ravel()].set(when.ravel(), mode="drop")
 
 
-def step_probabilities(problem, weights, cells, moves):
+def step_probabilities(problem: Any, weights: jax.Array, cells: jax.Array, moves: jax.Array
+                       ) -> tuple[jax.Array, jax.Array]:
     """The policy (1) at every recorded step: ``(cur (S, A), p (S, A, 8))``.
 
     ``cur[t, a]`` is the cell ant a stood on at step t; ``p[t, a, j]`` the probability it gave move
@@ -64,7 +70,7 @@ def step_probabilities(problem, weights, cells, moves):
     return cur, p
 
 
-def score(problem, weights, cells, moves, advantages) -> jax.Array:
+def score(problem: Any, weights: jax.Array, cells: jax.Array, moves: jax.Array, advantages: jax.Array) -> jax.Array:
     """``Σ_k advantages[k] · ∂ log p(path_k)/∂θ`` as a flat ``(8N,)`` vector, eq. (2).
 
     ``weights (N, 8)`` are the roulette weights the ants walked with (``exp(θ)·η^β``);
@@ -78,7 +84,7 @@ def score(problem, weights, cells, moves, advantages) -> jax.Array:
     return jnp.zeros((8 * n,), p.dtype).at[idx.ravel()].add(contrib.ravel(), mode="drop")
 
 
-def advantages(cost, penalty, baseline: str = "all") -> jax.Array:
+def advantages(cost: jax.Array, penalty: Any, baseline: str = "all") -> jax.Array:
     """Advantages ``(C_k − b)/L̄`` of eq. (3). L̄ = mean cost of the iteration's successful ants;
     a failed ant costs ``(1 + penalty)·L̄``; the baseline b is the mean cost over all ants
     (``baseline="all"``) or L̄ (``"successful"``). All 0 when no ant (or only zero-cost ants)
@@ -98,7 +104,7 @@ def _unit(params):
     return params.replace(alpha=jnp.ones_like(jnp.asarray(params.beta)))
 
 
-def make_pg_colony(optimizer: optax.GradientTransformation, baseline: str = "all"):
+def make_pg_colony(optimizer: optax.GradientTransformation, baseline: str = "all") -> Construct:
     """The construct step of a policy-gradient variant with this optax optimiser (lr 1) and
     baseline (see :func:`advantages`)."""
 

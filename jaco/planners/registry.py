@@ -33,7 +33,7 @@ PLANNERS: dict[str, Planner] = {
 VARIANTS = PLANNERS
 
 
-def get_planner(variant) -> Planner:
+def get_planner(variant: str | Planner) -> Planner:
     """A :class:`Planner` as it is, or one by name: a registered planner, a composition's name
     (``compose(construct=..., ...)``, :func:`jaco.planners.compose.compose`), or either with
     another cost (``"acs+multi"``, :func:`with_cost`) or a local search (``"iaca+shortcut"``,
@@ -80,7 +80,7 @@ def register(variant: Planner) -> Planner:
 _WITH_COST: dict = {}
 
 
-def with_cost(variant, cost: str = "multi") -> Planner:
+def with_cost(variant: str | Planner, cost: str = "multi") -> Planner:
     """``variant`` (a name or a :class:`Planner`) with another cost: ``"multi"``
     (:func:`jaco.engine.cost.multi_objective`, and its weights become sweepable parameters) or
     ``"length"``.
@@ -113,7 +113,7 @@ def with_cost(variant, cost: str = "multi") -> Planner:
 _WITH_SEARCH: dict = {}
 
 
-def with_local_search(variant, local_search: str = "shortcut") -> Planner:
+def with_local_search(variant: str | Planner, local_search: str = "shortcut") -> Planner:
     """``variant`` (a name or a :class:`Planner`) with a local search of the compose vocabulary
     (:data:`jaco.planners.compose.LOCAL_SEARCHES`, :mod:`jaco.engine.local_search`), named
     ``"<name>+<local search>"``; a composition gets its own name's ``local_search=...`` instead

@@ -43,12 +43,16 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from itertools import combinations
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 import pandas as pd
 
 from ..errors import JacoError
 from .tables import QUERY_COLUMNS, number, percent, short_name, text_table
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = ["Comparison", "compare", "holm", "critical_difference", "performance_profile", "quantile"]
 
@@ -58,7 +62,7 @@ RESULTS = ("success", "length", "cost", "best_iteration", "optimal", "gap", "cov
 
 
 # -- statistics -------------------------------------------------------------------------------
-def quantile(x, q, axis=-1):
+def quantile(x: ArrayLike, q: ArrayLike, axis: int = -1) -> np.ndarray:
     """Linear-interpolation quantiles (numpy's default) that allow +∞: interpolating toward an
     infinite value gives ∞ unless the weight on it is zero (``np.quantile`` would give NaN between
     two infinities)."""
@@ -75,7 +79,7 @@ def quantile(x, q, axis=-1):
     return np.where(np.isinf(b) & (frac > 0), b, out)
 
 
-def bootstrap_median(x, *, n_boot: int, confidence: float, rng) -> tuple[float, float]:
+def bootstrap_median(x: ArrayLike, *, n_boot: int, confidence: float, rng: np.random.Generator) -> tuple[float, float]:
     """Percentile bootstrap interval of the median of ``x`` (values may be +∞)."""
     x = np.asarray(x, np.float64)
     medians = np.median(x[rng.integers(0, len(x), size=(n_boot, len(x)))], axis=1)
@@ -83,7 +87,7 @@ def bootstrap_median(x, *, n_boot: int, confidence: float, rng) -> tuple[float, 
     return float(lo), float(hi)
 
 
-def holm(pvalues) -> np.ndarray:
+def holm(pvalues: ArrayLike) -> np.ndarray:
     """Holm's (1979) step-down adjustment of ``m`` p-values: the i-th smallest becomes
     ``max_{j ≤ i} min(1, (m − j + 1) p_(j))``, in the original order."""
     p = np.asarray(pvalues, np.float64)
@@ -112,7 +116,7 @@ def _finite_stand_in(values: np.ndarray) -> np.ndarray:
     return np.where(np.isposinf(values), top, values)
 
 
-def signed_differences(a, b) -> np.ndarray:
+def signed_differences(a: ArrayLike, b: ArrayLike) -> np.ndarray:
     """``a − b`` with both failed (∞ − ∞) a tie (0) and a difference with one failure given one
     magnitude above every finite difference (signed)."""
     a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
@@ -124,7 +128,7 @@ def signed_differences(a, b) -> np.ndarray:
     return np.where(np.isinf(d), np.sign(d) * big, d)
 
 
-def wilcoxon(a, b) -> tuple[float, float]:
+def wilcoxon(a: ArrayLike, b: ArrayLike) -> tuple[float, float]:
     """``(statistic, p)`` of the two-sided Wilcoxon signed-rank test of paired values ``a`` and
     ``b`` (:func:`signed_differences`, ``zero_method="zsplit"``); p = 1 when every pair ties."""
     from scipy.stats import wilcoxon as scipy_wilcoxon
@@ -136,7 +140,7 @@ def wilcoxon(a, b) -> tuple[float, float]:
     return float(res.statistic), float(res.pvalue)
 
 
-def performance_profile(ratios: pd.DataFrame, taus=None) -> pd.DataFrame:
+def performance_profile(ratios: pd.DataFrame, taus: ArrayLike | None = None) -> pd.DataFrame:
     """Dolan & Moré's (2002) profile ρ_s(τ): for each configuration (column of ``ratios``, one row
     per problem) the share of problems whose ratio is ≤ τ, at ``taus`` (default: 1 and every
     finite ratio); one row per τ."""
@@ -176,7 +180,7 @@ class Comparison:
     def __str__(self) -> str:
         return self.text
 
-    def profile(self, taus=None) -> pd.DataFrame:
+    def profile(self, taus: ArrayLike | None = None) -> pd.DataFrame:
         """The performance profile of :attr:`ratios` (:func:`performance_profile`)."""
         return performance_profile(self.ratios, taus)
 
@@ -198,7 +202,7 @@ def _label(by, key) -> str:
     return ", ".join(parts)
 
 
-def _check_table(table, by, value, blocks, pairing=None):
+def _check_table(table, by, value, blocks, pairing=None) -> tuple[pd.DataFrame, list[str], list[str]]:
     if not isinstance(table, pd.DataFrame):
         raise JacoError(f"compare takes a results table (a DataFrame), got {type(table).__name__}")
     from .tables import normalise
@@ -242,7 +246,7 @@ def _check_table(table, by, value, blocks, pairing=None):
 
 def compare(
     table: pd.DataFrame,
-    by="variant",
+    by: str | Sequence[str] = "variant",
     value: str = "gap",
     *,
     blocks: str = "run",
@@ -251,7 +255,7 @@ def compare(
     n_boot: int = 2000,
     seed: int = 0,
     ratio_of: str | None = None,
-    pairing=None,
+    pairing: str | Sequence[str] | None = None,
 ) -> Comparison:
     """Compare the configurations of a results table (module docstring: what, and how ties and
     failed runs are handled). ``by``: the column (or list of columns) naming a configuration, e.g.

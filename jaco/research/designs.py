@@ -21,13 +21,16 @@ from __future__ import annotations
 
 import itertools
 import math
-from typing import Mapping
+from typing import TYPE_CHECKING, Any, Iterable, Mapping
 
 import numpy as np
 
 from .. import planners  # noqa: F401 (its modules declare every component's parameters)
 from ..engine.params import SPECS, check_values, param_names
 from ..errors import ParamError
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 class Design:
@@ -85,7 +88,7 @@ class Design:
     def __repr__(self) -> str:
         return f"Design({self.kind}, {len(self)} configurations over {', '.join(self.names) or 'no parameter'})"
 
-    def to_frame(self):
+    def to_frame(self) -> pd.DataFrame:
         """The design as a pandas DataFrame (one row per configuration, index = ``config``)."""
         import pandas as pd
 
@@ -93,14 +96,14 @@ class Design:
         return frame
 
 
-def table(values) -> Design:
+def table(values: Mapping[str, Any] | pd.DataFrame) -> Design:
     """Explicit rows: a dict of equal-length sequences, or a DataFrame with parameter columns."""
     if hasattr(values, "to_dict") and hasattr(values, "columns"):  # a DataFrame
         values = {str(c): np.asarray(values[c]) for c in values.columns}
     return Design(values, kind="table")
 
 
-def grid(axes: Mapping | None = None, **more) -> Design:
+def grid(axes: Mapping | None = None, **more: Any) -> Design:
     """Every combination of the axes (name -> list of values), first axis slowest — the same
     order as ``jaco.sweep(..., params={...})`` with a dict."""
     axes = {**(axes or {}), **more}
@@ -163,7 +166,7 @@ def _rng(seed) -> np.random.Generator:
     return np.random.default_rng(int(seed))
 
 
-def random(seed: int, n: int, ranges: Mapping, *, log=()) -> Design:
+def random(seed: int, n: int, ranges: Mapping, *, log: Iterable[str] = ()) -> Design:
     """``n`` configurations drawn independently and uniformly from ``ranges`` (name -> (low,
     high)); names in ``log`` are drawn log-uniformly (uniform in log space, e.g. ρ or Q)."""
     n = _check_n(n)
@@ -173,7 +176,7 @@ def random(seed: int, n: int, ranges: Mapping, *, log=()) -> Design:
     return Design({k: x[:, j] for j, k in enumerate(names)}, kind="random", n=n)
 
 
-def latin_hypercube(seed: int, n: int, ranges: Mapping, *, log=()) -> Design:
+def latin_hypercube(seed: int, n: int, ranges: Mapping, *, log: Iterable[str] = ()) -> Design:
     """A Latin hypercube of ``n`` configurations: every parameter's range (log space for names in
     ``log``) is cut into ``n`` equal strata and every stratum holds exactly one configuration, at a
     uniform position inside it; the strata are paired across parameters by independent random
@@ -187,7 +190,7 @@ def latin_hypercube(seed: int, n: int, ranges: Mapping, *, log=()) -> Design:
     return Design({k: x[:, j] for j, k in enumerate(names)}, kind="latin_hypercube", n=n)
 
 
-def product(*designs) -> Design:
+def product(*designs: Any) -> Design:
     """Every row of the first design with every row of the next (first slowest), e.g. a Latin
     hypercube over (α, β) crossed with a grid over ρ. The designs must not share a name."""
     parts = [as_design(d) for d in designs]
@@ -202,7 +205,7 @@ def product(*designs) -> Design:
     return Design(values, kind="product", n=len(index))
 
 
-def as_design(params) -> Design:
+def as_design(params: Any) -> Design:
     """What :func:`jaco.sweep` accepts as ``params``: None (defaults only), a dict of axes (a full
     grid, as before), a :class:`Design`, or a DataFrame of rows."""
     if params is None:

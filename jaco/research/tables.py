@@ -23,11 +23,17 @@ import io
 import math
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, Iterable
 
 import numpy as np
 import pandas as pd
 
 from ..errors import JacoError
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from ..outputs import PathArg
 
 #: The columns that name a query in a table of several queries.
 QUERY_COLUMNS = ("map", "start_row", "start_col", "goal_row", "goal_col")
@@ -35,7 +41,7 @@ _CELL = re.compile(r"^\s*\(\s*(-?\d+)\s*,\s*(-?\d+)\s*\)\s*$")
 
 
 # -- numbers ----------------------------------------------------------------------------------
-def float32_text(values) -> np.ndarray:
+def float32_text(values: ArrayLike) -> np.ndarray:
     """The shortest decimal that reads back to the same float32, for each value (an object array;
     NaN stays NaN so that a CSV holds an empty field)."""
     v = np.asarray(values, np.float64)
@@ -48,7 +54,7 @@ def float32_text(values) -> np.ndarray:
     return out
 
 
-def percent(fraction, digits: int = 1) -> str:
+def percent(fraction: float, digits: int = 1) -> str:
     """A gap (a fraction) as text in %: ``0.1793`` -> ``"17.9%"``; a failure (inf) reads
     ``"failed"``, a missing value ``"-"``; never ``-0.0%``."""
     x = float(fraction)
@@ -60,7 +66,7 @@ def percent(fraction, digits: int = 1) -> str:
     return (text[1:] if text.startswith("-") and not text.strip("-0.") else text) + "%"
 
 
-def number(x) -> str:
+def number(x: Any) -> str:
     """A number for a person: integers (and integral floats) without a decimal point, others with
     up to 4 significant digits (``%g``)."""
     if isinstance(x, (bool, np.bool_)):
@@ -87,14 +93,14 @@ def csv_text(table: pd.DataFrame) -> str:
     return out.to_csv(index=False, lineterminator="\n")
 
 
-def write_csv(table: pd.DataFrame, path) -> Path:
+def write_csv(table: pd.DataFrame, path: PathArg) -> Path:
     """Write :func:`csv_text` of ``table`` atomically at ``path`` (:func:`jaco.outputs.write_text`)."""
     from ..outputs import write_text
 
     return write_text(path, csv_text(table))
 
 
-def read_table(source) -> pd.DataFrame:
+def read_table(source: PathArg) -> pd.DataFrame:
     """A result table from a CSV file (a path) or CSV text (a ``str`` holding a newline), in the
     current layout: ``start``/``goal`` columns of ``"(row, col)"`` text, as older jaco wrote them,
     become the integer columns ``start_row, start_col, goal_row, goal_col``."""
@@ -140,7 +146,7 @@ def _cell(x):
     return None
 
 
-def fold_params(table: pd.DataFrame, results=()) -> pd.DataFrame:
+def fold_params(table: pd.DataFrame, results: Iterable[str] = ()) -> pd.DataFrame:
     """A table of several planners (a ``variant`` column) with the parameters only some of them
     have folded into one text column ``params`` after the others, each row holding its own
     planner's values (``"q0=0.8, xi=0.1"``, float32 precision); other tables as they are.
@@ -203,7 +209,7 @@ def differences(recorded: pd.DataFrame, rerun: pd.DataFrame) -> list[str]:
 
 
 # -- names ------------------------------------------------------------------------------------
-def short_name(name) -> str:
+def short_name(name: str) -> str:
     """A planner's name for tables and legends: a registered name as it is; a composition
     ``compose(construct=C, heuristic=H, rule=R, transition=T, schedule=S, cost=K)`` as ``C/H/R``,
     followed by ``+kind=value`` for each of transition, schedule and cost that is not the
@@ -222,7 +228,7 @@ def short_name(name) -> str:
     return head + "".join(extra)
 
 
-def text_table(frame: pd.DataFrame, left=()) -> str:
+def text_table(frame: pd.DataFrame, left: Iterable[str] = ()) -> str:
     """``frame`` (of strings) as a text table for a terminal: the columns in ``left`` (names such
     as a planner's) left-aligned, the others (numbers) right-aligned, two spaces between."""
     cols = list(frame.columns)

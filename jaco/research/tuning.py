@@ -31,8 +31,9 @@ seed noise), and the whole loop of ``steps`` steps is one jitted ``lax.scan``.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import jax
 import jax.numpy as jnp
@@ -50,6 +51,11 @@ from ..engine.problem import make_problem
 from ..engine.run import make_run
 from ..errors import JacoError, ParamError, check_keywords, did_you_mean
 from ..grid import Grid
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from ..grid import Cell
 from ..planners.registry import get_planner
 
 
@@ -82,7 +88,7 @@ def _tables(names):
     return np.asarray(lo, np.float32), span.astype(np.float32), np.asarray(logit)
 
 
-def to_params(names, z) -> jax.Array:
+def to_params(names: Sequence[str], z: ArrayLike) -> jax.Array:
     """Parameter values ``(..., d)`` from unconstrained ``z (..., d)`` (the order of ``names``)."""
     z = jnp.asarray(z)
     lo, span, logit = (jnp.broadcast_to(t, z.shape) for t in _tables(names))  # explicit: rank promotion is an error
@@ -90,7 +96,7 @@ def to_params(names, z) -> jax.Array:
     return jnp.where(logit, lo + span * frac, lo + jnp.exp(jnp.clip(z, -LOG_Z, LOG_Z)))
 
 
-def to_unconstrained(names, values) -> np.ndarray:
+def to_unconstrained(names: Sequence[str], values: ArrayLike) -> np.ndarray:
     """Inverse of :func:`to_params` (numpy, float64); values on a closed end move inside first."""
     z = []
     for name, v in zip(names, np.asarray(values, np.float64)):
@@ -103,7 +109,7 @@ def to_unconstrained(names, values) -> np.ndarray:
     return np.asarray(z, np.float64)
 
 
-def centered_ranks(f) -> jax.Array:
+def centered_ranks(f: ArrayLike) -> jax.Array:
     """Fitness shaping: ``rank/(P − 1) − 1/2`` in [−1/2, 1/2], the lowest f ranked 0; tied values
     share their mean rank, so equal objectives contribute nothing to the gradient."""
     f = jnp.asarray(f)
@@ -113,13 +119,13 @@ def centered_ranks(f) -> jax.Array:
     return rank / max(f.shape[0] - 1, 1) - 0.5
 
 
-def es_gradient(eps, f, sigma) -> jax.Array:
+def es_gradient(eps: jax.Array, f: jax.Array, sigma: float | jax.Array) -> jax.Array:
     """``1/(P σ) Σ_i u_i ε_i`` with u the centered ranks of ``f (P,)`` and ``eps (P, d)``."""
     u = centered_ranks(f)
     return jnp.sum(u[:, None] * eps, axis=0) / (eps.shape[0] * sigma)
 
 
-def member_objective(cost, penalty) -> jax.Array:
+def member_objective(cost: jax.Array, penalty: float | jax.Array) -> jax.Array:
     """Mean over seeds (last axis) of the final best cost, a failed run (∞) counting as ``penalty``."""
     return jnp.mean(jnp.where(jnp.isfinite(cost), cost, penalty), axis=-1)
 
@@ -162,7 +168,7 @@ def _build(variant, names, optimizer, n_ants, n_iters, steplimit, steps, populat
 _PATH_LEN: dict = {}
 
 
-def path_buffer(run, key, problem, params) -> int:
+def path_buffer(run: Callable, key: jax.Array, problem: Any, params: Params) -> int:
     """Length of the best-path buffer of ``run`` (shape only, traced once per run and map shape)."""
     cache_key = (run, problem.nbr.shape)
     if cache_key not in _PATH_LEN:
@@ -239,11 +245,11 @@ def _positive_float(name, v):
 @check_keywords
 def tune(
     grid: Grid,
-    start,
-    goal,
-    planner="mmas",
+    start: Cell,
+    goal: Cell,
+    planner: str | Planner = "mmas",
     *,
-    tune=("alpha", "beta", "rho"),
+    tune: Sequence[str] = ("alpha", "beta", "rho"),
     init: dict | None = None,
     steps: int = 30,
     population: int = 16,
