@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import cast
+from typing import Any, cast
 
 import jax
 import jax.numpy as jnp
@@ -48,7 +48,7 @@ from .metrics import gap
 from .progress import run_interruptibly
 
 
-def check_waypoints(grid: Grid, start, goal, waypoints, *, connectivity: int = 8) -> list[tuple[int, int]]:
+def check_waypoints(grid: Grid, start: Any, goal: Any, waypoints: Any, *, connectivity: int = 8) -> list[tuple[int, int]]:
     """The trip's targets ``[start, w₀, …, goal]`` as ``(row, col)`` tuples, validated with numpy.
 
     Raises :class:`~jaco.errors.ProblemError` naming the offending point (``waypoints[i]``) when
@@ -84,7 +84,7 @@ def leg_keys(seed: int, n_legs: int) -> jax.Array:
     return jnp.stack([base] + [jax.random.fold_in(base, i) for i in range(1, n_legs)])
 
 
-def compiled_legs(variant: Planner, shape: RunShape):
+def compiled_legs(variant: Planner, shape: RunShape) -> Any:
     """``jit(vmap(run))`` over (key, problem) pairs with shared params, cached like
     :func:`jaco.engine.run.compiled_run` (by the variant and :attr:`RunShape.program`)."""
     def build():
@@ -143,8 +143,9 @@ def combine(legs: list[Result]) -> Result:
     )
 
 
-def solve_waypoints(grid: Grid, start, goal, variant: Planner, waypoints, *, seed, n_ants, n_iters, steplimit,
-                    connectivity, keep_pheromone, **params) -> Result:
+def solve_waypoints(grid: Grid, start: Any, goal: Any, variant: Planner, waypoints: Any, *, seed: int, n_ants: int,
+                    n_iters: int, steplimit: int | None, connectivity: int, keep_pheromone: bool | str,
+                    **params: Any) -> Result:
     """The body of ``jaco.solve(..., waypoints=...)`` (whose signature has the defaults): validate
     the call as a single run is validated, and every target; run the legs in one batched call;
     combine them."""
@@ -156,7 +157,7 @@ def solve_waypoints(grid: Grid, start, goal, variant: Planner, waypoints, *, see
     return dataclasses.replace(combine(legs), waypoints=tuple(tuple(p) for p in points[1:-1]))
 
 
-def exact_trip(grid: Grid, points, *, connectivity: int = 8) -> tuple[float, np.ndarray]:
+def exact_trip(grid: Grid, points: Any, *, connectivity: int = 8) -> tuple[float, np.ndarray]:
     """Exact optimum of the trip through ``points`` in order: ``(length, path)``, the sum and the
     concatenation of the legs' shortest paths (``(inf, empty)`` when a leg is unreachable)."""
     legs = [shortest_path(grid, a, b, connectivity=connectivity) for a, b in zip(points[:-1], points[1:])]

@@ -4,11 +4,12 @@ goal cells, a MovingAI scenario, or world points in metres on a ROS map)."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 from .args import UsageError
 
 
-def load_map(spec: str):
+def load_map(spec: str) -> Any:
     """A map from a file path, a name in :data:`jaco.maps.NAMED`, or a bundled file name."""
     from .. import maps
 
@@ -46,7 +47,7 @@ def _selection(args) -> dict:
     return {flag: getattr(args, flag[2:], None) for flag in _SELECTION if getattr(args, flag[2:], None) is not None}
 
 
-def resolve_queries(grid, args):
+def resolve_queries(grid: Any, args: Any) -> tuple[list, list, list | None, str | None]:
     """``(starts, goals, scenarios, label)``: the queries of a command, from --start/--goal, the
     map's own ``meta``, or the scenarios of --scen chosen by --index / --bucket / --optimal /
     --count (:func:`jaco.maps.select_scenarios`); ``scenarios`` is None without --scen."""
@@ -74,7 +75,7 @@ def resolve_queries(grid, args):
     rows = maps.load_scenarios(path)
     if not rows:
         raise UsageError(f"scenario file {str(path)!r} has no scenarios")
-    index = None
+    index: list[int] | None = None
     if args.index is not None:
         index = []
         for lo, hi in (r for group in args.index for r in group):
@@ -104,7 +105,7 @@ def resolve_queries(grid, args):
     return [sc.start for sc in picked], [sc.goal for sc in picked], picked, label
 
 
-def resolve_query(grid, args):
+def resolve_query(grid: Any, args: Any) -> tuple[Any, Any, Any, str | None]:
     """``(start, goal, scenario or None, scenario label)`` of a command that runs one query
     (:func:`resolve_queries`, which must select exactly one)."""
     starts, goals, scenarios, label = resolve_queries(grid, args)
@@ -127,7 +128,7 @@ def _map_extent(grid) -> tuple[float, float, float, float]:
     return float(xs.min()), float(xs.max()), float(ys.min()), float(ys.max())
 
 
-def world_cell(grid, xy, flag: str) -> tuple[int, int]:
+def world_cell(grid: Any, xy: Any, flag: str) -> tuple[int, int]:
     """The free cell containing world point ``xy`` (metres), or a :class:`UsageError` saying why
     not: the map has no resolution/origin, the point is off the map, or its cell is not free."""
     cell_flag = flag[: -len("-xy")]

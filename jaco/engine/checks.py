@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from typing import cast
+from typing import Any, cast
 
 import numpy as np
 
@@ -144,11 +144,11 @@ def resolve_params(variant: Planner, values: dict, *, where: str) -> dict:
     return merged
 
 
-def params_from(values: dict, shape=()) -> Params:
+def params_from(values: dict, shape: Any = ()) -> Params:
     return Params(**{k: np.broadcast_to(np.float32(v), shape) for k, v in values.items()})
 
 
-def check_grid(grid) -> Grid:
+def check_grid(grid: object) -> Grid:
     """``grid`` itself when it is a :class:`~jaco.grid.Grid` (a map name says how to load it)."""
     if not isinstance(grid, Grid):
         hint = " (a map name: load it with jaco.maps.named or jaco.maps.load first)" if isinstance(grid, str) else ""

@@ -138,7 +138,7 @@ def inverse(cost: jax.Array) -> jax.Array:
     return jnp.where(ok, 1.0 / jnp.where(ok, cost, 1.0), 0.0)
 
 
-def deposit(tau: jax.Array, targets: jax.Array, amounts: jax.Array | float):
+def deposit(tau: jax.Array, targets: jax.Array, amounts: jax.Array | float) -> jax.Array:
     """``tau[targets] += amounts`` in the order of ``targets`` (row-major), targets outside
     ``[0, M)`` dropped (steps not taken); ``amounts`` is a scalar, one value per ant (the last
     axis of ``targets``) or one per target.

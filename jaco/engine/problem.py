@@ -9,7 +9,9 @@ pairs and many maps of one shape (stack problems with :func:`stack`).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -59,7 +61,7 @@ class Problem:
         return self.nbr.shape[-2]
 
 
-def make_problem(grid: Grid, start, goal, *, connectivity: int = 8) -> Problem:
+def make_problem(grid: Grid, start: Any, goal: Any, *, connectivity: int = 8) -> Problem:
     """Validate a query and build its :class:`Problem` (numpy arrays, ready for jit).
 
     Raises :class:`ProblemError` for an empty map, a start or goal outside the map or on an
@@ -97,7 +99,7 @@ def make_problem(grid: Grid, start, goal, *, connectivity: int = 8) -> Problem:
     )
 
 
-def stack(problems) -> Problem:
+def stack(problems: Iterable[Any]) -> Problem:
     """Stack problems of one map shape along a new leading axis (a batch of queries or maps)."""
     problems = list(problems)
     shapes = {p.nbr.shape for p in problems}

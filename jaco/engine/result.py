@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import cast
+from typing import Any, cast
 
 import numpy as np
 
@@ -101,7 +101,7 @@ class Result:
         }
 
     # -- records and world coordinates (jaco.research.records, docs/records.md) ---------------
-    def save(self, path):
+    def save(self, path: Any) -> Any:
         """Write this run as a JSON record (parameters, seed, variant, the map embedded with its
         sha256, sizes, connectivity, result and history, jaco/jax versions); returns the path.
         ``jaco.load_run(path).rerun()`` or ``jaco rerun PATH`` reruns it and checks it bit for bit."""
@@ -116,7 +116,7 @@ class Result:
             raise JacoError("this Result has no grid: world coordinates need the map")
         return self.grid.cell_to_world(np.asarray(self.path, np.int64).reshape(-1, 2))
 
-    def save_path(self, path, frame: str | None = None, format: str | None = None):
+    def save_path(self, path: Any, frame: str | None = None, format: str | None = None) -> Any:
         """Write the path as ``.csv`` (columns ``row,col`` and, in the world frame, ``x,y``
         in metres) or ``.json``; ``frame`` is ``"world"`` or ``"cells"`` (default: world when the
         map has a resolution); ``format`` (``"csv"``/``"json"``) overrides the suffix (``-`` or
@@ -158,14 +158,15 @@ def failure_hint(result: Result, *, cli: bool = False) -> str:
     return f"no ant reached the goal (exact optimum {result.optimal:.4g}). What usually helps, most likely first: {listed}."
 
 
-def path_cells(grid: Grid, start, best_cells) -> np.ndarray:
+def path_cells(grid: Grid, start: Any, best_cells: Any) -> np.ndarray:
     """``(K, 2)`` path from the start cell and the best ant's entered cells."""
     cells = np.asarray(best_cells)
     flat = np.concatenate([[grid.index(start)], cells[cells >= 0]])
     return np.stack(np.divmod(flat, grid.width), axis=1).astype(np.int64)
 
 
-def to_result(out, *, grid: Grid, variant, start, goal, optimal, seed: int, params: dict, shape: RunShape) -> Result:
+def to_result(out: Any, *, grid: Grid, variant: Any, start: Any, goal: Any, optimal: Any, seed: int, params: dict,
+              shape: RunShape) -> Result:
     """Convert one (unbatched) :class:`jaco.engine.run.RunOutput` of a run of ``shape`` to a
     :class:`Result`."""
     success = bool(np.isfinite(out.best_cost))
