@@ -48,7 +48,8 @@ from .metrics import gap
 from .progress import run_interruptibly
 
 
-def check_waypoints(grid: Grid, start: Any, goal: Any, waypoints: Any, *, connectivity: int = 8) -> list[tuple[int, int]]:
+def check_waypoints(grid: Grid, start: Any, goal: Any, waypoints: Any, *,
+                    connectivity: int = 8) -> list[tuple[int, int]]:
     """The trip's targets ``[start, w₀, …, goal]`` as ``(row, col)`` tuples, validated with numpy.
 
     Raises :class:`~jaco.errors.ProblemError` naming the offending point (``waypoints[i]``) when

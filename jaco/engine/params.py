@@ -154,7 +154,8 @@ def param_names() -> tuple[str, ...]:
     return tuple(SPECS)
 
 
-def unknown_parameter(name: str, allowed: Iterable[str], where: str, keywords: Iterable[str] = (), call: str = "") -> str:
+def unknown_parameter(name: str, allowed: Iterable[str], where: str, keywords: Iterable[str] = (),
+                      call: str = "") -> str:
     """The message for a name that is not a parameter of ``where``: the closest of the parameters
     ``allowed`` and of the call's own ``keywords`` (``n_ant`` -> ``n_ants``), then the valid names."""
     also = f"; the keywords of {call}: {', '.join(keywords)}" if keywords else ""

@@ -180,8 +180,9 @@ def compiled_run(variant: Planner, shape: RunShape, batched: bool, report: bool 
     return cached(key + (("report",) if report and not batched else ()), build)
 
 
-def solve(grid: Grid, start: Any, goal: Any, variant: Planner, *, seed: int, n_ants: int, n_iters: int, steplimit: int | None,
-          connectivity: int, keep_pheromone: bool | str, progress: bool | None = None, **params: Any) -> Result:
+def solve(grid: Grid, start: Any, goal: Any, variant: Planner, *, seed: int, n_ants: int, n_iters: int,
+          steplimit: int | None, connectivity: int, keep_pheromone: bool | str, progress: bool | None = None,
+          **params: Any) -> Result:
     """One run of ``variant`` from ``start`` to ``goal``: the body of :func:`jaco.solve` without
     waypoints (whose signature has the defaults). The call is validated by :func:`prepare` and
     :func:`~jaco.engine.problem.make_problem` (map, start, goal, reachability) before anything

@@ -23,6 +23,7 @@ import platform
 import zlib
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -299,7 +300,7 @@ def _uncells(x):
 _HISTORY_DTYPE = np.float32
 
 
-def recordable_name(variant) -> str:
+def recordable_name(variant: Any) -> str:
     """The name a record stores for ``variant`` (a name or a Planner): one the registry resolves
     to that same planner — a registered planner, a composition of :func:`jaco.compose`, or a
     registered planner with another cost (``"acs+multi"``). Anything else cannot be rerun."""
@@ -318,7 +319,7 @@ def recordable_name(variant) -> str:
     return name
 
 
-def save_run(result, path) -> Path:
+def save_run(result: Any, path: Any) -> Path:
     """Write ``result`` (a :class:`jaco.Result` from :func:`jaco.solve`) as a JSON record."""
     path = check_output(path, "record")
     if result.grid is None:
@@ -364,7 +365,7 @@ def _metres(v) -> float:
     return round(float(v), 9)
 
 
-def save_path(result, path, frame: str | None = None, format: str | None = None) -> Path:
+def save_path(result: Any, path: Any, frame: str | None = None, format: str | None = None) -> Path:
     """Write ``result``'s path as CSV or JSON: ``format`` ``"csv"`` or ``"json"``, by default the
     suffix of ``path`` (``-``, a device or a FIFO has none: give ``format``).
 
@@ -547,7 +548,7 @@ def _check_fields(obj, schema: dict, where: str, name: str) -> None:
             raise RecordError(f"{name}: field {field_name} must be {expected}, got {_show(obj[key])}")
 
 
-def check_record(doc, name: str) -> None:
+def check_record(doc: Any, name: str) -> None:
     """A :class:`RecordError` naming the first field of a loaded record (``doc``, parsed JSON)
     whose type or value does not fit the format (docs/records.md, "Schema")."""
     _check_fields(doc, _HEADER, "", name)

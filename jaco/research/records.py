@@ -33,6 +33,7 @@ import math
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -248,7 +249,7 @@ def _jsonable(name: str, value):
     return value
 
 
-def save_sweep(table, path, *args, **kwargs) -> Path:
+def save_sweep(table: Any, path: Any, *args: Any, **kwargs: Any) -> Path:
     """Write a :func:`jaco.sweep` table as CSV at ``path`` and a JSON sidecar beside it
     (``path`` with suffix ``.json``); returns the sidecar's path, which :func:`load_run` reads
     (it also accepts the CSV's path).
@@ -340,7 +341,7 @@ class SweepRecord:
     path: Path
     call: dict
     grids: object
-    table: object
+    table: Any
     table_text: str
     versions: dict
     warnings: list = field(default_factory=list)
@@ -402,7 +403,7 @@ def _one_line(e) -> str:
     return " ".join(str(e).split())
 
 
-def load_run(path):
+def load_run(path: Any) -> RunRecord | SweepRecord:
     """Load a record written by :meth:`jaco.Result.save` (returns a :class:`RunRecord`) or by
     :func:`save_sweep` (a :class:`SweepRecord`; the sidecar ``.json`` or its ``.csv`` table).
     ``load_run(path).rerun()`` reruns it and reports whether it matched."""
@@ -435,6 +436,7 @@ def load_run(path):
             return rec
         if doc.get("kind") == "sweep":
             entries = doc["call"]["grid"]
+            grids: Grid | list[Grid]
             if isinstance(entries, dict):
                 grids, map_notes = grid_from_entry(entries, path.name)
             else:

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from importlib.util import find_spec
+from typing import Any
 
 import numpy as np
 
@@ -35,7 +36,7 @@ EVOSAX_PREFIX = "evosax:"
 EXTRA = "pip install 'jaco[search]'"
 
 
-def require(module: str, what: str):
+def require(module: str, what: str) -> Any:
     """Import ``module`` or raise a one-line JacoError naming the extra that installs it."""
     if find_spec(module) is None:
         raise JacoError(f"{what} needs the package {module!r}: {EXTRA}")
@@ -47,7 +48,7 @@ def require(module: str, what: str):
         return import_module(module)
 
 
-def check_sampler(sampler, space: Space, n_objectives: int) -> str:
+def check_sampler(sampler: Any, space: Space, n_objectives: int) -> str:
     """The sampler's name (for records and messages), checked against the space before anything
     compiles; a sampler object is named by its class."""
     if not isinstance(sampler, str):
@@ -85,7 +86,7 @@ def check_sampler(sampler, space: Space, n_objectives: int) -> str:
     return sampler
 
 
-def grid_values(dim, points: int) -> list:
+def grid_values(dim: Any, points: int) -> list:
     """The values of one dimension on a grid of ``points`` per range (integers: unique, rounded)."""
     if isinstance(dim, Categorical):
         return list(dim.choices)
@@ -111,7 +112,7 @@ def grid_of(space: Space, trials: int) -> dict:
     return {n: grid_values(d, points) for n, d in space.dims.items()}
 
 
-def optuna_sampler(name: str, space: Space, *, seed: int, batch: int, trials: int):
+def optuna_sampler(name: str, space: Space, *, seed: int, batch: int, trials: int) -> Any:
     """An Optuna sampler set up for batches of ``batch`` trials (see the module)."""
     import warnings
 
@@ -146,7 +147,7 @@ def optuna_sampler(name: str, space: Space, *, seed: int, batch: int, trials: in
     raise AssertionError(name)  # check_sampler let an unknown name through
 
 
-def suggest(trial, space: Space) -> tuple[str, dict]:
+def suggest(trial: Any, space: Space) -> tuple[str, dict]:
     """Ask ``trial`` for a planner and its parameters (define-by-run: a parameter is suggested
     only for the planners that use it); returns the planner's name and the suggested values."""
     planner = trial.suggest_categorical(VARIANT, list(space.dims[VARIANT].choices)) if space.searches_planner \

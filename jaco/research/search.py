@@ -56,7 +56,7 @@ import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
@@ -353,7 +353,7 @@ class Evaluator:
                     out[q, j] = turns(path_cells(g, s, cells[q, j]))
         return out
 
-    def objective(self, runs, n_ants, n_iters) -> list[float]:
+    def objective(self, runs: Any, n_ants: int, n_iters: int) -> list[float]:
         """The trial's objective values, failures counted as their penalty."""
         out = []
         for name in self.objectives:
@@ -367,7 +367,7 @@ class Evaluator:
         return out
 
 
-def trial_info(frozen) -> dict:
+def trial_info(frozen: Any) -> dict:
     """What jaco stored with a trial: ``planner``, ``params`` (every parameter of the planner),
     ``n_ants``, ``generation`` (and ``bracket``; ``member`` and ``z`` for evosax), ``runs`` (per-run
     results by iterations) and ``n_iters`` (of its last evaluation; None before one)."""
@@ -393,29 +393,29 @@ def _plain_runs(runs: dict) -> dict:
 # -- the search ---------------------------------------------------------------------------------
 @accepts_aliases
 def search(
-    grid,
-    start,
-    goal,
+    grid: Any,
+    start: Any,
+    goal: Any,
     space: dict | Space,
     *,
-    planner=None,
+    planner: Any = None,
     trials: int = 128,
     batch: int = 32,
-    seeds=4,
+    seeds: Any = 4,
     n_ants: int = 50,
     n_iters: int = 100,
     steplimit: int | None = None,
     connectivity: int = 8,
-    sampler="tpe",
+    sampler: Any = "tpe",
     sampler_options: dict | None = None,
     seed: int = 0,
-    objective="gap",
-    penalty=None,
-    fidelity=None,
-    storage=None,
+    objective: Any = "gap",
+    penalty: Any = None,
+    fidelity: Any = None,
+    storage: Any = None,
     study_name: str | None = None,
     memory_budget: int = 2 << 30,
-    devices=None,
+    devices: Any = None,
     progress: bool | None = None,
 ) -> "Study":
     """Search ``space`` (planners, parameters, sizes: :mod:`jaco.research.space`) for the best
@@ -810,7 +810,7 @@ class Study:
         return {VARIANT: a["planner"], **fixed, **{k: v for k, v in frozen.params.items() if k != VARIANT}}
 
     @property
-    def best_trial(self):
+    def best_trial(self) -> Any:
         """The best finished trial (one objective), an ``optuna.trial.FrozenTrial``."""
         if len(self.objectives) > 1:
             raise SearchError("a study with several objectives has a Pareto front: use best_trials")
@@ -917,7 +917,7 @@ class Study:
             raise SearchError(f"trial {number} of study {self.study.study_name!r} has no stored runs ({t.state.name})")
         return TrialRecord(self.info, t)
 
-    def rerun(self, number: int):
+    def rerun(self, number: int) -> Any:
         """Rerun trial ``number`` at every budget it was evaluated at and compare each run's
         success, length and best iteration bit for bit (a :class:`jaco.research.records.Rerun`)."""
         return self.record(number).rerun()
@@ -927,10 +927,10 @@ class TrialRecord:
     """A stored trial as a record: its planner, parameters, sizes, seeds and queries (maps
     embedded in the study), and its per-run results to compare a rerun with."""
 
-    def __init__(self, info: dict, frozen):
+    def __init__(self, info: dict, frozen: Any):
         self.info, self.trial = info, frozen
 
-    def rerun(self):
+    def rerun(self) -> Any:
         from .designs import table
         from .record_format import grid_from_entry, version_warnings
         from .records import Rerun
@@ -961,7 +961,7 @@ class TrialRecord:
         return Rerun(not diffs, diffs, notes, None, what)
 
 
-def load_study(storage, study_name: str | None = None) -> Study:
+def load_study(storage: Any, study_name: str | None = None) -> Study:
     """A stored study (no search runs): ``storage`` as in :func:`search`; ``study_name`` may be
     left out when the storage holds one study."""
     optuna = require("optuna", "jaco.load_study")

@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -173,7 +174,7 @@ class Space:
         return out
 
 
-def parse_space(space, variant=None) -> Space:
+def parse_space(space: Any, variant: Any = None) -> Space:
     """Check ``space`` (see the module) and resolve its planners; ``variant`` is the planner when
     the space names none (default ``"mmas"``)."""
     from ..planners.registry import get_planner
@@ -239,7 +240,7 @@ def parse_space(space, variant=None) -> Space:
     return Space(planners, dims, fixed)
 
 
-def bounds(dim, value=None) -> tuple[float, float]:
+def bounds(dim: Any, value: Any = None) -> tuple[float, float]:
     """The smallest and largest value a dimension (or a fixed value) can take."""
     if isinstance(dim, (Float, Int)):
         return float(dim.low), float(dim.high)

@@ -26,6 +26,7 @@ import json
 import os
 import sqlite3
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -41,7 +42,7 @@ class StoreError(JacoError):
     """A sweep store that cannot be used: locked by another process, or not a jaco store."""
 
 
-def check_store_path(path, what: str = "store") -> Path:
+def check_store_path(path: Any, what: str = "store") -> Path:
     """``path`` checked like every output (not a folder, its folder writable) before anything
     runs, and a database file (not standard output, a device or a FIFO); the file itself is
     created when the work starts."""
@@ -130,7 +131,7 @@ class SweepStore:
             db.close()
         self._lock.close()
 
-    def fingerprint(self, variant, queries, values, config, seeds, **sizes) -> str:
+    def fingerprint(self, variant: Any, queries: Any, values: Any, config: Any, seeds: Any, **sizes: Any) -> str:
         """The sweep's key: sha256 of what decides its runs; registers the sweep on first use."""
         from .record_format import map_hash
 
@@ -147,7 +148,7 @@ class SweepStore:
         self.db.execute("INSERT OR IGNORE INTO sweeps VALUES (?, ?, ?)", (key, variant.name, json.dumps(call)))
         return key
 
-    def load(self, key: str, outs) -> np.ndarray:
+    def load(self, key: str, outs: Any) -> np.ndarray:
         """Fill ``outs`` (arrays ``(queries, rows)`` in :data:`FIELDS` order) with the stored runs
         of sweep ``key``; returns which rows were stored."""
         n_q, n_rows = outs[0].shape
@@ -161,7 +162,7 @@ class SweepStore:
             done[rows] = True
         return done
 
-    def append(self, key: str, rows, outputs) -> None:
+    def append(self, key: str, rows: Any, outputs: Any) -> None:
         """Store one finished chunk (one transaction: all of it or nothing)."""
         blobs = [np.ascontiguousarray(o, _DTYPES[name]).tobytes() for name, o in zip(FIELDS, outputs)]
         self.db.execute("BEGIN IMMEDIATE")

@@ -296,7 +296,8 @@ class Queries(NamedTuple):
         return self.queries[0][0]
 
 
-def prepare_queries(grid, start, goal, *, n_ants, n_iters, steplimit, connectivity, variant=None) -> tuple[Queries, int]:
+def prepare_queries(grid: Any, start: Any, goal: Any, *, n_ants: int, n_iters: int, steplimit: int | None,
+                    connectivity: int, variant: Any = None) -> tuple[Queries, int]:
     """Validate the maps, queries and sizes (before anything compiles) and build the problems;
     returns them and the step limit (when ``steplimit`` is None, the map's default for ``variant``:
     :func:`jaco.engine.checks.default_steplimit`)."""
@@ -312,7 +313,7 @@ def prepare_queries(grid, start, goal, *, n_ants, n_iters, steplimit, connectivi
     return Queries([(g, tuple(int(x) for x in s), tuple(int(x) for x in t)) for g, s, t in queries], problems), steplimit
 
 
-def check_budget(memory_budget) -> int:
+def check_budget(memory_budget: Any) -> int:
     if isinstance(memory_budget, bool) or not isinstance(memory_budget, (int, np.integer)) or memory_budget < 1:
         raise JacoError(f"memory_budget must be a positive number of bytes, got {memory_budget!r}")
     return int(memory_budget)
@@ -403,19 +404,19 @@ def _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit
 
 @accepts_aliases
 def plan_sweep(
-    grid,
-    start,
-    goal,
-    planner="mmas",
+    grid: Any,
+    start: Any,
+    goal: Any,
+    planner: Any = "mmas",
     params: dict | Design | None = None,
-    seeds=4,
+    seeds: Any = 4,
     *,
     n_ants: int = 50,
     n_iters: int = 100,
     steplimit: int | None = None,
     connectivity: int = 8,
     memory_budget: int = 2 << 30,
-    devices=None,
+    devices: Any = None,
     chunk: int | None = None,
 ) -> dict:
     """What :func:`sweep` with the same arguments would do, without running it: compiles the chunk
@@ -436,12 +437,12 @@ STORE_CHUNKS = 10
 
 @check_keywords
 def sweep(
-    grid,
-    start,
-    goal,
-    planner="mmas",
+    grid: Any,
+    start: Any,
+    goal: Any,
+    planner: Any = "mmas",
     params: dict | Design | None = None,
-    seeds=4,
+    seeds: Any = 4,
     *,
     n_ants: int = 50,
     n_iters: int = 100,
@@ -449,8 +450,8 @@ def sweep(
     connectivity: int = 8,
     memory_budget: int = 2 << 30,
     progress: bool | None = None,
-    devices=None,
-    store=None,
+    devices: Any = None,
+    store: Any = None,
     chunk: int | None = None,
 ) -> pd.DataFrame:
     """Run every configuration of ``params`` × ``seeds`` × queries; one row per run.
@@ -603,7 +604,7 @@ def _tidy(variant, queries, problems, values, config, seed_arr, cost, length, be
     return parts[0] if n_q == 1 else pd.concat(parts, ignore_index=True)
 
 
-def summarize(table: pd.DataFrame, by=None) -> pd.DataFrame:
+def summarize(table: pd.DataFrame, by: Any = None) -> pd.DataFrame:
     """Per-configuration summary over seeds, one row per configuration (and query).
 
     ``by`` defaults to every column that is not a result (the planner, the query columns,
