@@ -41,12 +41,12 @@ from jaco.engine import pheromone as ph
 from jaco.engine.cost import path_length
 from jaco.engine.planner import make_planner
 from jaco.metrics import SAFETY_RADIUS, path_metrics, validate_path
-from jaco.planners.classic import BASE
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from report import fixed as fmt, output_dir, write_section  # noqa: E402 (the experiments' shared helpers)
 
 MAPS = ["simple-20", "complex-30"]
+BASE = ("alpha", "beta", "rho", "q", "tau0")  # the classic family's parameters
 SQRT2 = math.sqrt(2.0)
 
 #: Dong & Zhao 2021's "basic ACO" (its 4.1, eqs. 6–8) with the paper's tuned parameters (its 5).

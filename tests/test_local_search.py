@@ -251,6 +251,7 @@ def test_the_best_k_are_searched_and_a_cost_that_would_rise_keeps_the_walk(maps_
         params = jaco.engine.checks.params_from(jaco.engine.checks.resolve_params(v, {}, where="test"))
         trail = v.rule.init(jaco.engine.pheromone.Trail(jnp.zeros(8 * grid.n_cells if v.pheromone_on == "moves" else grid.n_cells),
                                                         jnp.float32(0), jnp.float32(jnp.inf)), problem, params)
+        params = v.schedule(params, 0, 5)  # the first iteration's parameters, as the run hands them (IAACO's q0)
         _, colony = v.construct(v, problem, trail, params, 0, 5, jax.random.key(2), n_ants=20, steplimit=200)
         after = ls.shortcut_search(window=ls.WINDOW, passes=ls.PASSES, best=2)(v, problem, colony, params)
         changed = np.flatnonzero(np.any(np.asarray(after.cells) != np.asarray(colony.cells), axis=0))
