@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from PIL import Image
 
@@ -648,9 +648,16 @@ def test_random_map_custom_endpoints_and_errors():
     p=st.floats(0.0, 0.3),
     carve_p=st.floats(0.0, 0.85),
 )
+@example(seed=454, h=18, w=2, p=0.296875, carve_p=0.0)  # a narrow map no resampled draw connects
 def test_random_map_always_connected(seed, h, w, p, carve_p):
     for method, ratio in (("resample", p), ("carve", carve_p)):
-        g = maps.random_map((h, w), ratio, seed=seed, method=method)
+        try:
+            g = maps.random_map((h, w), ratio, seed=seed, method=method)
+        except jaco.ProblemError as e:
+            # resampling a narrow map (18x2 at 30 %) may find no connected draw: the documented
+            # one-line error naming the remedies, never a disconnected map; carving always connects
+            assert method == "resample" and "use method='carve'" in str(e), e
+            continue
         assert g.shape == (h, w)
         assert g.free[0, 0] and g.free[h - 1, w - 1]
         assert connected(g, (0, 0), (h - 1, w - 1))
