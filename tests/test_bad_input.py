@@ -668,3 +668,22 @@ def test_internal_errors_are_one_line_and_exit_3(capsys, monkeypatch):
                    exit_code=3)
     code, _, err = run_cli(capsys, "--debug", "variants")  # the command's former name
     assert code == 3 and "Traceback" in err and "boom" in err
+
+
+@pytest.mark.parametrize(
+    "param, match",
+    [
+        (("two words", 1.0, 0, 2, "d"), "must be an identifier"),
+        (("kappa_bad", 3.0, 0, 2, "d"), "default 3 is outside its range \\[0, 2\\]"),
+        (("kappa_bad", 1.0, 2, 0, "d"), "range \\[2, 0\\] is empty"),
+        (("rho", 0.5, 0, 2, "d"), "declared with range \\(0, 1\\] already"),
+    ],
+)
+def test_a_component_parameter_is_checked_when_declared(param, match):
+    """A new component's parameter is checked once, when it is declared: a clear one-line error,
+    and nothing is registered."""
+    from jaco.engine.params import SPECS, Param, declare
+
+    with pytest.raises(jaco.JacoError, match=match) as e:
+        declare(Param(*param))
+    assert "\n" not in str(e.value) and "kappa_bad" not in SPECS and "two words" not in SPECS

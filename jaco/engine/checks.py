@@ -138,7 +138,7 @@ def check_relations(table: dict, names: tuple[str, ...]) -> None:
 
 def resolve_params(variant: Planner, values: dict, *, where: str) -> dict:
     """Validated parameter values (numpy float arrays) over the variant's defaults."""
-    merged = {k: np.asarray(v, np.float64) for k, v in variant.default_params().to_dict().items()}
+    merged = {k: np.asarray(variant.defaults[k], np.float64) for k in variant.params}
     merged.update(check_values(values, variant.params, where))
     check_order(merged, variant.params)
     return merged

@@ -72,6 +72,12 @@ def declare(*params: Param, order: Iterable[tuple[str, str]] = ()) -> tuple[Para
     for p in params:
         if not isinstance(p, Param):
             raise JacoError(f"declare takes Param objects, got {type(p).__name__} {p!r}")
+        if not (isinstance(p.name, str) and p.name.isidentifier()):
+            raise JacoError(f"a parameter's name must be an identifier, got {p.name!r}")
+        if not p.lo <= p.hi:  # also NaN ends
+            raise JacoError(f"parameter {p.name!r}: its range {p.describe()} is empty")
+        if not bool(p.contains(np.asarray(float(p.default)))):
+            raise JacoError(f"parameter {p.name!r}: its default {p.default:g} is outside its range {p.describe()}")
         known = SPECS.get(p.name)
         if known is None:
             SPECS[p.name] = p

@@ -140,7 +140,7 @@ class Planner(NamedTuple):
         if unknown:
             raise JacoError(f"{name!r}: {unknown[0]!r} is not a parameter of {self.name!r} ({', '.join(self.params)})")
         order = tuple(defaults) + tuple(k for k in self.params if k not in defaults)
-        return self._replace(name=name, source=source, doc=doc, params=order, composition=self.composition,
+        return self._replace(name=name, source=source, doc=doc, params=order,
                              defaults=FrozenMap({k: float(defaults.get(k, self.defaults[k])) for k in order}))
 
 

@@ -211,12 +211,9 @@ def _build(c: dict) -> Planner:
         raise JacoError("these components cannot be composed: one needs pheromone on cells, another on moves")
     parts: dict = {}
     defaults: dict = {}
-    rules: list = []
     schedules_: list = []
-    for kind in ("heuristic",) + tuple(k for k in ORDER if k != "heuristic"):  # the heuristic's table first
-        p = pieces[kind]
-        if "rule" in p.parts:
-            rules.append(p.parts["rule"])
+    # every component's pheromone pieces, the heuristic's first (a table the rule's init keeps)
+    rules = [p.parts["rule"] for p in sorted(pieces.values(), key=lambda p: p.kind != "heuristic") if "rule" in p.parts]
     for p in pieces.values():
         for k, v in p.parts.items():
             if k == "schedule":
