@@ -437,3 +437,14 @@ def test_selection_mistakes_are_one_line(capsys, args, needle):
     assert_user_error(code, err, needle)
     code, _, err = run(capsys, "solve", "demo", "--bucket", "3", *SMALL)
     assert_user_error(code, err, "--bucket needs --scen")
+
+
+def test_a_reader_that_leaves_early_ends_the_command_quietly():
+    """``jaco planners | head -1``: when the reader closes the pipe, jaco stops without an error
+    message, with the shell's status for a writer whose reader left (128 + SIGPIPE)."""
+    exe = shutil.which("jaco")
+    cmd = [exe, "planners"] if exe else [sys.executable, "-m", "jaco.cli", "planners"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc.stdout.close()  # the reader is gone before jaco writes its first line
+    err = proc.stderr.read()
+    assert proc.wait(timeout=120) == 141 and err == "", err

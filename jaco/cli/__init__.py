@@ -14,6 +14,7 @@ parser and printing help cost nothing beyond importing the :mod:`jaco` package i
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 
@@ -27,6 +28,7 @@ __all__ = ["main", "entry", "build_parser"]
 #: Exit codes: 2 a user error (a :class:`~jaco.errors.JacoError` or a bad argument), 3 a bug,
 #: 128 + the signal when interrupted (SIGINT: 130, SIGTERM: 143).
 USER_ERROR, INTERNAL_ERROR, INTERRUPTED, TERMINATED = 2, 3, 130, 143
+BROKEN_PIPE = 141  # 128 + SIGPIPE: what a shell reports for a writer whose reader left
 
 
 class Terminated(BaseException):
@@ -73,6 +75,12 @@ def _main(argv, JacoError) -> int:
     except (UsageError, JacoError) as e:
         print(f"jaco: error: {_one_line(e)}", file=sys.stderr)
         return USER_ERROR
+    except BrokenPipeError:  # the reader left (`jaco planners | head -3`): stop quietly, as cat does
+        try:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit's flush
+        except (OSError, ValueError):
+            pass
+        return BROKEN_PIPE
     except OSError as e:
         text = f"{e.filename}: {e.strerror}" if e.strerror and e.filename else str(e)
         print(f"jaco: error: {_one_line(text)}", file=sys.stderr)
