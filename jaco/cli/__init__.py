@@ -14,7 +14,6 @@ parser and printing help cost nothing beyond importing the :mod:`jaco` package i
 
 from __future__ import annotations
 
-import os
 import sys
 import time
 
@@ -76,10 +75,9 @@ def _main(argv, JacoError) -> int:
         print(f"jaco: error: {_one_line(e)}", file=sys.stderr)
         return USER_ERROR
     except BrokenPipeError:  # the reader left (`jaco planners | head -3`): stop quietly, as cat does
-        try:
-            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit's flush
-        except (OSError, ValueError):
-            pass
+        from .commands import _quiet_stdout
+
+        _quiet_stdout()
         return BROKEN_PIPE
     except OSError as e:
         text = f"{e.filename}: {e.strerror}" if e.strerror and e.filename else str(e)
