@@ -137,3 +137,37 @@ def test_an_interrupted_write_leaves_the_old_file_and_no_temporary(tmp_path, mon
         write_text(path, "new\n" * 1000)
     monkeypatch.setattr(os, "replace", real)
     assert path.read_text() == "old\n" and [p.name for p in tmp_path.iterdir()] == ["table.csv"]
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_a_stop_signal_whose_exception_python_ignored_is_delivered_again(sig):
+    """A signal handled inside a garbage-collector callback (JAX registers one) raises where Python
+    ignores exceptions: the command would go on. The CLI sends it again until it stops the command."""
+    import gc
+
+    from jaco.cli import Terminated, stop_signals
+
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    hook = sys.unraisablehook
+    fired = []
+
+    def collecting(phase, info):
+        if phase == "start" and not fired:
+            fired.append(phase)
+            os.kill(os.getpid(), sig)  # its handler runs here and its exception is ignored
+
+    expected = KeyboardInterrupt if sig == signal.SIGINT else Terminated
+    try:
+        with pytest.raises(expected), stop_signals():
+            gc.callbacks.append(collecting)
+            try:
+                gc.collect()
+            finally:
+                gc.callbacks.remove(collecting)
+            assert fired, "the callback ran and the command is still running"
+            t0 = time.time()
+            while time.time() - t0 < 10:  # without the second delivery this ends and nothing is raised
+                time.sleep(0.01)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert sys.unraisablehook is hook and signal.getsignal(signal.SIGTERM) is not jaco.cli._terminate

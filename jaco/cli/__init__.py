@@ -14,6 +14,7 @@ parser and printing help cost nothing beyond importing the :mod:`jaco` package i
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import time
 
@@ -39,21 +40,48 @@ def _terminate(signum, frame):
     raise Terminated()
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``jaco`` console script; returns the exit code."""
+def _redeliver(unraisable, previous_hook, signals) -> None:
+    """``sys.unraisablehook`` while a command runs. Python ignores an exception raised where it
+    cannot propagate: a garbage-collector callback (JAX registers one), a ``__del__``. A signal whose
+    handler ran there would be lost and the command would go on; it is sent again a moment later,
+    from another thread, so that the handler runs where the exception reaches the clean-up."""
+    import os
+    import threading
+
+    for exc_type, signum in signals:
+        if isinstance(unraisable.exc_value, exc_type):
+            threading.Timer(0.01, os.kill, (os.getpid(), signum)).start()
+            return
+    previous_hook(unraisable)
+
+
+@contextlib.contextmanager
+def stop_signals():
+    """While a command runs: SIGTERM raises :class:`Terminated` (SIGINT raises KeyboardInterrupt, as
+    always), and either one is delivered again if its exception was swallowed (:func:`_redeliver`)."""
     import signal
     import threading
 
+    if threading.current_thread() is not threading.main_thread():  # signals reach the main thread only
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _terminate)
+    previous_hook = sys.unraisablehook
+    signals = ((KeyboardInterrupt, signal.SIGINT), (Terminated, signal.SIGTERM))
+    sys.unraisablehook = lambda u: _redeliver(u, previous_hook, signals)
+    try:
+        yield
+    finally:
+        sys.unraisablehook = previous_hook
+        signal.signal(signal.SIGTERM, previous)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``jaco`` console script; returns the exit code."""
     from ..errors import JacoError
 
-    previous = None
-    if threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGTERM, _terminate)
-    try:
+    with stop_signals():
         return _main(argv, JacoError)
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
 
 
 def _main(argv, JacoError) -> int:
