@@ -35,6 +35,9 @@ __all__ = [
 
 #: The size of the contract's runs: small enough for seconds per check, large enough to find paths.
 SMALL: dict[str, Any] = dict(n_ants=16, n_iters=12)
+#: Every solve of the checks keeps its final pheromone: one compiled program per map serves the
+#: path, pheromone, seed, sweep-row, compile-once and trivial-query checks.
+_RUN: dict[str, Any] = dict(SMALL, keep_pheromone=True)
 
 
 def default_maps() -> list[Grid]:
@@ -64,7 +67,7 @@ def check_paths(planner: str | Planner, maps: Sequence[Grid] | None = None) -> N
     v = get_planner(planner)
     for grid in maps or default_maps():
         start, goal = _ends(grid)
-        r = solve(grid, start, goal, v, seed=0, **SMALL)
+        r = solve(grid, start, goal, v, seed=0, **_RUN)
         assert r.success, f"{v.name}: no path on {grid.name}"
         problems = validate_path(grid, r.path, start, goal)
         assert problems == [], f"{v.name}: invalid path on {grid.name}: {problems}"
@@ -81,7 +84,7 @@ def check_pheromone(planner: str | Planner, grid: Grid | None = None) -> None:
     """The final pheromone is finite and non-negative."""
     v = get_planner(planner)
     grid = grid or default_maps()[0]
-    r = solve(grid, *_ends(grid), v, seed=1, keep_pheromone=True, **SMALL)
+    r = solve(grid, *_ends(grid), v, seed=1, **_RUN)
     tau = r.pheromone
     assert tau is not None
     assert np.isfinite(tau).all() and (tau >= 0).all(), f"{v.name}: pheromone not finite or negative"
@@ -92,12 +95,12 @@ def check_seeds(planner: str | Planner, grid: Grid | None = None) -> None:
     the cells the ants covered differ: a planner may find the optimum every time)."""
     v = get_planner(planner)
     grid = grid or default_maps()[0]
-    a = solve(grid, *_ends(grid), v, seed=5, **SMALL)
-    b = solve(grid, *_ends(grid), v, seed=5, **SMALL)
+    a = solve(grid, *_ends(grid), v, seed=5, **_RUN)
+    b = solve(grid, *_ends(grid), v, seed=5, **_RUN)
     assert np.array_equal(a.path, b.path), f"{v.name}: one seed, two paths"
     for k in a.history:
         assert np.array_equal(a.history[k], b.history[k]), f"{v.name}: one seed, two histories ({k})"
-    others = [solve(grid, *_ends(grid), v, seed=s, **SMALL) for s in (6, 7, 8)]
+    others = [solve(grid, *_ends(grid), v, seed=s, **_RUN) for s in (6, 7, 8)]
     assert any(not np.array_equal(a.history["mean"], o.history["mean"]) or a.coverage != o.coverage for o in others), (
         f"{v.name}: other seeds gave the same walks")
 
@@ -113,7 +116,7 @@ def check_sweep(planner: str | Planner, grid: Grid | None = None) -> None:
     for _, row in table.iterrows():
         value: dict[str, Any] = {name: float(row[name])}
         start, goal = _ends(grid)
-        r = solve(grid, start, goal, v, seed=int(row.seed), **value, **SMALL)
+        r = solve(grid, start, goal, v, seed=int(row.seed), **value, **_RUN)
         assert row.length == r.length and row.best_iteration == r.best_iteration, (
             f"{v.name}: sweep row ({name}={row[name]}, seed {row.seed}) differs from its single run")
         assert row.coverage == r.coverage
@@ -124,7 +127,7 @@ def check_compiles_once(planner: str | Planner) -> None:
     v = get_planner(planner)
     a = random_map(12, 0.2, seed=1)
     b = random_map(12, 0.1, seed=2)
-    shape: dict[str, Any] = dict(SMALL, steplimit=96)  # one step limit: a default one may depend on the map
+    shape: dict[str, Any] = dict(_RUN, steplimit=96)  # one step limit: a default one may depend on the map
     solve(a, (0, 0), (11, 11), v, seed=0, **shape)
     before = TRACES[v.name]
     name, _, y = _other_value(v)
@@ -167,7 +170,7 @@ def check_trivial_query(planner: str | Planner, grid: Grid | None = None) -> Non
     v = get_planner(planner)
     grid = grid or default_maps()[0]
     start = _ends(grid)[0]
-    r = solve(grid, start, start, v, **SMALL)
+    r = solve(grid, start, start, v, **_RUN)
     assert r.success and r.length == 0 and r.path.tolist() == [list(start)], f"{v.name}: trivial query"
 
 

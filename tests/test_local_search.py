@@ -1,8 +1,8 @@
 """Local search (``compose(..., local_search="shortcut")``, ``"<planner>+shortcut"``): the octile
 shortcut keeps the move model and never lengthens a path; the native kernel gives the JAX
-definition's paths bit for bit; every planner with it plans valid paths, never worse than without
-in the iteration both runs share, the same key gives the same run, and names, sweeps, records and
-the shell take it. The published planners are unchanged (no local search)."""
+definition's paths bit for bit; names, sweeps, records and the shell take it. Every planner with it
+plans valid paths, never worse than without in the iteration both runs share: tests/test_variants.py,
+beside the contract whose compiled runs it shares. The published planners are unchanged (no local search)."""
 
 import doctest
 import functools
@@ -167,44 +167,13 @@ def test_random_paths_stay_valid_never_get_longer_and_the_kernel_agrees(seed, de
         assert (outs["jax"][len(after) - 1:, a] == -1).all()  # -1 after the goal
 
 
-# -- every planner with local search ------------------------------------------------------------
+# -- planners with local search (every planner: tests/test_variants.py) ---------------------------
 SMALL = dict(n_ants=16, n_iters=12)
 
 
 @pytest.fixture(scope="module")
 def maps_():
     return [jaco.maps.random_map(12, 0.2, seed=3), jaco.maps.named("utrap-15")]
-
-
-#: A dying construct in the normal run (backtracking ants with local search are in the other tests
-#: here); every registered planner with the slow checks.
-QUICK = ["acs"]
-
-
-@pytest.mark.parametrize("name", [n if n in QUICK else pytest.param(n, marks=pytest.mark.slow) for n in sorted(jaco.PLANNERS)])
-def test_every_planner_with_local_search_keeps_the_contract(name, maps_):
-    """Valid paths; in the first iteration (the same walks with and without: nothing has been
-    deposited yet) the best is never longer with local search; the same key gives the same run;
-    the native kernel gives the JAX definition's run bit for bit. The normal run's planner on both
-    maps, the others on the U-trap (each map is a program of its own)."""
-    v = with_local_search(name)
-    assert v.name == f"{name}+shortcut" and get_planner(v.name) is v and jaco.PLANNERS[name].local_search is None
-    for grid in maps_ if name in QUICK else maps_[1:]:
-        start, goal = grid.meta["start"], grid.meta["goal"]
-        plain = jaco.solve(grid, start, goal, name, seed=0, **SMALL)
-        a = jaco.solve(grid, start, goal, v, seed=0, **SMALL)
-        assert a.success and validate_path(grid, a.path, start, goal) == []
-        assert a.length >= a.optimal - 1e-4
-        assert a.history["iteration_best"][0] <= plain.history["iteration_best"][0]
-        b = jaco.solve(grid, start, goal, v.name, seed=0, **SMALL)
-        _same_run(a, b)
-    if native.available():
-        native.set_walk("jax")
-        try:
-            c = jaco.solve(grid, start, goal, v, seed=0, **SMALL)
-        finally:
-            native.set_walk(None)
-        _same_run(a, c)
 
 
 def _same_run(a, b):

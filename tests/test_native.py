@@ -223,11 +223,10 @@ def test_detour_rows_of_a_problem_are_what_the_walk_test_builds():
 GRID = jaco.maps.random_map(14, 0.15, seed=2)
 
 
-# One planner of each kind of walk in the normal run (dying ants with the q0 rule, backtracking
-# ants): a solve, and a trip through a waypoint (ACS) or a sweep (IACA); every planner with the slow checks
-# (.ci/run): a solve here, and its sweep in the sharded test below (the trip chains the same
-# compiled run leg by leg, whatever the planner).
-_QUICK = {"acs", "iaca"}
+# One planner of each kind of walk (dying ants with the q0 rule, backtracking ants): a solve whose
+# path and history are compared, and a trip through a waypoint (ACS) or a sweep (IACA). Every
+# planner and composition: a solve's path, history and pheromone (slow, tests/test_variants.py).
+_QUICK = ("acs", "iaca")
 
 
 def _runs(variant):
@@ -241,10 +240,8 @@ def _runs(variant):
     return solves, jaco.sweep(GRID, start, goal, variant, params={"rho": [0.1, 0.3]}, seeds=2, **kw)
 
 
-@pytest.mark.parametrize(
-    "variant", [v if v in _QUICK else pytest.param(v, marks=pytest.mark.slow) for v in sorted(jaco.PLANNERS)]
-)
-def test_every_planner_gives_the_same_runs_with_both_walks(variant, walk_choice):
+@pytest.mark.parametrize("variant", _QUICK)
+def test_a_planner_of_each_walk_gives_the_same_runs_with_both_walks(variant, walk_choice):
     walk_choice("native")
     native_solves, native_table = _runs(variant)
     walk_choice("jax")
@@ -310,7 +307,9 @@ def test_info_names_versions_devices_and_the_active_walk(capsys):
 @pytest.mark.slow
 def test_without_a_compiler_the_package_builds_and_walks_in_jax(tmp_path):
     """``pip wheel`` with a C++ compiler that always fails: the build succeeds without the
-    kernel, and the package from that wheel plans with the JAX walk and says so in ``jaco info``."""
+    kernel, and the package from that wheel plans with the JAX walk and says so in ``jaco info``.
+    The builds here use this environment's build requirements (no build isolation, which would
+    install jax and jaxlib into a fresh one for each build); CI's install builds isolated."""
     import shutil
     import zipfile
 
@@ -322,8 +321,8 @@ def test_without_a_compiler_the_package_builds_and_walks_in_jax(tmp_path):
         shutil.copy2(ROOT / name, src / name)
     shutil.copytree(ROOT / "jaco", src / "jaco", ignore=shutil.ignore_patterns("__pycache__", "*.so"))
     env = dict(os.environ, CC="/bin/false", CXX="/bin/false", JACO_CACHE_DIR=str(tmp_path / "cache"))
-    proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), str(src)],
-                          env=env, capture_output=True, text=True, timeout=600)
+    proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w",
+                           str(tmp_path), str(src)], env=env, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
     (wheel,) = tmp_path.glob("jaco-*.whl")
     with zipfile.ZipFile(wheel) as z:
@@ -358,8 +357,8 @@ def test_the_kernel_is_built_once_for_the_same_sources_compiler_and_jaxlib(tmp_p
     def build(name):
         """``pip wheel`` of the sources (as ``pip install`` builds): its output, kernel and object files."""
         shutil.rmtree(src / "build", ignore_errors=True)  # setuptools would reuse an earlier build's objects
-        proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-v", "-w", str(tmp_path / name),
-                               str(src)], env=env, capture_output=True, text=True, timeout=900)
+        proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-v", "-w",
+                               str(tmp_path / name), str(src)], env=env, capture_output=True, text=True, timeout=900)
         assert proc.returncode == 0, proc.stderr[-3000:]
         (wheel,) = (tmp_path / name).glob("jaco-*.whl")
         with zipfile.ZipFile(wheel) as z:
@@ -380,15 +379,22 @@ def test_the_kernel_is_built_once_for_the_same_sources_compiler_and_jaxlib(tmp_p
     assert not kernels and list(cache.rglob("_walk*.so")) == [kept]  # the optional kernel failed: no new entry
 
 
+#: One planner of each construct (dying ants with roulette and with the q0 rule, backtracking
+#: ants, two colonies) and the rules that carry a state of their own (pg-aco's optax state,
+#: APF-ACO's potential-field table): the sharded sweep is the same vmapped run whatever the planner.
+#: Every planner and composition takes the native walk's moves in a solve: tests/test_variants.py.
+SHARDED = ["as", "acs", "iaca", "idaca", "pg-aco", "apf-aco"]
+
+
 @pytest.mark.slow
-def test_every_planner_sharded_with_the_jax_walk_equals_the_native_walk(tmp_path):
-    """Every registered planner: a sweep sharded over two devices with the JAX walk equals the
-    one-device sweep with the native walk, row for row (one subprocess with two XLA devices)."""
+def test_planners_sharded_with_the_jax_walk_equal_the_native_walk(tmp_path):
+    """A sweep sharded over two devices with the JAX walk equals the one-device sweep with the
+    native walk, row for row (one subprocess with two XLA devices)."""
     code = (
         "import sys, jaco, pandas as pd\n"
         "g = jaco.maps.random_map(14, 0.15, seed=2)\n"
         "bad = []\n"
-        "for v in sorted(jaco.PLANNERS):\n"
+        f"for v in {SHARDED!r}:\n"
         "    tables = []\n"
         "    for walk, devices in (('native', 1), ('jax', 2)):\n"
         "        jaco.set_walk(walk)\n"

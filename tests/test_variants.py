@@ -6,7 +6,9 @@ import pytest
 
 import jaco
 from jaco import testing
+from jaco.engine import native
 from jaco.metrics import validate_path
+from jaco.planners.registry import get_planner, with_local_search
 
 SMALL = testing.SMALL
 
@@ -18,6 +20,13 @@ def maps_():
 
 def _ends(grid):
     return grid.meta["start"], grid.meta["goal"]
+
+
+def _same_run(a, b):
+    np.testing.assert_array_equal(a.path, b.path)
+    assert a.length == b.length and a.cost == b.cost and a.best_iteration == b.best_iteration
+    for k in a.history:
+        np.testing.assert_array_equal(a.history[k], b.history[k])
 
 
 #: Compositions of components across the sources (jaco.compose), beyond the registered planners'
@@ -85,6 +94,23 @@ def test_trivial_query_start_equals_goal(name, maps_):
     testing.check_trivial_query(name, maps_[0])
 
 
+@pytest.mark.slow  # ACS and IACA in the normal run: tests/test_native.py
+def test_the_jax_walk_takes_the_native_walks_moves(name, maps_):
+    """The native kernel's run equals the JAX walk's bit for bit: path, history and final
+    pheromone (the native run is the contract's compiled program; the JAX walk's is one more)."""
+    if not native.available():
+        pytest.skip("the native walk was not built")
+    grid = maps_[1]
+    a = jaco.solve(grid, *_ends(grid), name, seed=0, **SMALL, keep_pheromone=True)
+    native.set_walk("jax")
+    try:
+        b = jaco.solve(grid, *_ends(grid), name, seed=0, **SMALL, keep_pheromone=True)
+    finally:
+        native.set_walk(None)
+    _same_run(a, b)
+    np.testing.assert_array_equal(a.pheromone, b.pheromone)
+
+
 @pytest.mark.parametrize("name", EVERY)
 def test_every_variant_is_documented(name):
     testing.check_documented(name)
@@ -111,3 +137,40 @@ def test_pheromone_on_cells_is_supported():
     tau = r.pheromone.reshape(grid.shape)
     on_path = tau[r.path[1:, 0], r.path[1:, 1]]
     assert on_path.mean() > np.median(tau[grid.free])
+
+
+# -- every planner with local search (tests/test_local_search.py tests the search itself) ---------
+#: Dying ants with the q0 rule in the normal run; every registered planner with the slow checks.
+QUICK_SEARCH = ["acs"]
+#: The planners whose run is also compared with the JAX walk's: the search is the same code
+#: whatever the planner, but it keeps a shortcut by the planner's cost (length, or IAACO's J).
+BOTH_WALKS = ["acs", "iaaco"]
+
+
+@pytest.mark.parametrize("planner", [n if n in QUICK_SEARCH else pytest.param(n, marks=pytest.mark.slow)
+                                     for n in sorted(jaco.PLANNERS)])
+def test_every_planner_with_local_search_keeps_the_contract(planner, maps_):
+    """Valid paths; in the first iteration (the same walks with and without: nothing has been
+    deposited yet) the best is never longer with local search; the same key gives the same run;
+    the native kernel gives the JAX definition's run bit for bit (one planner of each cost;
+    tests/test_local_search.py compares the kernels' searches on random paths). The normal run's
+    planner on both maps, the others on the U-trap; the run without local search is the contract's
+    (the same compiled program as check_paths')."""
+    v = with_local_search(planner)
+    assert v.name == f"{planner}+shortcut" and get_planner(v.name) is v and jaco.PLANNERS[planner].local_search is None
+    for grid in maps_ if planner in QUICK_SEARCH else maps_[1:]:
+        start, goal = _ends(grid)
+        plain = jaco.solve(grid, start, goal, planner, seed=0, **SMALL, keep_pheromone=True)
+        a = jaco.solve(grid, start, goal, v, seed=0, **SMALL)
+        assert a.success and validate_path(grid, a.path, start, goal) == []
+        assert a.length >= a.optimal - 1e-4
+        assert a.history["iteration_best"][0] <= plain.history["iteration_best"][0]
+        b = jaco.solve(grid, start, goal, v.name, seed=0, **SMALL)
+        _same_run(a, b)
+    if native.available() and planner in BOTH_WALKS:
+        native.set_walk("jax")
+        try:
+            c = jaco.solve(grid, start, goal, v, seed=0, **SMALL)
+        finally:
+            native.set_walk(None)
+        _same_run(a, c)
