@@ -53,8 +53,21 @@ _LAZY = {
     "load_study": "research.search",
 }
 _SUBMODULES = {
-    "api", "apf", "cli", "engine", "exact", "maps", "metrics", "moves", "outputs", "planners", "plot", "potential",
-    "research", "testing", "waypoints",
+    "api",
+    "apf",
+    "cli",
+    "engine",
+    "exact",
+    "maps",
+    "metrics",
+    "moves",
+    "outputs",
+    "planners",
+    "plot",
+    "potential",
+    "research",
+    "testing",
+    "waypoints",
 }
 #: Modules that moved into the engine, planners and research packages, by the name they had
 #: before (the ``pheromone`` attribute is :mod:`jaco.engine.pheromone`, ``variants`` the registry):
@@ -83,7 +96,15 @@ _MOVED = {
 }
 
 __all__ = [
-    "Grid", "JacoError", "MapFormatError", "OutputError", "ParamError", "ProblemError", "ResourceError", *_LAZY, *sorted(_SUBMODULES)
+    "Grid",
+    "JacoError",
+    "MapFormatError",
+    "OutputError",
+    "ParamError",
+    "ProblemError",
+    "ResourceError",
+    *_LAZY,
+    *sorted(_SUBMODULES),
 ]
 
 

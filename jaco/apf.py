@@ -276,8 +276,17 @@ def _trace(grid, start, goal, max_steps, kind, connectivity, k_rep, d0):
     return _follow(step, s, g, int(max_steps)), problem
 
 
-def trace(grid: Grid, start: Cell, goal: Cell, *, max_steps: int | None = None, kind: str = "improved", connectivity: int = 8,
-          k_rep: float = K_REP, d0: float = D0) -> Trace:
+def trace(
+    grid: Grid,
+    start: Cell,
+    goal: Cell,
+    *,
+    max_steps: int | None = None,
+    kind: str = "improved",
+    connectivity: int = 8,
+    k_rep: float = K_REP,
+    d0: float = D0,
+) -> Trace:
     """Walk the APF planner from ``start`` to ``goal`` and say how it ended (:class:`Trace`).
 
     ``kind="improved"``: the paper's improved APF (intermediate points + attraction only);
@@ -299,8 +308,17 @@ def intermediate_points(grid: Grid, cell: Cell, goal: Cell, *, connectivity: int
     return ref.targets((int(cell[0]), int(cell[1])))
 
 
-def plan(grid: Grid, start: Cell, goal: Cell, *, max_steps: int | None = None, kind: str = "improved", connectivity: int = 8,
-         k_rep: float = K_REP, d0: float = D0) -> Result:
+def plan(
+    grid: Grid,
+    start: Cell,
+    goal: Cell,
+    *,
+    max_steps: int | None = None,
+    kind: str = "improved",
+    connectivity: int = 8,
+    k_rep: float = K_REP,
+    d0: float = D0,
+) -> Result:
     """Plan one path with the APF alone (Dong & Zhao 2021, 3.1–3.2) and return a :class:`jaco.Result`.
 
     ``variant`` is ``"apf"`` (improved) or ``"apf-classic"``; a walk that loops, gets stuck or

@@ -65,19 +65,29 @@ def solve(
     planner = get_planner(planner)
     for name in params:  # a misspelt keyword of solve lands among the parameters: suggest both
         if name not in planner.params:
-            raise ParamError(unknown_parameter(name, planner.params, f"planner {planner.name!r}", SOLVE_KEYWORDS,
-                                               "jaco.solve"))
-    kw: dict[str, Any] = dict(seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, connectivity=connectivity,
-              keep_pheromone=keep_pheromone, **params)
+            raise ParamError(
+                unknown_parameter(name, planner.params, f"planner {planner.name!r}", SOLVE_KEYWORDS, "jaco.solve")
+            )
+    kw: dict[str, Any] = dict(
+        seed=seed,
+        n_ants=n_ants,
+        n_iters=n_iters,
+        steplimit=steplimit,
+        connectivity=connectivity,
+        keep_pheromone=keep_pheromone,
+        **params,
+    )
     if waypoints is not None:
         return solve_waypoints(grid, start, goal, planner, waypoints, **kw)
     return _run.solve(grid, start, goal, planner, progress=progress, **kw)
 
 
 @accepts_aliases
-def make_run(planner: str | Planner, *, n_ants: int, n_iters: int, steplimit: int,
-             keep_pheromone: bool | str = False) -> Callable:
+def make_run(
+    planner: str | Planner, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromone: bool | str = False
+) -> Callable:
     """:func:`jaco.engine.run.make_run` for a planner given by name or as a :class:`Planner`:
     ``run(key, problem, params) -> RunOutput`` for fixed shapes (not jitted here)."""
-    return _run.make_run(get_planner(planner), n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,
-                         keep_pheromone=keep_pheromone)
+    return _run.make_run(
+        get_planner(planner), n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, keep_pheromone=keep_pheromone
+    )

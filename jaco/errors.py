@@ -4,7 +4,6 @@ The command line prints a :class:`JacoError` as one line and exits with code 2. 
 (a keyword of ``jaco.solve``/``sweep``/``tune``, a parameter) is answered with the closest names
 the call takes (:func:`did_you_mean`, :func:`check_keywords`)."""
 
-
 from __future__ import annotations
 
 import difflib
@@ -96,8 +95,10 @@ def check_keywords(fn: F) -> F:
             kwargs = resolve_aliases(kwargs)
         for key in kwargs:
             if key not in names:
-                raise JacoError(f"unknown keyword {key!r} for jaco.{fn.__name__}{did_you_mean(key, names)}; "
-                                f"its keywords: {', '.join(names)}")
+                raise JacoError(
+                    f"unknown keyword {key!r} for jaco.{fn.__name__}{did_you_mean(key, names)}; "
+                    f"its keywords: {', '.join(names)}"
+                )
         return fn(*args, **kwargs)
 
     return cast(F, checked)

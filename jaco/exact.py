@@ -24,9 +24,7 @@ def _graph(grid: Grid, connectivity: int) -> csr_matrix:
     if key not in grid.meta:
         nbr, step = cached_table(grid, connectivity)
         src, k = np.nonzero(nbr >= 0)
-        grid.meta[key] = csr_matrix(
-            (step[src, k], (src, nbr[src, k])), shape=(grid.n_cells, grid.n_cells)
-        )
+        grid.meta[key] = csr_matrix((step[src, k], (src, nbr[src, k])), shape=(grid.n_cells, grid.n_cells))
     return grid.meta[key]
 
 
@@ -74,9 +72,7 @@ def shortest_path(grid: Grid, start: Cell, goal: Cell, *, connectivity: int = 8)
     """
     s = _check_cell(grid, start, "start")
     g = _check_cell(grid, goal, "goal")
-    dist, pred = dijkstra(
-        _graph(grid, connectivity), directed=True, indices=s, return_predecessors=True
-    )
+    dist, pred = dijkstra(_graph(grid, connectivity), directed=True, indices=s, return_predecessors=True)
     if not math.isfinite(dist[g]):
         return math.inf, np.empty((0, 2), dtype=np.int64)
     cells = [g]

@@ -49,12 +49,12 @@ class Grid:
             raise ProblemError(f"a grid needs at least one cell, got shape {free.shape}")
         if free.dtype != np.bool_:
             if free.dtype.kind not in "biu" or not np.isin(free, (0, 1)).all():
-                raise ProblemError(
-                    f"the free mask must be boolean (or 0/1 integers), got dtype {free.dtype}"
-                )
+                raise ProblemError(f"the free mask must be boolean (or 0/1 integers), got dtype {free.dtype}")
             free = free.astype(bool)
         if isinstance(self.cell_size, bool) or not isinstance(self.cell_size, (int, float, np.integer, np.floating)):
-            raise ProblemError(f"cell_size must be a positive number (float), got {type(self.cell_size).__name__} {self.cell_size!r}")
+            raise ProblemError(
+                f"cell_size must be a positive number (float), got {type(self.cell_size).__name__} {self.cell_size!r}"
+            )
         if not np.isfinite(self.cell_size) or self.cell_size <= 0:
             raise ProblemError(f"cell_size must be a positive number, got {self.cell_size}")
         if not isinstance(self.name, str):
@@ -188,9 +188,7 @@ class Grid:
     # -- world coordinates (ROS maps) ----------------------------------------------------------
     def _frame(self):
         if self.resolution is None:
-            raise ProblemError(
-                f"grid {self.name!r} has no resolution/origin: world coordinates need a ROS map"
-            )
+            raise ProblemError(f"grid {self.name!r} has no resolution/origin: world coordinates need a ROS map")
         ox, oy, yaw = self.origin if self.origin is not None else (0.0, 0.0, 0.0)
         return float(self.resolution), float(ox), float(oy), float(yaw)
 

@@ -125,8 +125,9 @@ def _check_connectivity(connectivity) -> None:
 
 
 # -- validity ----------------------------------------------------------------------------------
-def validate_path(grid: Grid, path: ArrayLike, start: Cell | None = None, goal: Cell | None = None,
-                  connectivity: int = 8) -> list[str]:
+def validate_path(
+    grid: Grid, path: ArrayLike, start: Cell | None = None, goal: Cell | None = None, connectivity: int = 8
+) -> list[str]:
     """The problems of ``path`` on ``grid`` under the move model, as messages; ``[]`` if valid.
 
     Reports, each message naming the path index (``path[i]``): an empty path, a cell out of

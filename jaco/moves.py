@@ -14,9 +14,7 @@ from .errors import ProblemError
 from .grid import Grid
 
 # The eight moves as (d_row, d_col): the four straight ones first, so 4-connectivity is a prefix.
-MOVES = np.array(
-    [(-1, 0), (0, 1), (1, 0), (0, -1), (-1, 1), (1, 1), (1, -1), (-1, -1)], dtype=np.int32
-)
+MOVES = np.array([(-1, 0), (0, 1), (1, 0), (0, -1), (-1, 1), (1, 1), (1, -1), (-1, -1)], dtype=np.int32)
 MOVE_LENGTHS = np.hypot(MOVES[:, 0], MOVES[:, 1]).astype(np.float64)
 
 

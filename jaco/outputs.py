@@ -157,8 +157,10 @@ def target(path: PathArg, what: str = "output") -> Target:
 def _check_folder(what: str, shown: str, folder: str) -> None:
     """The folder a file is written in (renamed into, created in) is writable and not the system's."""
     if _system(folder):
-        raise OutputError(f"{what} {shown}: jaco never creates, renames or removes anything in {folder!r} "
-                          "(only an existing device, FIFO or file there is written, in place)")
+        raise OutputError(
+            f"{what} {shown}: jaco never creates, renames or removes anything in {folder!r} "
+            "(only an existing device, FIFO or file there is written, in place)"
+        )
     if not os.access(folder, os.W_OK | os.X_OK):
         raise OutputError(f"{what} {shown}: folder {folder!r} is not writable")
 
@@ -201,8 +203,15 @@ def _same_target(a, b) -> bool:
     return os.path.samestat(sa, sb) and not stat.S_ISCHR(sa.st_mode)
 
 
-def check_output(path: PathArg, what: str, *, suffixes: Sequence[str] | None = None, inputs: Iterable[Any] = (),
-                 format: str | None = None, how: str = "format=") -> Path:
+def check_output(
+    path: PathArg,
+    what: str,
+    *,
+    suffixes: Sequence[str] | None = None,
+    inputs: Iterable[Any] = (),
+    format: str | None = None,
+    how: str = "format=",
+) -> Path:
     """``path`` as a :class:`~pathlib.Path` once it is known to be writable (:func:`target`): a
     suffix in ``suffixes`` (when given; lower-case, with the dot) unless ``format`` names one (and
     the suffix, if it is one of ``suffixes``, agrees), and
@@ -214,17 +223,24 @@ def check_output(path: PathArg, what: str, *, suffixes: Sequence[str] | None = N
     if suffixes is not None:
         if format is not None:
             if "." + str(format).lower() not in suffixes:
-                raise OutputError(f"{what}: unsupported format {format!r}; use one of "
-                                  f"{', '.join(s[1:] for s in sorted(suffixes))}")
+                raise OutputError(
+                    f"{what}: unsupported format {format!r}; use one of {', '.join(s[1:] for s in sorted(suffixes))}"
+                )
             if path.suffix.lower() in suffixes and path.suffix.lower() != "." + str(format).lower():
-                raise OutputError(f"{what} {str(path)!r} names the format {path.suffix!r}, but the format given "
-                                  f"is {format!r}: one file, one format")
+                raise OutputError(
+                    f"{what} {str(path)!r} names the format {path.suffix!r}, but the format given "
+                    f"is {format!r}: one file, one format"
+                )
         elif path.suffix.lower() not in suffixes and not (t.kind != "file" and not path.suffix and len(suffixes) == 1):
             if not path.suffix and t.kind != "file":
-                raise OutputError(f"{what} {str(path)!r} has no suffix to name the format: give it with {how} "
-                                  f"(one of {', '.join(s[1:] for s in sorted(suffixes))})")
-            raise OutputError(f"{what} {str(path)!r}: unsupported suffix {path.suffix or '(none)'!r}; "
-                              f"use one of {', '.join(sorted(suffixes))}")
+                raise OutputError(
+                    f"{what} {str(path)!r} has no suffix to name the format: give it with {how} "
+                    f"(one of {', '.join(s[1:] for s in sorted(suffixes))})"
+                )
+            raise OutputError(
+                f"{what} {str(path)!r}: unsupported suffix {path.suffix or '(none)'!r}; "
+                f"use one of {', '.join(sorted(suffixes))}"
+            )
     for source in inputs:
         if source is not None and t.kind != "stdout" and _same_target(path, Path(source)):
             raise OutputError(f"{what} {str(path)!r} is an input of this run ({source}): it would be overwritten")
@@ -278,8 +294,9 @@ def _write_in_place(t: Target, data: bytes) -> None:
         try:
             text = data.decode("utf-8")
         except UnicodeDecodeError:
-            raise OutputError("standard output takes text only here (it has no binary buffer): "
-                              "write this output to a file") from None
+            raise OutputError(
+                "standard output takes text only here (it has no binary buffer): write this output to a file"
+            ) from None
         stream.write(text)
         stream.flush()
         return
@@ -291,7 +308,7 @@ def _write_in_place(t: Target, data: bytes) -> None:
     try:
         view = memoryview(data)
         while view:
-            view = view[os.write(fd, view):]
+            view = view[os.write(fd, view) :]
     finally:
         os.close(fd)
 
@@ -332,7 +349,9 @@ def atomic_paths(paths: Iterable[PathArg], what: str = "output") -> Iterator[lis
                 if t.kind == "file":
                     given.parent.mkdir(parents=True, exist_ok=True)
                     t = target(given, what)  # the folders exist now: links are followed to the end
-                    fd, tmp = tempfile.mkstemp(dir=t.path.parent, prefix=f".{t.path.stem}.", suffix=f".tmp{t.path.suffix}")
+                    fd, tmp = tempfile.mkstemp(
+                        dir=t.path.parent, prefix=f".{t.path.stem}.", suffix=f".tmp{t.path.suffix}"
+                    )
                     os.close(fd)
                     cleanup.callback(_remove_if_there, tmp)
                     os.chmod(tmp, _mode(t.path))

@@ -45,9 +45,21 @@ if TYPE_CHECKING:
     Studies = Study | Sequence[Study] | Mapping[str, Study]
 
 __all__ = [
-    "plot_map", "plot_paths", "plot_pheromone", "plot_convergence", "plot_sweep_heatmap", "plot_sweep_box",
-    "animate_pheromone", "save_gif", "save", "plot_search_history", "plot_param_importance", "plot_search_contour",
-    "plot_pareto", "plot_critical_difference", "plot_performance_profile",
+    "plot_map",
+    "plot_paths",
+    "plot_pheromone",
+    "plot_convergence",
+    "plot_sweep_heatmap",
+    "plot_sweep_box",
+    "animate_pheromone",
+    "save_gif",
+    "save",
+    "plot_search_history",
+    "plot_param_importance",
+    "plot_search_contour",
+    "plot_pareto",
+    "plot_critical_difference",
+    "plot_performance_profile",
 ]
 
 _MAP_CMAP = ListedColormap(["#2b2b2b", "#f4f4f0"])  # 0 = blocked (dark), 1 = free (light)
@@ -150,7 +162,9 @@ def _normalise_paths(paths, labels) -> tuple[list[np.ndarray], list[str] | None]
         if isinstance(labels, str):
             labels = [labels]
     if isinstance(paths, (str, bytes)) or not hasattr(paths, "__iter__"):
-        raise ProblemError(f"paths: expected a (K, 2) path, a list of paths or a dict of them, got {type(paths).__name__}")
+        raise ProblemError(
+            f"paths: expected a (K, 2) path, a list of paths or a dict of them, got {type(paths).__name__}"
+        )
     paths = [_as_path(p) for p in paths]
     if labels is not None:
         labels = [str(lab) for lab in labels]
@@ -166,20 +180,33 @@ def _draw_path(ax, path, **style):
 
 
 # -- maps and paths ----------------------------------------------------------------------------
-def plot_map(grid: Grid, *, start: ArrayLike | None = None, goal: ArrayLike | None = None, ax: Axes | None = None,
-             title: str | None = None) -> Figure:
+def plot_map(
+    grid: Grid,
+    *,
+    start: ArrayLike | None = None,
+    goal: ArrayLike | None = None,
+    ax: Axes | None = None,
+    title: str | None = None,
+) -> Figure:
     """The occupancy grid: obstacles dark, free cells light, start (green dot) and goal (red star)."""
     _check_grid(grid)
     fig, ax = _figure_axes(ax)
-    ax.imshow(grid.free.astype(np.uint8), cmap=_MAP_CMAP, vmin=0, vmax=1, origin="upper",
-              interpolation="nearest")
+    ax.imshow(grid.free.astype(np.uint8), cmap=_MAP_CMAP, vmin=0, vmax=1, origin="upper", interpolation="nearest")
     _cell_axes(ax, grid, title)
     _mark_ends(ax, start, goal)
     return fig
 
 
-def plot_paths(grid: Grid, paths: Paths, *, labels: str | Sequence[str] | None = None, start: ArrayLike | None = None,
-               goal: ArrayLike | None = None, ax: Axes | None = None, title: str | None = None) -> Figure:
+def plot_paths(
+    grid: Grid,
+    paths: Paths,
+    *,
+    labels: str | Sequence[str] | None = None,
+    start: ArrayLike | None = None,
+    goal: ArrayLike | None = None,
+    ax: Axes | None = None,
+    title: str | None = None,
+) -> Figure:
     """The map with one or several paths drawn through cell centres.
 
     ``paths`` is one ``(K, 2)`` path, a list of paths, or a dict ``label -> path``. With labels
@@ -196,8 +223,9 @@ def plot_paths(grid: Grid, paths: Paths, *, labels: str | Sequence[str] | None =
         label = labels[k] if label is None and labels is not None else label
         # Dots at the vertices only while cells are big enough for them to mean something.
         marker = "." if len(path) <= 80 else None
-        _draw_path(ax, path, color=colors[k], linewidth=2.0, marker=marker, markersize=5,
-                   label=label, zorder=3 + k * 0.01)
+        _draw_path(
+            ax, path, color=colors[k], linewidth=2.0, marker=marker, markersize=5, label=label, zorder=3 + k * 0.01
+        )
     if labels is not None:
         _legend_outside(ax)
     return fig
@@ -231,8 +259,15 @@ def _per_cell(grid, tau) -> np.ndarray:
     return t
 
 
-def plot_pheromone(grid: Grid, tau: ArrayLike, *, path: ArrayLike | None = None, ax: Axes | None = None,
-                   log: bool = False, title: str | None = None) -> Figure:
+def plot_pheromone(
+    grid: Grid,
+    tau: ArrayLike,
+    *,
+    path: ArrayLike | None = None,
+    ax: Axes | None = None,
+    log: bool = False,
+    title: str | None = None,
+) -> Figure:
     """Heatmap of the pheromone over the map, obstacles masked (dark), with a colorbar.
 
     ``tau`` is ``(H, W)``, ``(N,)`` per cell (``N = H*W``, flat index ``row*W + col``) or ``(N, 8)``
@@ -275,9 +310,15 @@ def _masked(values) -> np.ma.MaskedArray:
     return np.ma.masked_invalid(np.asarray(values, dtype=float).ravel())
 
 
-def plot_convergence(history: dict[str, Any] | Sequence[dict[str, Any]], *, ax: Axes | None = None,
-                     optimal: float | None = None, label: str | Sequence[str] | None = None, title: str | None = None,
-                     ylabel: str = "path cost") -> Figure:
+def plot_convergence(
+    history: dict[str, Any] | Sequence[dict[str, Any]],
+    *,
+    ax: Axes | None = None,
+    optimal: float | None = None,
+    label: str | Sequence[str] | None = None,
+    title: str | None = None,
+    ylabel: str = "path cost",
+) -> Figure:
     """Best-so-far (solid) and iteration mean (dashed) cost per iteration, for one run or several.
 
     ``history`` is a dict with arrays under ``"best"`` (iteration best or best-so-far: the running
@@ -316,19 +357,32 @@ def plot_convergence(history: dict[str, Any] | Sequence[dict[str, Any]], *, ax: 
         ax.plot(iters, best_so_far, color=color, linewidth=2.0, label=f"{lab} best so far")
         if run.get("mean") is not None:
             mean = _masked(run["mean"])
-            ax.plot(np.arange(len(mean)), mean, color=color, linewidth=1.2, linestyle="--",
-                    alpha=0.8, label=f"{lab} iteration mean")
+            ax.plot(
+                np.arange(len(mean)),
+                mean,
+                color=color,
+                linewidth=1.2,
+                linestyle="--",
+                alpha=0.8,
+                label=f"{lab} iteration mean",
+            )
         if run.get("success_rate") is not None:
             if twin is None:
                 twin = ax.twinx()
                 twin.set_ylim(0.0, 1.05)
                 twin.set_ylabel("success rate")
             rate = _masked(run["success_rate"])
-            twin.plot(np.arange(len(rate)), rate, color=color, linewidth=1.0, linestyle=":",
-                      alpha=0.9, label=f"{lab} success rate")
+            twin.plot(
+                np.arange(len(rate)),
+                rate,
+                color=color,
+                linewidth=1.0,
+                linestyle=":",
+                alpha=0.9,
+                label=f"{lab} success rate",
+            )
     if optimal is not None:
-        ax.axhline(float(optimal), color="black", linestyle="--", linewidth=1.0,
-                   label=f"optimum {float(optimal):.4g}")
+        ax.axhline(float(optimal), color="black", linestyle="--", linewidth=1.0, label=f"optimum {float(optimal):.4g}")
     ax.set_xlabel("iteration")
     ax.set_ylabel(ylabel)
     if title is not None:
@@ -344,7 +398,9 @@ def plot_convergence(history: dict[str, Any] | Sequence[dict[str, Any]], *, ax: 
 # -- sweeps ------------------------------------------------------------------------------------
 def _sweep_column(table, name, what):
     if name not in table.columns:
-        raise ParamError(f"{what} {name!r} is not a column of the sweep table (columns: {', '.join(map(str, table.columns))})")
+        raise ParamError(
+            f"{what} {name!r} is not a column of the sweep table (columns: {', '.join(map(str, table.columns))})"
+        )
     return name
 
 
@@ -359,8 +415,9 @@ def _numbers_column(table, name, what):
     _sweep_column(table, name, what)
     if not _is_numbers(table[name]):
         shown = ", ".join(repr(str(v)) for v in table[name].drop_duplicates().head(3))
-        raise ParamError(f"{what} {name!r} is a column of text ({shown} ...): it needs numbers, "
-                         "e.g. gap, length, cost or success")
+        raise ParamError(
+            f"{what} {name!r} is a column of text ({shown} ...): it needs numbers, e.g. gap, length, cost or success"
+        )
     return name
 
 
@@ -408,8 +465,16 @@ def sweep_grid(table: pd.DataFrame, x: str, y: str, value: str = "gap") -> tuple
     return xs, ys, Z
 
 
-def plot_sweep_heatmap(table: pd.DataFrame, x: str, y: str, value: str = "gap", *, ax: Axes | None = None,
-                       title: str | None = None, percent: bool | None = None) -> Figure:
+def plot_sweep_heatmap(
+    table: pd.DataFrame,
+    x: str,
+    y: str,
+    value: str = "gap",
+    *,
+    ax: Axes | None = None,
+    title: str | None = None,
+    percent: bool | None = None,
+) -> Figure:
     """Heatmap of a sweep table (:func:`jaco.sweep`): the mean ``value`` over seeds (and over any
     other swept parameter) for every ``(x, y)`` pair, each cell annotated with its number.
 
@@ -438,8 +503,15 @@ def plot_sweep_heatmap(table: pd.DataFrame, x: str, y: str, value: str = "gap", 
                 text = ""
             else:
                 text = f"{v:.1f}%" if percent else (f"{v:.0f}" if integers else f"{v:.3g}")
-            ax.text(j, i, text, ha="center", va="center", fontsize="small",
-                    color="black" if not np.isfinite(v) or v > middle else "white")
+            ax.text(
+                j,
+                i,
+                text,
+                ha="center",
+                va="center",
+                fontsize="small",
+                color="black" if not np.isfinite(v) or v > middle else "white",
+            )
     ax.set_xticks(range(len(xs)), [_tick(x, v) for v in xs])
     ax.set_yticks(range(len(ys)), [_tick(y, v) for v in ys])
     if longest > 8:
@@ -457,8 +529,15 @@ def _box_label(by, key, fails) -> str:
     return ", ".join(parts) + (f"\n({fails} failed)" if fails else "")
 
 
-def plot_sweep_box(table: pd.DataFrame, by: str | Sequence[str], value: str = "length", *, ax: Axes | None = None,
-                   title: str | None = None, optimal: float | None = None) -> Figure:
+def plot_sweep_box(
+    table: pd.DataFrame,
+    by: str | Sequence[str],
+    value: str = "length",
+    *,
+    ax: Axes | None = None,
+    title: str | None = None,
+    optimal: float | None = None,
+) -> Figure:
     """Box plots of ``value`` across seeds, one box per configuration (the distinct values of the
     column(s) ``by``: parameters, or text such as the planner, ``"variant"``, shown by its short
     name). Failed runs (inf) are left out of the boxes and counted in the labels. Numbers are
@@ -509,8 +588,12 @@ def _studies(studies: Studies) -> dict[str, Study]:
     if isinstance(studies, Study):
         studies = {studies.info["sampler"]: studies}
     elif isinstance(studies, (list, tuple)):
-        studies = {f"{s.info['sampler']} ({s.study.study_name})" if sum(t.info["sampler"] == s.info["sampler"] for t in studies) > 1
-                   else s.info["sampler"]: s for s in studies}
+        studies = {
+            f"{s.info['sampler']} ({s.study.study_name})"
+            if sum(t.info["sampler"] == s.info["sampler"] for t in studies) > 1
+            else s.info["sampler"]: s
+            for s in studies
+        }
     if not isinstance(studies, dict) or not studies or not all(isinstance(s, Study) for s in studies.values()):
         raise ParamError("expected a jaco search Study, a list of Studies or a dict label -> Study")
     return studies
@@ -519,14 +602,20 @@ def _studies(studies: Studies) -> dict[str, Study]:
 def _objective_axis(ax, name: str, axis: str = "y") -> bool:
     """Label an objective's axis; gaps and success rates are fractions shown as %."""
     percent = name in ("gap", "success")
-    label = {"gap": "gap to the optimum (%)", "success": "success rate (%)", "length": "path length",
-             "turns": "turns", "budget": "ants × iterations"}.get(name, name)
+    label = {
+        "gap": "gap to the optimum (%)",
+        "success": "success rate (%)",
+        "length": "path length",
+        "turns": "turns",
+        "budget": "ants × iterations",
+    }.get(name, name)
     (ax.set_ylabel if axis == "y" else ax.set_xlabel)(label)
     return percent
 
 
-def plot_search_history(studies: Studies, *, x: str = "trials", ax: Axes | None = None, title: str | None = None,
-                        log: bool = False) -> Figure:
+def plot_search_history(
+    studies: Studies, *, x: str = "trials", ax: Axes | None = None, title: str | None = None, log: bool = False
+) -> Figure:
     """The anytime curve of one or several searches: the best objective so far (a step line) against
     finished ``trials``, ant-``iterations`` spent (fair across multi-fidelity searches) or wall
     ``time`` (seconds since the first trial started); one line per study (e.g. per sampler), with a
@@ -545,15 +634,20 @@ def plot_search_history(studies: Studies, *, x: str = "trials", ax: Axes | None 
     for label, study in studies.items():
         h = study.history()
         xs = np.arange(1, len(h) + 1) if columns[x] is None else h[columns[x]].to_numpy(float)
-        line, = ax.step(xs, scale * h["best"].to_numpy(float), where="post", label=label, linewidth=1.8)
+        (line,) = ax.step(xs, scale * h["best"].to_numpy(float), where="post", label=label, linewidth=1.8)
         if len(studies) == 1:
             done = h["state"].eq("COMPLETE").to_numpy()
-            ax.scatter(xs[done], scale * h["value"].to_numpy(float)[done], s=10, alpha=0.35, color=line.get_color(),
-                       label="trials")
+            ax.scatter(
+                xs[done],
+                scale * h["value"].to_numpy(float)[done],
+                s=10,
+                alpha=0.35,
+                color=line.get_color(),
+                label="trials",
+            )
     if log:
         ax.set_yscale("log")
-    ax.set_xlabel({"trials": "finished trials", "iterations": "ant-iterations spent",
-                   "time": "wall time (s)"}[x])
+    ax.set_xlabel({"trials": "finished trials", "iterations": "ant-iterations spent", "time": "wall time (s)"}[x])
     ax.set_title(title if title is not None else f"best {name} so far")
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small", borderaxespad=0.0)
     fig.tight_layout()
@@ -577,7 +671,8 @@ def plot_param_importance(study: Studies, *, ax: Axes | None = None, title: str 
         raise ParamError("plot_param_importance needs at least two finished trials")
     with _quiet():
         imp = optuna.importance.get_param_importances(
-            study.study, evaluator=optuna.importance.PedAnovaImportanceEvaluator())
+            study.study, evaluator=optuna.importance.PedAnovaImportanceEvaluator()
+        )
     fig, ax = _figure_axes(ax, figsize=(6.0, 0.5 * len(imp) + 1.5))
     names = list(imp)[::-1]
     ax.barh(names, [imp[n] for n in names], color="#4c72b0")
@@ -604,7 +699,9 @@ def plot_search_contour(study: Studies, x: str, y: str, *, ax: Axes | None = Non
     table = table[table["state"] == "COMPLETE"]
     for c in (x, y):
         if c not in table.columns or c == "variant":
-            raise ParamError(f"{c!r} is not a searched number of this study (columns: {', '.join(map(str, table.columns))})")
+            raise ParamError(
+                f"{c!r} is not a searched number of this study (columns: {', '.join(map(str, table.columns))})"
+            )
     table = table.dropna(subset=[x, y, name])
     if len(table) < 2:
         raise ParamError("plot_search_contour needs at least two finished trials with both parameters")
@@ -615,7 +712,7 @@ def plot_search_contour(study: Studies, x: str, y: str, *, ax: Axes | None = Non
     v = scale * table[name].to_numpy(float)
     norm = Normalize(np.nanmin(v), np.nanmax(v) if np.nanmax(v) > np.nanmin(v) else np.nanmin(v) + 1)
     try:
-        tri = mtri.Triangulation(10 ** px if logs[0] else px, 10 ** py if logs[1] else py)
+        tri = mtri.Triangulation(10**px if logs[0] else px, 10**py if logs[1] else py)
         ax.tricontourf(tri, v, levels=12, cmap="viridis_r", norm=norm, alpha=0.55)
     except (ValueError, RuntimeError):  # fewer than three distinct points: the points alone
         pass
@@ -663,8 +760,16 @@ def plot_pareto(study: Studies, a: str, b: str, *, ax: Axes | None = None, title
 
 
 # -- animation -----------------------------------------------------------------------------------
-def animate_pheromone(grid: Grid, history: Iterable[ArrayLike], *, path: ArrayLike | None = None,
-                      every: int = 1, interval: int = 150, log: bool = True, title: str = "pheromone") -> FuncAnimation:
+def animate_pheromone(
+    grid: Grid,
+    history: Iterable[ArrayLike],
+    *,
+    path: ArrayLike | None = None,
+    every: int = 1,
+    interval: int = 150,
+    log: bool = True,
+    title: str = "pheromone",
+) -> FuncAnimation:
     """A :class:`matplotlib.animation.FuncAnimation` of the pheromone over the iterations.
 
     ``history`` is ``(T, N)`` or ``(T, N*8)`` — ``Result.pheromone`` of
@@ -674,7 +779,7 @@ def animate_pheromone(grid: Grid, history: Iterable[ArrayLike], *, path: ArrayLi
     """
     from matplotlib.animation import FuncAnimation
 
-    frames = [_per_cell(grid, h) for h in list(history)[::max(1, int(every))]]
+    frames = [_per_cell(grid, h) for h in list(history)[:: max(1, int(every))]]
     if not frames:
         raise ParamError("animate_pheromone needs at least one pheromone frame")
     stack = np.ma.masked_where(np.broadcast_to(~grid.free, (len(frames),) + grid.shape), np.stack(frames))
@@ -758,8 +863,14 @@ def plot_critical_difference(comparison: Comparison, *, ax: Axes | None = None, 
         y = -(1 + (i if side else k - 1 - i)) * step - 0.2
         end = 1 - 0.15 if side else k + 0.15
         ax.plot([r, r, end], [0, y, y], color="black", linewidth=0.9)
-        ax.text(end + (-0.05 if side else 0.05), y, f"{name} ({r:.2f})", ha="right" if side else "left", va="center",
-                fontsize="small")
+        ax.text(
+            end + (-0.05 if side else 0.05),
+            y,
+            f"{name} ({r:.2f})",
+            ha="right" if side else "left",
+            va="center",
+            fontsize="small",
+        )
     ax.plot([1, 1 + cd], [0.75, 0.75], color="black", linewidth=1.5)
     for x in (1, 1 + cd):
         ax.plot([x, x], [0.68, 0.82], color="black", linewidth=1.0)
@@ -779,8 +890,9 @@ def plot_critical_difference(comparison: Comparison, *, ax: Axes | None = None, 
     return fig
 
 
-def plot_performance_profile(comparison: Comparison, *, ax: Axes | None = None, title: str | None = None,
-                             log2: bool = True) -> Figure:
+def plot_performance_profile(
+    comparison: Comparison, *, ax: Axes | None = None, title: str | None = None, log2: bool = True
+) -> Figure:
     """Performance profile (Dolan & Moré 2002) of a :func:`jaco.compare` result: for each
     configuration the share ρ(τ) of pairs on which its path length is within a factor τ of the
     best length any configuration reached there (a step function; τ on a log₂ axis by default).
@@ -796,9 +908,16 @@ def plot_performance_profile(comparison: Comparison, *, ax: Axes | None = None, 
     for n, name in enumerate(profile.columns):
         rho = profile[name].to_numpy(float)
         never = not np.isfinite(c.ratios[name].to_numpy(float)).any()
-        ax.step(np.append(taus, right), np.append(rho, rho[-1]), where="post", linewidth=1.8,
-                color=f"C{n % 10}", linestyle=styles[(n // 10) % len(styles)],
-                label=name + (" (no path: on the τ axis)" if never else ""), clip_on=False)
+        ax.step(
+            np.append(taus, right),
+            np.append(rho, rho[-1]),
+            where="post",
+            linewidth=1.8,
+            color=f"C{n % 10}",
+            linestyle=styles[(n // 10) % len(styles)],
+            label=name + (" (no path: on the τ axis)" if never else ""),
+            clip_on=False,
+        )
     if log2:
         ax.set_xscale("log", base=2)
     ticks = [t for t in (1, 1.05, 1.1, 1.2, 1.5, 2, 3, 4, 8, 16, 32, 64, 128) if t <= right]
@@ -822,8 +941,9 @@ def figure_suffixes() -> tuple[str, ...]:
     return tuple(sorted("." + s for s in FigureCanvasBase.get_supported_filetypes()))
 
 
-def check_figure_path(path: PathArg, what: str = "figure", inputs: Iterable[Any] = (), format: str | None = None,
-                      how: str = "format=") -> Path:
+def check_figure_path(
+    path: PathArg, what: str = "figure", inputs: Iterable[Any] = (), format: str | None = None, how: str = "format="
+) -> Path:
     """:func:`jaco.outputs.check_output` for a figure: a suffix matplotlib can write, or ``format``
     (``"png"``, ``"svg"`` ...) naming one."""
     return check_output(path, what, suffixes=figure_suffixes(), inputs=inputs, format=format, how=how)

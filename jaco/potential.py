@@ -48,8 +48,14 @@ K_REP = 100.0
 D0 = 3.0
 #: The classic field's parameters (PF-ACO's, and the classic APF planner's).
 K_REP_PARAM, D0_PARAM = declare(
-    Param("k_rep", K_REP, 0, INF, "classic APF: repulsion gain k_rep, U_rep = ½k_rep(1/d − 1/d0)² (attraction ½ρ²)",
-          hi_open=True),
+    Param(
+        "k_rep",
+        K_REP,
+        0,
+        INF,
+        "classic APF: repulsion gain k_rep, U_rep = ½k_rep(1/d − 1/d0)² (attraction ½ρ²)",
+        hi_open=True,
+    ),
     Param("d0", D0, 0, INF, "classic APF: range d0 (cells) of the repulsion", lo_open=True, hi_open=True),
 )
 
@@ -209,8 +215,10 @@ def _span(m: _Map, p, u, k):
     def fold(s, ids, ok):
         lo, hi = s
         ca = _corner_angles(p, u, m.rc[m.edge[ids]])
-        return (jnp.minimum(lo, jnp.min(jnp.where(ok[:, None], ca, jnp.inf))),
-                jnp.maximum(hi, jnp.max(jnp.where(ok[:, None], ca, -jnp.inf))))
+        return (
+            jnp.minimum(lo, jnp.min(jnp.where(ok[:, None], ca, jnp.inf))),
+            jnp.maximum(hi, jnp.max(jnp.where(ok[:, None], ca, -jnp.inf))),
+        )
 
     lo, hi = _chunks(m.edge_key, k, fold, (jnp.float32(jnp.inf), jnp.float32(-jnp.inf)))
 
@@ -332,8 +340,14 @@ def apf_next(problem: Any) -> jax.Array:
     :func:`jax_apf_next` (which defines it) walker for walker, on the threads of XLA's pool."""
     from .engine import native
 
-    return native.dispatch(native_apf_next, lambda *a: jax_apf_next(problem),
-                           problem.clearance > 0, problem.nbr, problem.goal, problem.offsets)
+    return native.dispatch(
+        native_apf_next,
+        lambda *a: jax_apf_next(problem),
+        problem.clearance > 0,
+        problem.nbr,
+        problem.goal,
+        problem.offsets,
+    )
 
 
 def jax_apf_next(problem: Any) -> jax.Array:
@@ -416,7 +430,6 @@ def classic_next(problem: Any, k_rep: jax.Array | float, d0: jax.Array | float, 
     nxt = jnp.where(best < u, jnp.take_along_axis(problem.nbr, k[:, None], axis=1)[:, 0], -1)
     cells = jnp.arange(problem.nbr.shape[0], dtype=jnp.int32)
     return jnp.where(cells == problem.goal, cells, jnp.where(free, nxt, -1))
-
 
 
 def chain_lengths(problem: Any, nxt: jax.Array) -> tuple[jax.Array, jax.Array]:

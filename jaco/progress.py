@@ -61,8 +61,15 @@ class Bar:
     def _open(self, desc, initial=0, bar_format=None):
         from tqdm import tqdm
 
-        self.bar = tqdm(total=self.total, desc=desc, unit=self.unit, initial=initial, file=sys.stderr,
-                        dynamic_ncols=True, bar_format=bar_format)
+        self.bar = tqdm(
+            total=self.total,
+            desc=desc,
+            unit=self.unit,
+            initial=initial,
+            file=sys.stderr,
+            dynamic_ncols=True,
+            bar_format=bar_format,
+        )
 
     def status(self, text: str) -> None:
         if not self.show:

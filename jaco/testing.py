@@ -29,8 +29,18 @@ from .planners.registry import get_planner
 from .research.sweeps import sweep
 
 __all__ = [
-    "SMALL", "default_maps", "check_planner", "check_paths", "check_pheromone", "check_seeds", "check_sweep",
-    "check_compiles_once", "check_unreachable", "check_failed_runs", "check_trivial_query", "check_documented",
+    "SMALL",
+    "default_maps",
+    "check_planner",
+    "check_paths",
+    "check_pheromone",
+    "check_seeds",
+    "check_sweep",
+    "check_compiles_once",
+    "check_unreachable",
+    "check_failed_runs",
+    "check_trivial_query",
+    "check_documented",
 ]
 
 #: The size of the contract's runs: small enough for seconds per check, large enough to find paths.
@@ -102,7 +112,8 @@ def check_seeds(planner: str | Planner, grid: Grid | None = None) -> None:
         assert np.array_equal(a.history[k], b.history[k]), f"{v.name}: one seed, two histories ({k})"
     others = [solve(grid, *_ends(grid), v, seed=s, **_RUN) for s in (6, 7, 8)]
     assert any(not np.array_equal(a.history["mean"], o.history["mean"]) or a.coverage != o.coverage for o in others), (
-        f"{v.name}: other seeds gave the same walks")
+        f"{v.name}: other seeds gave the same walks"
+    )
 
 
 def check_sweep(planner: str | Planner, grid: Grid | None = None) -> None:
@@ -118,7 +129,8 @@ def check_sweep(planner: str | Planner, grid: Grid | None = None) -> None:
         start, goal = _ends(grid)
         r = solve(grid, start, goal, v, seed=int(row.seed), **value, **_RUN)
         assert row.length == r.length and row.best_iteration == r.best_iteration, (
-            f"{v.name}: sweep row ({name}={row[name]}, seed {row.seed}) differs from its single run")
+            f"{v.name}: sweep row ({name}={row[name]}, seed {row.seed}) differs from its single run"
+        )
         assert row.coverage == r.coverage
 
 

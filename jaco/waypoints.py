@@ -48,8 +48,9 @@ from .metrics import gap
 from .progress import run_interruptibly
 
 
-def check_waypoints(grid: Grid, start: Any, goal: Any, waypoints: Any, *,
-                    connectivity: int = 8) -> list[tuple[int, int]]:
+def check_waypoints(
+    grid: Grid, start: Any, goal: Any, waypoints: Any, *, connectivity: int = 8
+) -> list[tuple[int, int]]:
     """The trip's targets ``[start, w₀, …, goal]`` as ``(row, col)`` tuples, validated with numpy.
 
     Raises :class:`~jaco.errors.ProblemError` naming the offending point (``waypoints[i]``) when
@@ -88,6 +89,7 @@ def leg_keys(seed: int, n_legs: int) -> jax.Array:
 def compiled_legs(variant: Planner, shape: RunShape) -> Any:
     """``jit(vmap(run))`` over (key, problem) pairs with shared params, cached like
     :func:`jaco.engine.run.compiled_run` (by the variant and :attr:`RunShape.program`)."""
+
     def build():
         run = make_run(variant, **shape.sizes, keep_pheromone=shape.keep_pheromone)
         return jax.jit(jax.vmap(run, in_axes=(0, 0, None)))
@@ -101,7 +103,9 @@ def run_legs(grid: Grid, points: list, variant: Planner, *, seed: int, shape: Ru
     legs = list(zip(points[:-1], points[1:]))
     problems = [make_problem(grid, a, b, connectivity=shape.connectivity) for a, b in legs]
     run = compiled_legs(variant, shape)
-    out = run_interruptibly(lambda: jax.device_get(run(leg_keys(seed, len(legs)), stack(problems), params_from(values))))
+    out = run_interruptibly(
+        lambda: jax.device_get(run(leg_keys(seed, len(legs)), stack(problems), params_from(values)))
+    )
     return [
         to_result(
             jax.tree.map(lambda x, i=i: x[i], out),
@@ -144,15 +148,36 @@ def combine(legs: list[Result]) -> Result:
     )
 
 
-def solve_waypoints(grid: Grid, start: Any, goal: Any, variant: Planner, waypoints: Any, *, seed: int, n_ants: int,
-                    n_iters: int, steplimit: int | None, connectivity: int, keep_pheromone: bool | str,
-                    **params: Any) -> Result:
+def solve_waypoints(
+    grid: Grid,
+    start: Any,
+    goal: Any,
+    variant: Planner,
+    waypoints: Any,
+    *,
+    seed: int,
+    n_ants: int,
+    n_iters: int,
+    steplimit: int | None,
+    connectivity: int,
+    keep_pheromone: bool | str,
+    **params: Any,
+) -> Result:
     """The body of ``jaco.solve(..., waypoints=...)`` (whose signature has the defaults): validate
     the call as a single run is validated, and every target; run the legs in one batched call;
     combine them."""
     points = check_waypoints(grid, start, goal, waypoints, connectivity=connectivity)
-    steplimit, values = prepare(grid, variant, seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, params=params,
-                                runs=len(points) - 1, keep_pheromone=keep_pheromone)
+    steplimit, values = prepare(
+        grid,
+        variant,
+        seed=seed,
+        n_ants=n_ants,
+        n_iters=n_iters,
+        steplimit=steplimit,
+        params=params,
+        runs=len(points) - 1,
+        keep_pheromone=keep_pheromone,
+    )
     shape = RunShape(n_ants, n_iters, steplimit, connectivity, keep_pheromone)
     legs = run_legs(grid, points, variant, seed=seed, shape=shape, values=values)
     return dataclasses.replace(combine(legs), waypoints=tuple(tuple(p) for p in points[1:-1]))

@@ -27,9 +27,7 @@ def _cell(text: str) -> tuple[int, int]:
             raise ValueError
         return int(parts[0]), int(parts[1])
     except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected a cell as ROW,COL (two integers, e.g. 3,7), got {text!r}"
-        ) from None
+        raise argparse.ArgumentTypeError(f"expected a cell as ROW,COL (two integers, e.g. 3,7), got {text!r}") from None
 
 
 def _xy(text: str) -> tuple[float, float]:
@@ -169,17 +167,13 @@ def parse_axis(name: str, value: str) -> list[float]:
         except ValueError:
             n = 0
         if n < 1:
-            raise UsageError(
-                f"--param {name}={value}: COUNT in START:STOP:COUNT must be a positive integer"
-            )
+            raise UsageError(f"--param {name}={value}: COUNT in START:STOP:COUNT must be a positive integer")
         from ..engine.memory import CONFIG_BYTES, check_memory
 
         check_memory(CONFIG_BYTES * n, f"--param {name}={value} ({n} configurations)", "use fewer values")
         return [float(x) for x in np.linspace(a, b, n)]
     if "," in value:
-        return [_float(name, v) for v in value.split(",") if v.strip() != ""] or [
-            _float(name, value)
-        ]
+        return [_float(name, v) for v in value.split(",") if v.strip() != ""] or [_float(name, value)]
     return [_float(name, value)]
 
 

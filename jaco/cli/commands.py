@@ -129,9 +129,16 @@ def _run_and_report(grid, start, goal, args, params, *, scenario=None, scen_labe
 
     via = getattr(args, "waypoint", None)  # solve --waypoint R,C (several targets, jaco.waypoints)
     result = solve(
-        grid, start, goal, args.planner,
-        seed=args.seed, n_ants=args.ants, n_iters=args.iters,
-        steplimit=getattr(args, "steplimit", None), waypoints=via, **params,
+        grid,
+        start,
+        goal,
+        args.planner,
+        seed=args.seed,
+        n_ants=args.ants,
+        n_iters=args.iters,
+        steplimit=getattr(args, "steplimit", None),
+        waypoints=via,
+        **params,
     )
     seconds = time.perf_counter() - args.started  # main's clock: from start-up
     args.finished = True  # from here a failed write says that the run itself finished
@@ -176,10 +183,13 @@ def _check_outputs(args, grid=None, figures=(), files=()) -> None:
         value = getattr(args, flag.lstrip("-").replace("-", "_"))
         if value is not None:
             how = "--plot-format" if flag == "--plot" else "jaco solve demo --plot - --plot-format png"
-            named[flag] = check_figure_path(value, flag, inputs=inputs, format=getattr(args, "plot_format", None),
-                                            how=how)
+            named[flag] = check_figure_path(
+                value, flag, inputs=inputs, format=getattr(args, "plot_format", None), how=how
+            )
     if args.command == "sweep" and "--record" in named:  # the sweep record's JSON sidecar
-        named["--record sidecar"] = check_output(named["--record"].with_suffix(".json"), "--record sidecar", inputs=inputs)
+        named["--record sidecar"] = check_output(
+            named["--record"].with_suffix(".json"), "--record sidecar", inputs=inputs
+        )
     check_distinct(named)
 
 
@@ -205,8 +215,10 @@ def _outputs(*flags):
                         _quiet_stdout()
                     if not getattr(args, "finished", False):
                         raise
-                    raise OutputError(f"{e}; the run itself finished (its summary above is complete), "
-                                      "but this output and any after it were not written") from e
+                    raise OutputError(
+                        f"{e}; the run itself finished (its summary above is complete), "
+                        "but this output and any after it were not written"
+                    ) from e
 
         return run
 
@@ -243,7 +255,9 @@ def cmd_solve(args: argparse.Namespace) -> int:
         raise UsageError(f"--path-csv writes CSV: give a file name ending in .csv, got {args.path_csv!r}")
     grid = load_map(args.map)
     start, goal, scenario, label = resolve_query(grid, args)
-    _check_outputs(args, grid, figures=("--plot",), files=(("--json", None), ("--path-csv", (".csv",)), ("--record", None)))
+    _check_outputs(
+        args, grid, figures=("--plot",), files=(("--json", None), ("--path-csv", (".csv",)), ("--record", None))
+    )
     result, exact_length, exact_path = _run_and_report(
         grid, start, goal, args, params, scenario=scenario, scen_label=label
     )
@@ -278,7 +292,9 @@ def cmd_solve(args: argparse.Namespace) -> int:
 def cmd_sweep(args: argparse.Namespace) -> int:
     axes = parse_sweep_params(args.param)
     if args.record and Path(args.record).suffix.lower() != ".csv":
-        raise UsageError(f"--record writes the table as CSV plus a .json sidecar: give a name ending in .csv, got {args.record!r}")
+        raise UsageError(
+            f"--record writes the table as CSV plus a .json sidecar: give a name ending in .csv, got {args.record!r}"
+        )
     grid = load_map(args.map)
     starts, goals, scenarios, label = resolve_queries(grid, args)
     _check_outputs(args, grid, files=(("--csv", None), ("--record", (".csv",)), ("--store", None)))
@@ -301,9 +317,17 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     if scenarios is not None:
         print(f"queries: {label}", flush=True)
     table = sweep(
-        grid, start, goal, variant, axes, args.seeds,
-        n_ants=args.ants, n_iters=args.iters, steplimit=args.steplimit,  # progress: a bar on a terminal
-        store=args.store, chunk=args.chunk,
+        grid,
+        start,
+        goal,
+        variant,
+        axes,
+        args.seeds,
+        n_ants=args.ants,
+        n_iters=args.iters,
+        steplimit=args.steplimit,  # progress: a bar on a terminal
+        store=args.store,
+        chunk=args.chunk,
     )
     seconds = time.perf_counter() - args.started
     args.finished = True
@@ -324,8 +348,17 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         from ..research.records import save_sweep
 
         sidecar = save_sweep(
-            table, args.record, grid, start, goal, variant, axes, args.seeds,
-            n_ants=args.ants, n_iters=args.iters, steplimit=args.steplimit,
+            table,
+            args.record,
+            grid,
+            start,
+            goal,
+            variant,
+            axes,
+            args.seeds,
+            n_ants=args.ants,
+            n_iters=args.iters,
+            steplimit=args.steplimit,
         )
         print(f"wrote {args.record} and {sidecar} (rerun them with 'jaco rerun {sidecar}')")
     _print_sweep_summary(table, variants, axes, several)
@@ -341,13 +374,17 @@ def _print_sweep_summary(table, variants, axes, several) -> None:
 
     swept = (["variant"] if len(variants) > 1 else []) + list(axes)
     by = swept + ["config"] if several else None  # several queries: one row per configuration
-    summary = summarize(table, by=by if by else None).sort_values(
-        ["success_rate", "gap_median", "gap_mean"], ascending=[False, True, True], kind="stable"
-    ).reset_index(drop=True)
+    summary = (
+        summarize(table, by=by if by else None)
+        .sort_values(["success_rate", "gap_median", "gap_mean"], ascending=[False, True, True], kind="stable")
+        .reset_index(drop=True)
+    )
     shown_by = swept or list(variants[0].params)
     over = "every query's seeds" if several else "the seeds"
-    print(f"\ntop {min(10, len(summary))} of {len(summary)} configurations over {over} (by success rate, then median "
-          "gap, then mean gap, over the successful runs; gaps in % of the optimum):")
+    print(
+        f"\ntop {min(10, len(summary))} of {len(summary)} configurations over {over} (by success rate, then median "
+        "gap, then mean gap, over the successful runs; gaps in % of the optimum):"
+    )
     print(_summary_table(summary.head(10), shown_by, lengths=not several))
     best = summary.iloc[0]
     if best["success_rate"] == 0:
@@ -360,11 +397,14 @@ def _print_sweep_summary(table, variants, axes, several) -> None:
     print(f"\nbest: {short_name(winner.name)} {conf}".rstrip() + f" ({rest})")
     if short_name(winner.name) != winner.name:
         print(f"      planner {winner.name}")
-    length = "" if several else (f"median length {best['length_median']:.4f} "
-                                 f"(optimum {table['optimal'].iloc[0]:.4f}), ")
-    print(f"      {length}median gap {percent(best['gap_median'], 2)} (quartiles {percent(best['gap_q1'], 2)} to "
-          f"{percent(best['gap_q3'], 2)}) over the successful runs, success {100 * best['success_rate']:.0f}% "
-          f"of {int(best['runs'])} runs")
+    length = (
+        "" if several else (f"median length {best['length_median']:.4f} (optimum {table['optimal'].iloc[0]:.4f}), ")
+    )
+    print(
+        f"      {length}median gap {percent(best['gap_median'], 2)} (quartiles {percent(best['gap_q1'], 2)} to "
+        f"{percent(best['gap_q3'], 2)}) over the successful runs, success {100 * best['success_rate']:.0f}% "
+        f"of {int(best['runs'])} runs"
+    )
 
 
 def _variant_of(row, variants):
@@ -405,8 +445,16 @@ def cmd_compare(args: argparse.Namespace) -> int:
     by = args.by or ["variant"]
     if args.where:
         table = _where(table, args.where)
-    result = compare(table, by=by, value=args.value, blocks=args.blocks, alpha=args.alpha,
-                     confidence=args.confidence, n_boot=args.boot, seed=args.seed)
+    result = compare(
+        table,
+        by=by,
+        value=args.value,
+        blocks=args.blocks,
+        alpha=args.alpha,
+        confidence=args.confidence,
+        n_boot=args.boot,
+        seed=args.seed,
+    )
     print(f"table   {Path(args.table).name}: {len(table)} runs; bootstrap: {args.boot} resamples, seed {args.seed}")
     print()
     print(result.table())
@@ -431,7 +479,9 @@ def _where(table, items):
         if not sep or not name:
             raise UsageError(f"--where expects NAME=VALUE (e.g. beta=16), got {item!r}")
         if name not in table.columns:
-            raise UsageError(f"--where {item}: no column {name!r} in the table (columns: {', '.join(map(str, table.columns))})")
+            raise UsageError(
+                f"--where {item}: no column {name!r} in the table (columns: {', '.join(map(str, table.columns))})"
+            )
         col = table[name]
         if col.dtype.kind in "iuf":
             try:
@@ -523,8 +573,10 @@ def cmd_info(args: argparse.Namespace) -> int:
     from ..engine import native
 
     print(f"jaco {__version__}")
-    print(f"jax {jax.__version__}, jaxlib {jaxlib.__version__}, numpy {np.__version__}, "
-          f"python {platform.python_version()} ({platform.machine()})")
+    print(
+        f"jax {jax.__version__}, jaxlib {jaxlib.__version__}, numpy {np.__version__}, "
+        f"python {platform.python_version()} ({platform.machine()})"
+    )
     devices = jax.devices()
     print(f"devices: {len(devices)} x {devices[0].platform} ({', '.join(str(d) for d in devices)})")
     walk = native.active_walk()

@@ -22,44 +22,85 @@ def _planner_names() -> str:
 
 def _add_run_options(p, *, default_planner: str, steplimit: bool = True, several: bool = False) -> None:
     if several:  # a sweep may run several planners, a categorical axis of the table
-        p.add_argument("--planner", "--variant", dest="planner", action="append", metavar="P",
-                       help=f"ACO planner (--variant: its former name), repeatable to sweep over planners (default {default_planner}; "
-                       f"one of: {_planner_names()}, or a composition 'compose(construct=..., rule=...)'; "
-                       "'<name>+shortcut' adds local search)")
+        p.add_argument(
+            "--planner",
+            "--variant",
+            dest="planner",
+            action="append",
+            metavar="P",
+            help=f"ACO planner (--variant: its former name), repeatable to sweep over planners (default {default_planner}; "
+            f"one of: {_planner_names()}, or a composition 'compose(construct=..., rule=...)'; "
+            "'<name>+shortcut' adds local search)",
+        )
         p.set_defaults(default_planner=default_planner)
     else:
-        p.add_argument("--planner", "--variant", dest="planner", default=default_planner, metavar="P",
-                       help=f"ACO planner (--variant: its former name; default {default_planner}; one of: {_planner_names()}; "
-                       "'<name>+shortcut' adds local search)")
-    p.add_argument("--ants", type=_pos_int, default=DEFAULT_ANTS, metavar="N",
-                   help=f"ants per iteration (default {DEFAULT_ANTS})")
-    p.add_argument("--iters", type=_pos_int, default=DEFAULT_ITERS, metavar="N",
-                   help=f"iterations (default {DEFAULT_ITERS})")
+        p.add_argument(
+            "--planner",
+            "--variant",
+            dest="planner",
+            default=default_planner,
+            metavar="P",
+            help=f"ACO planner (--variant: its former name; default {default_planner}; one of: {_planner_names()}; "
+            "'<name>+shortcut' adds local search)",
+        )
+    p.add_argument(
+        "--ants", type=_pos_int, default=DEFAULT_ANTS, metavar="N", help=f"ants per iteration (default {DEFAULT_ANTS})"
+    )
+    p.add_argument(
+        "--iters", type=_pos_int, default=DEFAULT_ITERS, metavar="N", help=f"iterations (default {DEFAULT_ITERS})"
+    )
     if steplimit:
-        p.add_argument("--steplimit", type=_pos_int, default=None, metavar="N",
-                       help="most steps an ant may take (default 4*(H+W), at most the free cells; "
-                       "for backtracking ants 8*max(H+W, the free cells' extent), at most twice the free cells)")
+        p.add_argument(
+            "--steplimit",
+            type=_pos_int,
+            default=None,
+            metavar="N",
+            help="most steps an ant may take (default 4*(H+W), at most the free cells; "
+            "for backtracking ants 8*max(H+W, the free cells' extent), at most twice the free cells)",
+        )
 
 
 def _add_query_options(p) -> None:
     q = p.add_argument_group("start and goal (default: the named map's own)")
     q.add_argument("--start", type=_cell, metavar="R,C", help="start cell as ROW,COL")
     q.add_argument("--goal", type=_cell, metavar="R,C", help="goal cell as ROW,COL")
-    q.add_argument("--start-xy", type=_xy, metavar="X,Y",
-                   help="start as a world point in metres (ROS maps: from the yaml's resolution and "
-                   "origin), e.g. --start-xy -9.5,-9.5")
+    q.add_argument(
+        "--start-xy",
+        type=_xy,
+        metavar="X,Y",
+        help="start as a world point in metres (ROS maps: from the yaml's resolution and "
+        "origin), e.g. --start-xy -9.5,-9.5",
+    )
     q.add_argument("--goal-xy", type=_xy, metavar="X,Y", help="goal as a world point in metres (ROS maps)")
-    q.add_argument("--scen", metavar="FILE",
-                   help="MovingAI .scen file (a path or a bundled file name): take start/goal from it")
-    q.add_argument("--index", type=_indices, action="append", metavar="K",
-                   help="scenario of --scen by position: K, K,L,M or LO:HI (both ends included), repeatable "
-                   "(default 0 when no other selection is given)")
-    q.add_argument("--bucket", type=_bucket, metavar="B",
-                   help="scenarios of --scen in bucket B, or LO:HI, LO: or :HI (both ends included), e.g. --bucket 80:")
-    q.add_argument("--optimal", type=_length, metavar="LO:HI",
-                   help="scenarios of --scen whose optimal length is in LO:HI (LO: or :HI for an open end)")
-    q.add_argument("--count", type=_pos_int, metavar="N",
-                   help="of the scenarios selected, N spread evenly over their optimal lengths")
+    q.add_argument(
+        "--scen", metavar="FILE", help="MovingAI .scen file (a path or a bundled file name): take start/goal from it"
+    )
+    q.add_argument(
+        "--index",
+        type=_indices,
+        action="append",
+        metavar="K",
+        help="scenario of --scen by position: K, K,L,M or LO:HI (both ends included), repeatable "
+        "(default 0 when no other selection is given)",
+    )
+    q.add_argument(
+        "--bucket",
+        type=_bucket,
+        metavar="B",
+        help="scenarios of --scen in bucket B, or LO:HI, LO: or :HI (both ends included), e.g. --bucket 80:",
+    )
+    q.add_argument(
+        "--optimal",
+        type=_length,
+        metavar="LO:HI",
+        help="scenarios of --scen whose optimal length is in LO:HI (LO: or :HI for an open end)",
+    )
+    q.add_argument(
+        "--count",
+        type=_pos_int,
+        metavar="N",
+        help="of the scenarios selected, N spread evenly over their optimal lengths",
+    )
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -71,15 +112,23 @@ def build_parser() -> argparse.ArgumentParser:
     from .. import __version__
 
     parser.add_argument("--version", action="version", version=f"jaco {__version__}")
-    parser.add_argument("--walk", choices=("auto", "native", "jax"), default=None,
-                        help="the ant walk: auto (default: native when built), native (C++ kernel) or jax; "
-                        "the same results either way (also JACO_WALK)")
-    parser.add_argument("--debug", action="store_true",
-                        help="on an internal error (exit code 3), print the traceback instead of one line")
+    parser.add_argument(
+        "--walk",
+        choices=("auto", "native", "jax"),
+        default=None,
+        help="the ant walk: auto (default: native when built), native (C++ kernel) or jax; "
+        "the same results either way (also JACO_WALK)",
+    )
+    parser.add_argument(
+        "--debug",
+        action="store_true",
+        help="on an internal error (exit code 3), print the traceback instead of one line",
+    )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     p = sub.add_parser(
-        "demo", help="plan on the embedded demo map and plot the result",
+        "demo",
+        help="plan on the embedded demo map and plot the result",
         description="Run one colony on the embedded 20x30 demo map, compare with the exact optimum "
         f"and write a PNG of both paths. The default planner is {DEMO_PLANNER}: over 32 seeds it "
         "reached a 5.1% mean gap on this map, ACS 5.9%.",
@@ -90,34 +139,64 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_demo)
 
     p = sub.add_parser(
-        "solve", help="plan one path on a map",
+        "solve",
+        help="plan one path on a map",
         description="Plan one path with one ACO planner and report it beside the exact optimum. "
         "When no ant reaches the goal it prints a hint of what usually helps and exits with 4.",
     )
-    p.add_argument("map", metavar="MAP",
-                   help="map file (.map .yaml .txt .npy .png .pgm ...), named map or bundled file; see 'jaco maps'")
+    p.add_argument(
+        "map",
+        metavar="MAP",
+        help="map file (.map .yaml .txt .npy .png .pgm ...), named map or bundled file; see 'jaco maps'",
+    )
     _add_query_options(p)
-    p.add_argument("--waypoint", action="append", type=_cell, metavar="R,C",
-                   help="visit this cell on the way to the goal (repeatable, visited in the order given)")
+    p.add_argument(
+        "--waypoint",
+        action="append",
+        type=_cell,
+        metavar="R,C",
+        help="visit this cell on the way to the goal (repeatable, visited in the order given)",
+    )
     _add_run_options(p, default_planner="mmas")
     p.add_argument("--seed", type=_seed, default=0, metavar="S", help="random seed (default 0)")
-    p.add_argument("--param", action="append", metavar="NAME=VALUE",
-                   help="set a hyperparameter (repeatable), e.g. --param alpha=1.5 --param rho=0.2")
-    p.add_argument("--json", metavar="OUT", help="write the result and its path metrics as JSON ('-': standard "
-                   "output, the summary then goes to stderr)")
-    p.add_argument("--plot", metavar="FILE", help="write a figure of the map, the ACO path and the exact path "
-                   "in the format its suffix names (.png, .svg, .pdf ...)")
-    p.add_argument("--plot-format", metavar="FMT",
-                   help="the figure format (png, svg, pdf ...) when --plot's name has none: '-' (standard output), "
-                   "a device or a FIFO")
-    p.add_argument("--path-csv", metavar="OUT",
-                   help="write the path as CSV: row,col and, on a ROS map, x,y in metres (cell centres)")
-    p.add_argument("--record", metavar="OUT",
-                   help="write a JSON run record (map embedded, versions) that 'jaco rerun OUT' reproduces")
+    p.add_argument(
+        "--param",
+        action="append",
+        metavar="NAME=VALUE",
+        help="set a hyperparameter (repeatable), e.g. --param alpha=1.5 --param rho=0.2",
+    )
+    p.add_argument(
+        "--json",
+        metavar="OUT",
+        help="write the result and its path metrics as JSON ('-': standard output, the summary then goes to stderr)",
+    )
+    p.add_argument(
+        "--plot",
+        metavar="FILE",
+        help="write a figure of the map, the ACO path and the exact path "
+        "in the format its suffix names (.png, .svg, .pdf ...)",
+    )
+    p.add_argument(
+        "--plot-format",
+        metavar="FMT",
+        help="the figure format (png, svg, pdf ...) when --plot's name has none: '-' (standard output), "
+        "a device or a FIFO",
+    )
+    p.add_argument(
+        "--path-csv",
+        metavar="OUT",
+        help="write the path as CSV: row,col and, on a ROS map, x,y in metres (cell centres)",
+    )
+    p.add_argument(
+        "--record",
+        metavar="OUT",
+        help="write a JSON run record (map embedded, versions) that 'jaco rerun OUT' reproduces",
+    )
     p.set_defaults(func=cmd_solve)
 
     p = sub.add_parser(
-        "sweep", help="hyperparameter sweep: configurations x seeds in one compiled call",
+        "sweep",
+        help="hyperparameter sweep: configurations x seeds in one compiled call",
         description="Run every combination of the --param values x seeds, write the table as CSV "
         "and print the best configurations.",
         epilog="Values: a:b:n is n values from a to b inclusive (linspace), a,b,c a list, "
@@ -128,25 +207,43 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("map", metavar="MAP", help="map file, named map or bundled file; see 'jaco maps'")
     _add_query_options(p)
     _add_run_options(p, default_planner="mmas", several=True)
-    p.add_argument("--param", action="append", metavar="NAME=VALUES",
-                   help="a sweep axis (repeatable): NAME=a:b:n, NAME=a,b,c or NAME=x")
-    p.add_argument("--seeds", type=_pos_int, default=4, metavar="N",
-                   help="seeds 0..N-1 per configuration (default 4)")
-    p.add_argument("--csv", metavar="OUT", help="write the tidy table (one row per run) as CSV ('-': standard "
-                   "output, the summary then goes to stderr)")
-    p.add_argument("--store", metavar="FILE.db",
-                   help="append every finished chunk to this SQLite store: the same command again skips the "
-                   "finished runs (a killed sweep resumes), and the table equals an uninterrupted sweep")
-    p.add_argument("--chunk", type=_pos_int, default=None, metavar="N",
-                   help="at most N runs (configurations x seeds) per compiled call (default: as many as fit; "
-                   "with --store about a tenth of the sweep)")
-    p.add_argument("--record", metavar="OUT.csv",
-                   help="write the table as CSV plus a JSON sidecar (OUT.json: arguments, maps, "
-                   "versions) that 'jaco rerun' reproduces")
+    p.add_argument(
+        "--param",
+        action="append",
+        metavar="NAME=VALUES",
+        help="a sweep axis (repeatable): NAME=a:b:n, NAME=a,b,c or NAME=x",
+    )
+    p.add_argument("--seeds", type=_pos_int, default=4, metavar="N", help="seeds 0..N-1 per configuration (default 4)")
+    p.add_argument(
+        "--csv",
+        metavar="OUT",
+        help="write the tidy table (one row per run) as CSV ('-': standard output, the summary then goes to stderr)",
+    )
+    p.add_argument(
+        "--store",
+        metavar="FILE.db",
+        help="append every finished chunk to this SQLite store: the same command again skips the "
+        "finished runs (a killed sweep resumes), and the table equals an uninterrupted sweep",
+    )
+    p.add_argument(
+        "--chunk",
+        type=_pos_int,
+        default=None,
+        metavar="N",
+        help="at most N runs (configurations x seeds) per compiled call (default: as many as fit; "
+        "with --store about a tenth of the sweep)",
+    )
+    p.add_argument(
+        "--record",
+        metavar="OUT.csv",
+        help="write the table as CSV plus a JSON sidecar (OUT.json: arguments, maps, "
+        "versions) that 'jaco rerun' reproduces",
+    )
     p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser(
-        "search", help="adaptive batched search over planners and parameters (Optuna / evosax samplers)",
+        "search",
+        help="adaptive batched search over planners and parameters (Optuna / evosax samplers)",
         description="Search planners (--planner, repeatable) and parameters (--param) for the smallest mean gap to "
         "the exact optimum: a sampler proposes a batch of trials, the batch runs as one compiled call, the "
         "results go back to the sampler. With --storage every trial is stored as its batch finishes and the "
@@ -159,41 +256,77 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("map", metavar="MAP", help="map file, named map or bundled file; see 'jaco maps'")
     _add_query_options(p)
     _add_run_options(p, default_planner="mmas", several=True)
-    p.add_argument("--param", action="append", metavar="NAME=RANGE",
-                   help="a search dimension (repeatable): NAME=LOW:HIGH[:log][:int], NAME=a,b,c or NAME=x; "
-                   "n_ants and n_iters may be searched too")
+    p.add_argument(
+        "--param",
+        action="append",
+        metavar="NAME=RANGE",
+        help="a search dimension (repeatable): NAME=LOW:HIGH[:log][:int], NAME=a,b,c or NAME=x; "
+        "n_ants and n_iters may be searched too",
+    )
     p.add_argument("--trials", type=_pos_int, default=128, metavar="N", help="finished trials to reach (default 128)")
-    p.add_argument("--batch", type=_pos_int, default=32, metavar="B",
-                   help="trials per generation, evaluated as one compiled call (default 32)")
+    p.add_argument(
+        "--batch",
+        type=_pos_int,
+        default=32,
+        metavar="B",
+        help="trials per generation, evaluated as one compiled call (default 32)",
+    )
     p.add_argument("--seeds", type=_pos_int, default=4, metavar="S", help="seeds 0..S-1 per trial (default 4)")
-    p.add_argument("--sampler", default="tpe", metavar="NAME",
-                   help="tpe (default), cmaes, random, qmc, grid, gp, nsga2, or evosax:NAME (e.g. evosax:SNES)")
+    p.add_argument(
+        "--sampler",
+        default="tpe",
+        metavar="NAME",
+        help="tpe (default), cmaes, random, qmc, grid, gp, nsga2, or evosax:NAME (e.g. evosax:SNES)",
+    )
     p.add_argument("--seed", type=_seed, default=0, metavar="S", help="the sampler's seed (default 0)")
-    p.add_argument("--objective", action="append", choices=("gap", "length", "turns", "success", "budget"),
-                   help="what to optimise (default gap; repeat for a Pareto front, e.g. --objective gap --objective turns)")
+    p.add_argument(
+        "--objective",
+        action="append",
+        choices=("gap", "length", "turns", "success", "budget"),
+        help="what to optimise (default gap; repeat for a Pareto front, e.g. --objective gap --objective turns)",
+    )
     fid = p.add_argument_group("multi-fidelity over the iterations (--iters is the largest budget)")
-    fid.add_argument("--halving", action="store_true", help="successive halving: many trials at few iterations, "
-                     "the best 1/eta promoted to eta times more")
-    fid.add_argument("--hyperband", action="store_true", help="Hyperband: brackets of successive halving that start "
-                     "at each budget in turn")
-    fid.add_argument("--eta", type=_int_at_least(2, "an integer >= 2"), default=3, metavar="ETA",
-                     help="promotion ratio (default 3)")
-    fid.add_argument("--min-iters", type=_pos_int, default=None, metavar="N",
-                     help="smallest budget (default --iters / eta^2)")
-    p.add_argument("--storage", metavar="URL",
-                   help="sqlite:///study.db (or a .db path), journal:FILE (or a .journal path): the study lives there "
-                   "and the same command again resumes it")
+    fid.add_argument(
+        "--halving",
+        action="store_true",
+        help="successive halving: many trials at few iterations, the best 1/eta promoted to eta times more",
+    )
+    fid.add_argument(
+        "--hyperband",
+        action="store_true",
+        help="Hyperband: brackets of successive halving that start at each budget in turn",
+    )
+    fid.add_argument(
+        "--eta", type=_int_at_least(2, "an integer >= 2"), default=3, metavar="ETA", help="promotion ratio (default 3)"
+    )
+    fid.add_argument(
+        "--min-iters", type=_pos_int, default=None, metavar="N", help="smallest budget (default --iters / eta^2)"
+    )
+    p.add_argument(
+        "--storage",
+        metavar="URL",
+        help="sqlite:///study.db (or a .db path), journal:FILE (or a .journal path): the study lives there "
+        "and the same command again resumes it",
+    )
     p.add_argument("--study", metavar="NAME", help="study name in the storage (default 'jaco')")
     p.add_argument("--top", type=_pos_int, default=10, metavar="N", help="trials in the summary table (default 10)")
     p.add_argument("--csv", metavar="OUT", help="write the trials table (one row per trial) as CSV")
-    p.add_argument("--plot", metavar="FILE", help="write the optimisation history (best so far against trials; "
-                   "with two objectives the Pareto front) in the format its suffix names")
-    p.add_argument("--plot-format", metavar="FMT",
-                   help="the --plot format (png, svg, pdf ...) when FILE has no suffix: '-', a device or a pipe")
+    p.add_argument(
+        "--plot",
+        metavar="FILE",
+        help="write the optimisation history (best so far against trials; "
+        "with two objectives the Pareto front) in the format its suffix names",
+    )
+    p.add_argument(
+        "--plot-format",
+        metavar="FMT",
+        help="the --plot format (png, svg, pdf ...) when FILE has no suffix: '-', a device or a pipe",
+    )
     p.set_defaults(func=cmd_search)
 
     p = sub.add_parser(
-        "compare", help="paired statistics on a saved results table: which planner is better, and how sure",
+        "compare",
+        help="paired statistics on a saved results table: which planner is better, and how sure",
         description="Compare the planners (or configurations) of a table written by 'jaco sweep --csv' "
         "(any layout jaco wrote): per configuration the success rate, the median and quartiles of the "
         "value with a bootstrap interval of the median; for every two configurations the paired "
@@ -206,18 +339,39 @@ def build_parser() -> argparse.ArgumentParser:
         "jaco compare b.csv --by variant --by beta --cd cd.png --profile profile.png",
     )
     p.add_argument("table", metavar="TABLE.csv", help="a results table (jaco sweep --csv or --record)")
-    p.add_argument("--by", action="append", metavar="COL",
-                   help="the column naming a configuration (repeatable: --by variant --by beta; default variant)")
-    p.add_argument("--value", default="gap", metavar="COL",
-                   help="the column compared, lower is better (default gap, a fraction shown in %%)")
-    p.add_argument("--where", action="append", metavar="NAME=VALUE",
-                   help="keep only the rows where a column has this value (repeatable), e.g. --where beta=16")
-    p.add_argument("--blocks", choices=("run", "query"), default="run",
-                   help="blocks of the Friedman test: each (query, seed) pair (run, default) or each query, "
-                   "the median over its seeds (query)")
+    p.add_argument(
+        "--by",
+        action="append",
+        metavar="COL",
+        help="the column naming a configuration (repeatable: --by variant --by beta; default variant)",
+    )
+    p.add_argument(
+        "--value",
+        default="gap",
+        metavar="COL",
+        help="the column compared, lower is better (default gap, a fraction shown in %%)",
+    )
+    p.add_argument(
+        "--where",
+        action="append",
+        metavar="NAME=VALUE",
+        help="keep only the rows where a column has this value (repeatable), e.g. --where beta=16",
+    )
+    p.add_argument(
+        "--blocks",
+        choices=("run", "query"),
+        default="run",
+        help="blocks of the Friedman test: each (query, seed) pair (run, default) or each query, "
+        "the median over its seeds (query)",
+    )
     p.add_argument("--alpha", type=float, default=0.05, metavar="A", help="level of the tests (default 0.05)")
-    p.add_argument("--confidence", type=float, default=0.95, metavar="C",
-                   help="confidence of the bootstrap interval of the median (default 0.95)")
+    p.add_argument(
+        "--confidence",
+        type=float,
+        default=0.95,
+        metavar="C",
+        help="confidence of the bootstrap interval of the median (default 0.95)",
+    )
     p.add_argument("--boot", type=_pos_int, default=2000, metavar="N", help="bootstrap resamples (default 2000)")
     p.add_argument("--seed", type=_seed, default=0, metavar="S", help="seed of the bootstrap (default 0)")
     p.add_argument("--cd", metavar="FILE", help="write the critical-difference diagram (.png, .svg, .pdf ...)")
@@ -225,31 +379,46 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_compare)
 
     p = sub.add_parser(
-        "rerun", help="rerun a run or sweep record and check it bit for bit",
+        "rerun",
+        help="rerun a run or sweep record and check it bit for bit",
         description="Rerun a record written by 'jaco solve --record', 'jaco sweep --record', "
         "Result.save or jaco.research.records.save_sweep, and compare path, length and history (or the "
         "whole sweep table) bit for bit. Exit 0 when it matched, 1 when it did not; a record "
         "written by other jaco/jax versions or on another backend gets a warning line first.",
     )
-    p.add_argument("record", metavar="RECORD", help="run record .json, or a sweep's .csv or .json sidecar, or a "
-                   "search's storage (sqlite:///study.db, a .db or .journal path) with --trial")
+    p.add_argument(
+        "record",
+        metavar="RECORD",
+        help="run record .json, or a sweep's .csv or .json sidecar, or a "
+        "search's storage (sqlite:///study.db, a .db or .journal path) with --trial",
+    )
     p.add_argument("--trial", type=_nonneg_int, metavar="N", help="rerun trial N of a stored search study")
     p.add_argument("--study", metavar="NAME", help="the study's name (when the storage holds several)")
     p.set_defaults(func=cmd_rerun)
 
-    p = sub.add_parser("planners", aliases=["variants"], help="list the registered ACO planners (also: jaco variants)",
-                       description="One line per planner: name, source (paper and equation numbers), default "
-                                   "parameters. The equations and full references are in docs/algorithms.md.")
+    p = sub.add_parser(
+        "planners",
+        aliases=["variants"],
+        help="list the registered ACO planners (also: jaco variants)",
+        description="One line per planner: name, source (paper and equation numbers), default "
+        "parameters. The equations and full references are in docs/algorithms.md.",
+    )
     p.add_argument("-v", "--verbose", action="store_true", help="also print each planner's description")
     p.set_defaults(func=cmd_planners)
 
-    p = sub.add_parser("maps", help="list the named maps and bundled map files",
-                       description="List the named maps and bundled map files.")
+    p = sub.add_parser(
+        "maps",
+        help="list the named maps and bundled map files",
+        description="List the named maps and bundled map files.",
+    )
     p.set_defaults(func=cmd_maps)
 
-    p = sub.add_parser("info", help="versions, devices and the active ant walk",
-                       description="Print the jaco, jax and jaxlib versions, the XLA devices and which ant "
-                       "walk runs: the native C++ kernel or the JAX walk (and why).")
+    p = sub.add_parser(
+        "info",
+        help="versions, devices and the active ant walk",
+        description="Print the jaco, jax and jaxlib versions, the XLA devices and which ant "
+        "walk runs: the native C++ kernel or the JAX walk (and why).",
+    )
     p.set_defaults(func=cmd_info)
     return parser
 

@@ -81,8 +81,10 @@ def resolve_queries(grid: Any, args: Any) -> tuple[list, list, list | None, str 
         for lo, hi in (r for group in args.index for r in group):
             top = len(rows) - 1 if hi is None else hi
             if lo >= len(rows) or top >= len(rows):
-                raise UsageError(f"--index {lo if lo >= len(rows) else top} is out of range: {path.name} has "
-                                 f"{len(rows)} scenarios (0..{len(rows) - 1})")
+                raise UsageError(
+                    f"--index {lo if lo >= len(rows) else top} is out of range: {path.name} has "
+                    f"{len(rows)} scenarios (0..{len(rows) - 1})"
+                )
             index.extend(range(lo, top + 1))
     elif not chosen:
         index = [0]
@@ -100,8 +102,10 @@ def resolve_queries(grid: Any, args: Any) -> tuple[list, list, list | None, str 
         label = f"{path.name} #{picked[0].index}"
     else:
         lengths = [sc.optimal for sc in picked]
-        label = (f"{len(picked)} scenarios of {path.name} (#{', #'.join(str(sc.index) for sc in picked[:6])}"
-                 f"{', ...' if len(picked) > 6 else ''}; optimal lengths {min(lengths):.4g} to {max(lengths):.4g})")
+        label = (
+            f"{len(picked)} scenarios of {path.name} (#{', #'.join(str(sc.index) for sc in picked[:6])}"
+            f"{', ...' if len(picked) > 6 else ''}; optimal lengths {min(lengths):.4g} to {max(lengths):.4g})"
+        )
     return [sc.start for sc in picked], [sc.goal for sc in picked], picked, label
 
 
@@ -110,8 +114,10 @@ def resolve_query(grid: Any, args: Any) -> tuple[Any, Any, Any, str | None]:
     (:func:`resolve_queries`, which must select exactly one)."""
     starts, goals, scenarios, label = resolve_queries(grid, args)
     if len(starts) != 1:
-        raise UsageError(f"{args.command} runs one query, but the selection gives {label}: use 'jaco sweep' to run "
-                         "several, or select one (--index K, --count 1)")
+        raise UsageError(
+            f"{args.command} runs one query, but the selection gives {label}: use 'jaco sweep' to run "
+            "several, or select one (--index K, --count 1)"
+        )
     return starts[0], goals[0], (scenarios[0] if scenarios else None), label
 
 
@@ -143,8 +149,7 @@ def world_cell(grid: Any, xy: Any, flag: str) -> tuple[int, int]:
     if not grid.in_bounds(cell):
         x0, x1, y0, y1 = _map_extent(grid)
         raise UsageError(
-            f"{flag} {shown} is outside map {grid.name!r}, which covers x {x0:g}..{x1:g} m and "
-            f"y {y0:g}..{y1:g} m"
+            f"{flag} {shown} is outside map {grid.name!r}, which covers x {x0:g}..{x1:g} m and y {y0:g}..{y1:g} m"
         )
     if not grid.free[cell]:
         occ = grid.meta.get("occupancy")
@@ -155,8 +160,7 @@ def world_cell(grid: Any, xy: Any, flag: str) -> tuple[int, int]:
 
 def _world_query(grid, args) -> None:
     """Turn ``--start-xy`` / ``--goal-xy`` into ``args.start`` / ``args.goal`` cells."""
-    pairs = [("--start", "start", getattr(args, "start_xy", None)),
-             ("--goal", "goal", getattr(args, "goal_xy", None))]
+    pairs = [("--start", "start", getattr(args, "start_xy", None)), ("--goal", "goal", getattr(args, "goal_xy", None))]
     if getattr(args, "scen", None) is not None and any(xy is not None for *_, xy in pairs):
         raise UsageError("give either --start-xy/--goal-xy or --scen/--index, not both")
     for flag, attr, xy in pairs:

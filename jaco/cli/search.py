@@ -67,7 +67,11 @@ def cmd_search(args: argparse.Namespace) -> int:
     grid = load_map(args.map)
     starts, goals, scenarios, label = resolve_queries(grid, args)
     start, goal = (starts[0], goals[0]) if len(starts) == 1 else (starts, goals)
-    where = f"start {tuple(starts[0])} -> goal {tuple(goals[0])}" if len(starts) == 1 else f"{len(starts)} queries ({label})"
+    where = (
+        f"start {tuple(starts[0])} -> goal {tuple(goals[0])}"
+        if len(starts) == 1
+        else f"{len(starts)} queries ({label})"
+    )
     _check_outputs(args, grid, figures=("--plot",), files=(("--csv", None),))
     from ..research.search import Halving, search
 
@@ -84,16 +88,31 @@ def cmd_search(args: argparse.Namespace) -> int:
         flush=True,
     )
     study = search(
-        grid, start, goal, space, trials=args.trials, batch=args.batch, seeds=args.seeds, n_ants=args.ants,
-        n_iters=args.iters, steplimit=args.steplimit, sampler=args.sampler, seed=args.seed, objective=objectives,
-        fidelity=fidelity, storage=args.storage, study_name=args.study,
+        grid,
+        start,
+        goal,
+        space,
+        trials=args.trials,
+        batch=args.batch,
+        seeds=args.seeds,
+        n_ants=args.ants,
+        n_iters=args.iters,
+        steplimit=args.steplimit,
+        sampler=args.sampler,
+        seed=args.seed,
+        objective=objectives,
+        fidelity=fidelity,
+        storage=args.storage,
+        study_name=args.study,
     )
     args.finished = True  # from here a failed write says that the search itself finished
     seconds = time.perf_counter() - args.started
     t = study.timings
-    print(f"{len(study.study.trials)} trials in the study; this command ran {t.get('generations', 0)} generations in "
-          f"{seconds:.2f} s (sampler {t.get('sampler_s', 0):.2f} s, evaluation {t.get('evaluate_s', 0):.2f} s, "
-          f"{t.get('compiles', 0)} compiled programs)")
+    print(
+        f"{len(study.study.trials)} trials in the study; this command ran {t.get('generations', 0)} generations in "
+        f"{seconds:.2f} s (sampler {t.get('sampler_s', 0):.2f} s, evaluation {t.get('evaluate_s', 0):.2f} s, "
+        f"{t.get('compiles', 0)} compiled programs)"
+    )
     for sc in scenarios or ():
         print(f"scenario #{sc.index}: optimal length {sc.optimal:.4f} (from the .scen file)")
     table = study.trials
@@ -107,8 +126,13 @@ def cmd_search(args: argparse.Namespace) -> int:
         fig = plot.plot_search_history(study) if len(objectives) == 1 else plot.plot_pareto(study, *objectives[:2])
         print(f"wrote {plot.save(fig, args.plot, format=args.plot_format)}")
     finished = table[table["state"] == "COMPLETE"]
-    shown = study.best_trials if len(objectives) > 1 else finished.sort_values(
-        [objectives[0], "number"], ascending=[objectives[0] != "success", True], kind="stable").head(args.top)
+    shown = (
+        study.best_trials
+        if len(objectives) > 1
+        else finished.sort_values(
+            [objectives[0], "number"], ascending=[objectives[0] != "success", True], kind="stable"
+        ).head(args.top)
+    )
     params = [c for c in table.columns if c in space and c != "variant"]
     cols = ["number", "variant", *params, *objectives, "success_rate", "runs"]
     what = "Pareto front" if len(objectives) > 1 else f"top {len(shown)} of {len(finished)} finished trials"
@@ -118,17 +142,23 @@ def cmd_search(args: argparse.Namespace) -> int:
     text = pd.DataFrame({c: shown[c].map(lambda x, c=c: _fmt(c, x)) for c in cols if c in shown})
     print(text.to_string(index=False) if len(text) else "(none)")
     if finished.empty or not (finished["success_rate"] > 0).any():
-        print("\nno trial reached the goal: try a backtracking planner (--variant iaca), more ants or iterations, "
-              "or a larger β or step limit")
+        print(
+            "\nno trial reached the goal: try a backtracking planner (--variant iaca), more ants or iterations, "
+            "or a larger β or step limit"
+        )
         return NO_PATH
     if len(objectives) == 1:
         best = study.best_params
         conf = ", ".join(f"{k}={v:g}" if not isinstance(v, str) else f"{k}={v}" for k, v in best.items())
-        print(f"\nbest: trial {study.best_trial.number}: {conf}; {objectives[0]} {_fmt(objectives[0], study.best_value)}")
+        print(
+            f"\nbest: trial {study.best_trial.number}: {conf}; {objectives[0]} {_fmt(objectives[0], study.best_value)}"
+        )
     if args.storage:
-        print(f"study {study.study.study_name!r} in {args.storage}: run the same command again to resume or extend it "
-              f"(--trials); 'jaco rerun {args.storage} --study {study.study.study_name} --trial N' reruns a trial; "
-              f"'optuna-dashboard {args.storage if '://' in args.storage else 'sqlite:///' + args.storage}' shows it")
+        print(
+            f"study {study.study.study_name!r} in {args.storage}: run the same command again to resume or extend it "
+            f"(--trials); 'jaco rerun {args.storage} --study {study.study.study_name} --trial N' reruns a trial; "
+            f"'optuna-dashboard {args.storage if '://' in args.storage else 'sqlite:///' + args.storage}' shows it"
+        )
     return 0
 
 

@@ -94,7 +94,9 @@ def check_seeds(seeds: int | Iterable[int]) -> np.ndarray:
         check_memory(64 * int(seeds), f"{seeds} seeds", "use fewer seeds")
         items = range(seeds)
     elif isinstance(seeds, (str, bytes)) or not hasattr(seeds, "__iter__"):
-        raise JacoError(f"seeds must be a count or a list of integers in [0, 2**32), got {type(seeds).__name__} {seeds!r}")
+        raise JacoError(
+            f"seeds must be a count or a list of integers in [0, 2**32), got {type(seeds).__name__} {seeds!r}"
+        )
     else:
         items = cast("Iterable[int]", seeds)  # not an int: a bool has no __iter__ and was refused above
     out = []
@@ -156,8 +158,18 @@ def check_grid(grid: object) -> Grid:
     return grid
 
 
-def prepare(grid: Grid, variant: Planner, *, seed: int, n_ants: int, n_iters: int, steplimit: int | None, params: dict,
-            runs: int = 1, keep_pheromone: bool | str = False) -> tuple[int, dict]:
+def prepare(
+    grid: Grid,
+    variant: Planner,
+    *,
+    seed: int,
+    n_ants: int,
+    n_iters: int,
+    steplimit: int | None,
+    params: dict,
+    runs: int = 1,
+    keep_pheromone: bool | str = False,
+) -> tuple[int, dict]:
     """Validate one call with numpy before anything compiles: the map's type, the sizes and their
     memory estimate (``runs`` runs at once), the seed and every parameter (unknown names list the
     valid ones). Returns the step limit (the default when ``steplimit`` is None) and the parameter

@@ -84,7 +84,9 @@ def move_weights(variant: Any, trail: Trail, problem: Any, params: Params, t: An
     a factor that does not change between iterations is computed once per run (XLA hoists it
     out of the iteration loop). τ = 0 counts as the smallest normal float."""
     tau = move_tau(variant, trail, problem)
-    log_w = params.alpha * jnp.log(jnp.maximum(tau, _TINY)) + variant.factor(variant, trail, problem, params, t, n_iters)
+    log_w = params.alpha * jnp.log(jnp.maximum(tau, _TINY)) + variant.factor(
+        variant, trail, problem, params, t, n_iters
+    )
     return scaled(log_w, problem.nbr >= 0)
 
 
@@ -97,19 +99,33 @@ def step_targets(pheromone_on: str, cells: jax.Array, moves: jax.Array, start: A
     return jnp.where(moves >= 0, prev * 8 + moves, 8 * n_cells)
 
 
-def single_colony(variant: Any, problem: Any, trail: Trail, params: Params, t: Any, n_iters: int, key: jax.Array,
-                  *, n_ants: int, steplimit: int) -> tuple[Trail, Colony]:
+def single_colony(
+    variant: Any,
+    problem: Any,
+    trail: Trail,
+    params: Params,
+    t: Any,
+    n_iters: int,
+    key: jax.Array,
+    *,
+    n_ants: int,
+    steplimit: int,
+) -> tuple[Trail, Colony]:
     """One colony walks start → goal with the random-proportional (or q0) rule; dead ants fail."""
     weights = move_weights(variant, trail, problem, params, t, n_iters)
     return trail, walk_colony(variant, problem, weights, params, key, n_ants=n_ants, steplimit=steplimit)
 
 
-def walk_colony(variant: Any, problem: Any, weights: jax.Array, params: Params, key: jax.Array, *, n_ants: int, steplimit: int) -> Colony:
+def walk_colony(
+    variant: Any, problem: Any, weights: jax.Array, params: Params, key: jax.Array, *, n_ants: int, steplimit: int
+) -> Colony:
     """The :class:`Colony` of ``n_ants`` ants walking start → goal on the move weights ``weights``
     (``(N, 8)``, 0 exactly on forbidden moves), with the variant's transition rule and cost."""
     exploit = variant.transition == "pseudo-random"
     # q0 is read only by the q0 rule (a roulette planner has no q0; the walk ignores the value then)
-    tours = walk(problem, weights, key, params.q0 if exploit else 0.0, n_ants=n_ants, steplimit=steplimit, exploit=exploit)
+    tours = walk(
+        problem, weights, key, params.q0 if exploit else 0.0, n_ants=n_ants, steplimit=steplimit, exploit=exploit
+    )
     cost = jnp.where(tours.arrived, variant.cost(tours, problem, params), jnp.inf)
     targets = step_targets(variant.pheromone_on, tours.cells, tours.moves, problem.start, problem.nbr.shape[0])
     return Colony(tours.cells, targets, tours.step_len, cost, tours.length, tours.n_steps, tours.visited)

@@ -78,11 +78,25 @@ COSTS = {"length": path_length, "multi": multi_objective}
 #: The parameters the multi-objective cost reads.
 #: The multi-objective cost's weights and safety radius (Miao et al. 2021 §3.4).
 MULTI_PARAMS = declare(
-    Param("k_len", 0.7, 0, INF, "multi-objective cost J = kL·L + kS·S + kE·E: weight kL of the length",
-          lo_open=True, hi_open=True),
+    Param(
+        "k_len",
+        0.7,
+        0,
+        INF,
+        "multi-objective cost J = kL·L + kS·S + kE·E: weight kL of the length",
+        lo_open=True,
+        hi_open=True,
+    ),
     Param("k_safe", 0.1, 0, INF, "multi-objective cost: weight kS of the safety cost S", hi_open=True),
     Param("k_energy", 0.2, 0, INF, "multi-objective cost: weight kE of the heading change E (radians)", hi_open=True),
-    Param("rs_cost", 1.0, 0, INF, "multi-objective cost: radius (cells) of S = Σ max(0, 2r − d_b)/(2r)",
-          lo_open=True, hi_open=True),
+    Param(
+        "rs_cost",
+        1.0,
+        0,
+        INF,
+        "multi-objective cost: radius (cells) of S = Σ max(0, 2r − d_b)/(2r)",
+        lo_open=True,
+        hi_open=True,
+    ),
 )
 COST_PARAMS = tuple(p.name for p in MULTI_PARAMS)

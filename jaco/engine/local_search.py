@@ -89,24 +89,48 @@ def allowed_bits(nbr: jax.Array) -> jax.Array:
     return bits
 
 
-def shortcut(cells: ArrayLike, start: Any, bits: ArrayLike, offsets: ArrayLike, diagonal: Any, *, window: int,
-             passes: int) -> jax.Array:
+def shortcut(
+    cells: ArrayLike, start: Any, bits: ArrayLike, offsets: ArrayLike, diagonal: Any, *, window: int, passes: int
+) -> jax.Array:
     """The octile shortcut (module docstring) of every column of ``cells (S, C)``: each a path
     from ``start`` (the cells entered, -1 after the goal). ``bits (N,)``: :func:`allowed_bits`;
     ``offsets (8,)``: the flat-index change of each move; ``diagonal``: whether the map allows
     any diagonal move. Returns the shortened paths ``(S, C)``, -1 padded. The native kernel runs
     it where it is active and the program runs on CPU, this module's JAX code everywhere else."""
-    args = (jnp.asarray(cells, jnp.int32), jnp.asarray(bits, jnp.uint8), jnp.asarray(start, jnp.int32),
-            jnp.asarray(offsets, jnp.int32), jnp.asarray(diagonal, bool), jnp.asarray(MOVE_OF))
+    args = (
+        jnp.asarray(cells, jnp.int32),
+        jnp.asarray(bits, jnp.uint8),
+        jnp.asarray(start, jnp.int32),
+        jnp.asarray(offsets, jnp.int32),
+        jnp.asarray(diagonal, bool),
+        jnp.asarray(MOVE_OF),
+    )
     kw: dict[str, Any] = dict(window=int(window), passes=int(passes))
     return native.dispatch(functools.partial(native.shortcut, **kw), functools.partial(jax_shortcut, **kw), *args)
 
 
-def jax_shortcut(cells: jax.Array, bits: jax.Array, start: Any, offsets: Any, diagonal: Any, move_of: Any, *,
-                 window: int, passes: int) -> jax.Array:
+def jax_shortcut(
+    cells: jax.Array,
+    bits: jax.Array,
+    start: Any,
+    offsets: Any,
+    diagonal: Any,
+    move_of: Any,
+    *,
+    window: int,
+    passes: int,
+) -> jax.Array:
     """:func:`shortcut` in JAX: the definition. Columns are independent (vmapped)."""
-    one = functools.partial(_shortcut_path, bits=bits, start=start, offsets=offsets, diagonal=diagonal,
-                            move_of=move_of, window=window, passes=passes)
+    one = functools.partial(
+        _shortcut_path,
+        bits=bits,
+        start=start,
+        offsets=offsets,
+        diagonal=diagonal,
+        move_of=move_of,
+        window=window,
+        passes=passes,
+    )
     return jax.vmap(one, in_axes=1, out_axes=1)(cells)
 
 
@@ -215,11 +239,15 @@ def _one_pass(path, bits, start, offsets, diagonal, move_of, window):
         return i + d, o + n1 + n2, out, changed | found
 
     out = jnp.full((s + window,), -1, jnp.int32)
-    _, o, out, changed = jax.lax.while_loop(lambda st: st[0] < n, stand, (jnp.int32(0), jnp.int32(0), out, jnp.bool_(False)))
+    _, o, out, changed = jax.lax.while_loop(
+        lambda st: st[0] < n, stand, (jnp.int32(0), jnp.int32(0), out, jnp.bool_(False))
+    )
     return jnp.where(jnp.arange(s) < o, out[:s], -1), changed
 
 
-def shorten_path(grid: Grid, path: ArrayLike, *, connectivity: int = 8, window: int = WINDOW, passes: int = PASSES) -> np.ndarray:
+def shorten_path(
+    grid: Grid, path: ArrayLike, *, connectivity: int = 8, window: int = WINDOW, passes: int = PASSES
+) -> np.ndarray:
     """The octile shortcut of one path on ``grid``, outside any run: ``path`` ``(K, 2)`` (row, col)
     cells, start first, a valid path of the move model (:func:`jaco.metrics.validate_path`);
     returns the shortened path ``(K', 2)``, ``K' ≤ K``, never longer, with the same ends.
@@ -240,9 +268,16 @@ def shorten_path(grid: Grid, path: ArrayLike, *, connectivity: int = 8, window: 
     nbr, _ = cached_table(grid, connectivity)
     w = grid.width
     flat = (path[:, 0] * w + path[:, 1]).astype(np.int32)
-    out = _shorten_one(jnp.asarray(flat[1:, None]), allowed_bits(jnp.asarray(nbr)), jnp.int32(flat[0]),
-                       jnp.asarray((MOVES[:, 0] * w + MOVES[:, 1]).astype(np.int32)), jnp.bool_((nbr[:, 4:] >= 0).any()),
-                       window=int(window), passes=int(passes), walk=native.active_walk())
+    out = _shorten_one(
+        jnp.asarray(flat[1:, None]),
+        allowed_bits(jnp.asarray(nbr)),
+        jnp.int32(flat[0]),
+        jnp.asarray((MOVES[:, 0] * w + MOVES[:, 1]).astype(np.int32)),
+        jnp.bool_((nbr[:, 4:] >= 0).any()),
+        window=int(window),
+        passes=int(passes),
+        walk=native.active_walk(),
+    )
     cells = np.asarray(out)[:, 0]
     cells = np.concatenate([flat[:1], cells[cells >= 0]])
     return np.stack(np.divmod(cells, w), axis=1).astype(np.int64)
@@ -284,10 +319,19 @@ def shortcut_search(*, window: int, passes: int, best: int | None) -> ShortcutSe
 
     def local_search(variant, problem, colony: Colony, params) -> Colony:
         c = colony.cost.shape[0]
-        pick = jnp.arange(c) if best is None or best >= c else jnp.argsort(colony.cost)[:best]  # stable: ties to the lower index
+        pick = (
+            jnp.arange(c) if best is None or best >= c else jnp.argsort(colony.cost)[:best]
+        )  # stable: ties to the lower index
         arrived = jnp.isfinite(colony.cost[pick])
-        cells = shortcut(colony.cells[:, pick], problem.start, allowed_bits(problem.nbr), problem.offsets,
-                         jnp.any(problem.nbr[:, 4:] >= 0), window=window, passes=passes)
+        cells = shortcut(
+            colony.cells[:, pick],
+            problem.start,
+            allowed_bits(problem.nbr),
+            problem.offsets,
+            jnp.any(problem.nbr[:, 4:] >= 0),
+            window=window,
+            passes=passes,
+        )
         tours = path_tours(problem, cells, arrived, colony.n_steps[pick], colony.visited)
         cost = variant.cost(tours, problem, params)
         keep = arrived & (cost <= colony.cost[pick])
@@ -297,9 +341,13 @@ def shortcut_search(*, window: int, passes: int, best: int | None) -> ShortcutSe
             mine = old[..., pick]
             return old.at[..., pick].set(jnp.where(keep, new, mine))
 
-        return colony._replace(cells=put(colony.cells, cells), targets=put(colony.targets, targets),
-                               step_len=put(colony.step_len, tours.step_len), cost=put(colony.cost, cost),
-                               length=put(colony.length, tours.length))
+        return colony._replace(
+            cells=put(colony.cells, cells),
+            targets=put(colony.targets, targets),
+            step_len=put(colony.step_len, tours.step_len),
+            cost=put(colony.cost, cost),
+            length=put(colony.length, tours.length),
+        )
 
     search = cast(ShortcutSearch, local_search)
     search.window, search.passes, search.best = window, passes, best

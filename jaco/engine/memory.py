@@ -85,16 +85,23 @@ def check_memory(need: int, what: str, hint: str) -> None:
         )
 
 
-def check_run_memory(n_cells: int, n_ants: int, n_iters: int, steplimit: int, *, runs: int = 1,
-                     keep_pheromone: bool | str = False, what: str = "this call") -> None:
+def check_run_memory(
+    n_cells: int,
+    n_ants: int,
+    n_iters: int,
+    steplimit: int,
+    *,
+    runs: int = 1,
+    keep_pheromone: bool | str = False,
+    what: str = "this call",
+) -> None:
     """The memory estimate of ``runs`` runs held at once (:func:`bytes_per_run`, plus the
     pheromone of every iteration with ``keep_pheromone="history"``) against the budget."""
     need = runs * bytes_per_run(n_cells, n_ants, n_iters, steplimit)
     if keep_pheromone == "history":
         need += runs * n_iters * 8 * n_cells * 4
     check_memory(
-        need, f"{what} ({runs} run(s) of {n_ants} ants x {n_iters} iterations, step limit {steplimit}, {n_cells} cells)",
+        need,
+        f"{what} ({runs} run(s) of {n_ants} ants x {n_iters} iterations, step limit {steplimit}, {n_cells} cells)",
         "use fewer ants, iterations or runs, or a smaller step limit",
     )
-
-

@@ -29,9 +29,15 @@ import numpy as np
 from ..errors import JacoError
 
 CHOICES = ("auto", "native", "jax")
-_TARGETS = {"jaco_walk": "JacoWalk", "jaco_backtrack": "JacoBacktrack", "jaco_deposit": "JacoDeposit",
-            "jaco_uniforms": "JacoUniforms", "jaco_power": "JacoPower", "jaco_apf_next": "JacoApfNext",
-            "jaco_shortcut": "JacoShortcut"}
+_TARGETS = {
+    "jaco_walk": "JacoWalk",
+    "jaco_backtrack": "JacoBacktrack",
+    "jaco_deposit": "JacoDeposit",
+    "jaco_uniforms": "JacoUniforms",
+    "jaco_power": "JacoPower",
+    "jaco_apf_next": "JacoApfNext",
+    "jaco_shortcut": "JacoShortcut",
+}
 _state: dict = {}
 
 
@@ -104,8 +110,18 @@ def dispatch(native_fn: Callable[..., Any], jax_fn: Callable[..., Any], *args: A
     return jax_fn(*args)
 
 
-def walk(weights: jax.Array, words: jax.Array, start: Any, goal: Any, q0: jax.Array | float, offsets: Any, *,
-         n_ants: int, steplimit: int, exploit: bool) -> Any:
+def walk(
+    weights: jax.Array,
+    words: jax.Array,
+    start: Any,
+    goal: Any,
+    q0: jax.Array | float,
+    offsets: Any,
+    *,
+    n_ants: int,
+    steplimit: int,
+    exploit: bool,
+) -> Any:
     """The kernel's walk; same arguments and results as :func:`jaco.engine.walk.jax_walk`."""
     _load()
     n = weights.shape[-2]
@@ -131,13 +147,26 @@ def deposit(tau: jax.Array, targets: jax.Array, amounts: jax.Array) -> jax.Array
     amounts = jnp.asarray(amounts, jnp.float32)
     flat = targets.reshape(targets.shape[0], -1)
     per = amounts.reshape(-1)
-    call = jax.ffi.ffi_call("jaco_deposit", jax.ShapeDtypeStruct(tau.shape, jnp.float32), vmap_method="broadcast_all",
-                            input_output_aliases={0: 0})
+    call = jax.ffi.ffi_call(
+        "jaco_deposit",
+        jax.ShapeDtypeStruct(tau.shape, jnp.float32),
+        vmap_method="broadcast_all",
+        input_output_aliases={0: 0},
+    )
     return call(tau, flat, per)
 
 
-def shortcut(cells: jax.Array, bits: jax.Array, start: Any, offsets: Any, diagonal: Any, move_of: Any, *, window: int,
-             passes: int) -> jax.Array:
+def shortcut(
+    cells: jax.Array,
+    bits: jax.Array,
+    start: Any,
+    offsets: Any,
+    diagonal: Any,
+    move_of: Any,
+    *,
+    window: int,
+    passes: int,
+) -> jax.Array:
     """The kernel's octile shortcut; same arguments and result as
     :func:`jaco.engine.local_search.jax_shortcut` (``cells (S, C)``, each column a path)."""
     _load()

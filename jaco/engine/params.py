@@ -82,8 +82,10 @@ def declare(*params: Param, order: Iterable[tuple[str, str]] = ()) -> tuple[Para
         if known is None:
             SPECS[p.name] = p
         elif not known.same_range(p):
-            raise JacoError(f"parameter {p.name!r} is declared with range {known.describe()} already; "
-                            f"another component declares {p.describe()}: give it another name")
+            raise JacoError(
+                f"parameter {p.name!r} is declared with range {known.describe()} already; "
+                f"another component declares {p.describe()}: give it another name"
+            )
     for pair in order:
         if tuple(pair) not in ORDERED:
             ORDERED.append((pair[0], pair[1]))
@@ -111,8 +113,10 @@ class Params(Mapping):
         except KeyError:
             if name.startswith("__"):
                 raise AttributeError(name) from None
-            raise AttributeError(f"no parameter {name!r} here{did_you_mean(name, values)}; "
-                                 f"these Params hold: {', '.join(sorted(values)) or 'none'}") from None
+            raise AttributeError(
+                f"no parameter {name!r} here{did_you_mean(name, values)}; "
+                f"these Params hold: {', '.join(sorted(values)) or 'none'}"
+            ) from None
 
     def __setattr__(self, name, value):
         raise AttributeError("Params are immutable: use params.replace(name=value)")
@@ -160,13 +164,16 @@ def param_names() -> tuple[str, ...]:
     return tuple(SPECS)
 
 
-def unknown_parameter(name: str, allowed: Iterable[str], where: str, keywords: Iterable[str] = (),
-                      call: str = "") -> str:
+def unknown_parameter(
+    name: str, allowed: Iterable[str], where: str, keywords: Iterable[str] = (), call: str = ""
+) -> str:
     """The message for a name that is not a parameter of ``where``: the closest of the parameters
     ``allowed`` and of the call's own ``keywords`` (``n_ant`` -> ``n_ants``), then the valid names."""
     also = f"; the keywords of {call}: {', '.join(keywords)}" if keywords else ""
-    return (f"unknown parameter {name!r} for {where}{did_you_mean(name, [*allowed, *keywords])}; "
-            f"valid: {', '.join(sorted(allowed))}{also}")
+    return (
+        f"unknown parameter {name!r} for {where}{did_you_mean(name, [*allowed, *keywords])}; "
+        f"valid: {', '.join(sorted(allowed))}{also}"
+    )
 
 
 def check_values(values: Mapping, allowed: Iterable[str], where: str) -> dict:
@@ -184,7 +191,9 @@ def check_values(values: Mapping, allowed: Iterable[str], where: str) -> dict:
                 raise TypeError
             a = np.asarray(v, dtype=np.float64)
         except (TypeError, ValueError):
-            raise ParamError(f"parameter {name!r} must be a number (float) or a 1-D list of numbers, got {v!r}") from None
+            raise ParamError(
+                f"parameter {name!r} must be a number (float) or a 1-D list of numbers, got {v!r}"
+            ) from None
         if a.ndim > 1:
             raise ParamError(f"parameter {name!r} must be a number or a 1-D list, got shape {a.shape}")
         if np.isnan(a).any():
@@ -193,9 +202,7 @@ def check_values(values: Mapping, allowed: Iterable[str], where: str) -> dict:
         bad = ~spec.contains(a)
         if bad.any():
             first = a.ravel()[np.argmax(bad.ravel())]
-            raise ParamError(
-                f"parameter {name!r} = {first:g} is out of range {spec.describe()} ({spec.doc})"
-            )
+            raise ParamError(f"parameter {name!r} = {first:g} is out of range {spec.describe()} ({spec.doc})")
         out[name] = a
     return out
 

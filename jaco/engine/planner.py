@@ -65,16 +65,28 @@ class Factor(Protocol):
     """``factor(variant, trail, problem, params, t, n_iters) -> (N, 8)``: the log of a move's weight
     besides τ^α (by default β·log η, :func:`jaco.engine.colony.eta_factor`)."""
 
-    def __call__(self, variant: "Planner", trail: Trail, problem: Any, params: Params, t: Any,
-                 n_iters: int) -> jax.Array: ...
+    def __call__(
+        self, variant: "Planner", trail: Trail, problem: Any, params: Params, t: Any, n_iters: int
+    ) -> jax.Array: ...
 
 
 class Construct(Protocol):
     """``construct(variant, problem, trail, params, t, n_iters, key, *, n_ants, steplimit) ->
     (trail, Colony)``: an iteration's candidate paths (:mod:`jaco.engine.colony`)."""
 
-    def __call__(self, variant: "Planner", problem: Any, trail: Trail, params: Params, t: Any, n_iters: int,
-                 key: jax.Array, *, n_ants: int, steplimit: int) -> tuple[Trail, Any]: ...
+    def __call__(
+        self,
+        variant: "Planner",
+        problem: Any,
+        trail: Trail,
+        params: Params,
+        t: Any,
+        n_iters: int,
+        key: jax.Array,
+        *,
+        n_ants: int,
+        steplimit: int,
+    ) -> tuple[Trail, Any]: ...
 
 
 class Schedule(Protocol):
@@ -140,8 +152,13 @@ class Planner(NamedTuple):
         if unknown:
             raise JacoError(f"{name!r}: {unknown[0]!r} is not a parameter of {self.name!r} ({', '.join(self.params)})")
         order = tuple(defaults) + tuple(k for k in self.params if k not in defaults)
-        return self._replace(name=name, source=source, doc=doc, params=order,
-                             defaults=FrozenMap({k: float(defaults.get(k, self.defaults[k])) for k in order}))
+        return self._replace(
+            name=name,
+            source=source,
+            doc=doc,
+            params=order,
+            defaults=FrozenMap({k: float(defaults.get(k, self.defaults[k])) for k in order}),
+        )
 
 
 def declared(params: Iterable[Param | str], defaults: Mapping[str, float] = FrozenMap()) -> tuple[tuple, FrozenMap]:
@@ -166,8 +183,15 @@ def declared(params: Iterable[Param | str], defaults: Mapping[str, float] = Froz
     return tuple(names), FrozenMap(values)
 
 
-def make_planner(name: str, source: str, doc: str, params: Iterable[Param | str], defaults: Mapping[str, float],
-                 rule: ph.Rule, **kw: Any) -> Planner:
+def make_planner(
+    name: str,
+    source: str,
+    doc: str,
+    params: Iterable[Param | str],
+    defaults: Mapping[str, float],
+    rule: ph.Rule,
+    **kw: Any,
+) -> Planner:
     """A :class:`Planner` from its functions. ``params``: :class:`~jaco.engine.params.Param`
     declarations (a new hyperparameter is declared right here) or names of declared parameters;
     ``defaults`` overrides theirs. ``heuristic`` defaults to η = 1/L_goal."""

@@ -134,24 +134,43 @@ def failure_hint(result: Result, *, cli: bool = False) -> str:
     toward the goal). ``cli``: name the ``jaco`` options instead of the keyword arguments."""
     if result.success:
         return ""
-    opt = {"steplimit": "--steplimit ", "variant": "--variant iaca", "n_ants": "--ants ", "n_iters": "--iters ",
-           "beta": "--param beta="} if cli else {
-           "steplimit": "steplimit=", "variant": "variant='iaca'", "n_ants": "n_ants=", "n_iters": "n_iters=",
-           "beta": "beta="}
+    opt = (
+        {
+            "steplimit": "--steplimit ",
+            "variant": "--variant iaca",
+            "n_ants": "--ants ",
+            "n_iters": "--iters ",
+            "beta": "--param beta=",
+        }
+        if cli
+        else {
+            "steplimit": "steplimit=",
+            "variant": "variant='iaca'",
+            "n_ants": "n_ants=",
+            "n_iters": "n_iters=",
+            "beta": "beta=",
+        }
+    )
     cell = result.grid.cell_size if result.grid is not None else 1.0
     steps = result.optimal / cell if math.isfinite(result.optimal) else 0.0  # the shortest path's length in cells
     tips = []
     if steps > 0.5 * result.steplimit:
-        tips.append(f"a larger step limit ({opt['steplimit']}{2 * result.steplimit}; it is {result.steplimit} and the "
-                    f"shortest path is {steps:.0f} cells long, so an ant that strays runs out of steps)")
+        tips.append(
+            f"a larger step limit ({opt['steplimit']}{2 * result.steplimit}; it is {result.steplimit} and the "
+            f"shortest path is {steps:.0f} cells long, so an ant that strays runs out of steps)"
+        )
     backtracks = result.variant == "iaca" or "backtrack" in result.variant
     if not backtracks:
-        tips.append(f"a backtracking planner ({opt['variant']}): {result.variant}'s ants die in dead ends, and maps "
-                    "of rooms, corridors and traps are full of them; IACA's ants step back instead")
+        tips.append(
+            f"a backtracking planner ({opt['variant']}): {result.variant}'s ants die in dead ends, and maps "
+            "of rooms, corridors and traps are full of them; IACA's ants step back instead"
+        )
     beta = result.params.get("beta")
     more_beta = f", currently {beta:g}" if beta is not None else ""
-    tips.append(f"more ants or iterations ({opt['n_ants']}{result.n_ants * 4}, {opt['n_iters']}{result.n_iters * 4}; "
-                f"now {result.n_ants} x {result.n_iters})")
+    tips.append(
+        f"more ants or iterations ({opt['n_ants']}{result.n_ants * 4}, {opt['n_iters']}{result.n_iters * 4}; "
+        f"now {result.n_ants} x {result.n_iters})"
+    )
     if beta is not None:
         tips.append(f"a larger beta, the pull toward the goal ({opt['beta']}{2 * beta:g}{more_beta})")
     listed = "; ".join(f"{i}. {t}" for i, t in enumerate(tips, 1))
@@ -165,8 +184,9 @@ def path_cells(grid: Grid, start: Any, best_cells: Any) -> np.ndarray:
     return np.stack(np.divmod(flat, grid.width), axis=1).astype(np.int64)
 
 
-def to_result(out: Any, *, grid: Grid, variant: Any, start: Any, goal: Any, optimal: Any, seed: int, params: dict,
-              shape: RunShape) -> Result:
+def to_result(
+    out: Any, *, grid: Grid, variant: Any, start: Any, goal: Any, optimal: Any, seed: int, params: dict, shape: RunShape
+) -> Result:
     """Convert one (unbatched) :class:`jaco.engine.run.RunOutput` of a run of ``shape`` to a
     :class:`Result`."""
     success = bool(np.isfinite(out.best_cost))

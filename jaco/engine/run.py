@@ -71,8 +71,15 @@ class _Best(NamedTuple):
     iteration: jax.Array
 
 
-def make_run(variant: Planner, *, n_ants: int, n_iters: int, steplimit: int, keep_pheromone: bool | str = False,
-             report: bool | str = False) -> Callable[[jax.Array, Problem, Params], RunOutput]:
+def make_run(
+    variant: Planner,
+    *,
+    n_ants: int,
+    n_iters: int,
+    steplimit: int,
+    keep_pheromone: bool | str = False,
+    report: bool | str = False,
+) -> Callable[[jax.Array, Problem, Params], RunOutput]:
     """Build ``run(key, problem, params) -> RunOutput`` for fixed shapes (not jitted here).
 
     ``keep_pheromone``: False (none), True (the final pheromone ``(M,)``) or ``"history"`` (the
@@ -180,16 +187,36 @@ def compiled_run(variant: Planner, shape: RunShape, batched: bool, report: bool 
     return cached(key + (("report",) if report and not batched else ()), build)
 
 
-def solve(grid: Grid, start: Any, goal: Any, variant: Planner, *, seed: int, n_ants: int, n_iters: int,
-          steplimit: int | None, connectivity: int, keep_pheromone: bool | str, progress: bool | None = None,
-          **params: Any) -> Result:
+def solve(
+    grid: Grid,
+    start: Any,
+    goal: Any,
+    variant: Planner,
+    *,
+    seed: int,
+    n_ants: int,
+    n_iters: int,
+    steplimit: int | None,
+    connectivity: int,
+    keep_pheromone: bool | str,
+    progress: bool | None = None,
+    **params: Any,
+) -> Result:
     """One run of ``variant`` from ``start`` to ``goal``: the body of :func:`jaco.solve` without
     waypoints (whose signature has the defaults). The call is validated by :func:`prepare` and
     :func:`~jaco.engine.problem.make_problem` (map, start, goal, reachability) before anything
     compiles. ``progress`` (:mod:`jaco.progress`): a bar of iterations once the call has taken
     :data:`jaco.progress.SOLVE_DELAY` seconds."""
-    steplimit, values = prepare(grid, variant, seed=seed, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,
-                                params=params, keep_pheromone=keep_pheromone)
+    steplimit, values = prepare(
+        grid,
+        variant,
+        seed=seed,
+        n_ants=n_ants,
+        n_iters=n_iters,
+        steplimit=steplimit,
+        params=params,
+        keep_pheromone=keep_pheromone,
+    )
     shape = RunShape(n_ants, n_iters, steplimit, connectivity, keep_pheromone)
     problem = make_problem(grid, start, goal, connectivity=connectivity)
     show = _progress.enabled(progress)
@@ -197,6 +224,17 @@ def solve(grid: Grid, start: Any, goal: Any, variant: Planner, *, seed: int, n_a
     bar.start(n_iters)
     with _progress.listening(bar):
         run = compiled_run(variant, shape, batched=False, report=show)
-        out = _progress.run_interruptibly(lambda: jax.device_get(run(jax.random.key(seed), problem, params_from(values))))
-    return to_result(out, grid=grid, variant=variant, start=start, goal=goal, optimal=problem.optimal, seed=seed,
-                     params=values, shape=shape)
+        out = _progress.run_interruptibly(
+            lambda: jax.device_get(run(jax.random.key(seed), problem, params_from(values)))
+        )
+    return to_result(
+        out,
+        grid=grid,
+        variant=variant,
+        start=start,
+        goal=goal,
+        optimal=problem.optimal,
+        seed=seed,
+        params=values,
+        shape=shape,
+    )

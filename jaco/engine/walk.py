@@ -91,7 +91,16 @@ def choose(w: jax.Array, u: jax.Array, q0: jax.Array | float, exploit: bool) -> 
     return k
 
 
-def walk(problem: Any, weights: jax.Array, key: jax.Array, q0: jax.Array | float, *, n_ants: int, steplimit: int, exploit: bool) -> Tours:
+def walk(
+    problem: Any,
+    weights: jax.Array,
+    key: jax.Array,
+    q0: jax.Array | float,
+    *,
+    n_ants: int,
+    steplimit: int,
+    exploit: bool,
+) -> Tours:
     """Walk ``n_ants`` ants from ``problem.start`` with move weights ``weights (N, 8)``.
 
     ``weights`` must be 0 exactly on the moves the map forbids and > 0 elsewhere; ``key`` is the
@@ -104,8 +113,18 @@ def walk(problem: Any, weights: jax.Array, key: jax.Array, q0: jax.Array | float
     return _tours(*native.dispatch(functools.partial(native.walk, **kw), functools.partial(jax_walk, **kw), *args))
 
 
-def jax_walk(weights: jax.Array, words: jax.Array, start: Any, goal: Any, q0: jax.Array | float, offsets: Any, *,
-             n_ants: int, steplimit: int, exploit: bool) -> tuple[jax.Array, ...]:
+def jax_walk(
+    weights: jax.Array,
+    words: jax.Array,
+    start: Any,
+    goal: Any,
+    q0: jax.Array | float,
+    offsets: Any,
+    *,
+    n_ants: int,
+    steplimit: int,
+    exploit: bool,
+) -> tuple[jax.Array, ...]:
     """The walk in JAX, every ant on its own lane until the last one stops.
 
     Returns ``moves (steplimit, A) int8`` and ``cells (steplimit, A) int32`` of every step (-1
@@ -144,7 +163,8 @@ def jax_walk(weights: jax.Array, words: jax.Array, start: Any, goal: Any, q0: ja
     moves = jnp.full((s_pad, n_ants), -1, jnp.int8)
     cells = jnp.full((s_pad, n_ants), -1, jnp.int32)
     _, (cur, visited, _, n_steps, n_diagonal), moves, cells = jax.lax.while_loop(
-        more, chunk, (jnp.int32(0), carry, moves, cells))
+        more, chunk, (jnp.int32(0), carry, moves, cells)
+    )
     return moves[:steplimit], cells[:steplimit], n_steps, n_diagonal, cur == goal, jnp.any(visited, axis=0)
 
 

@@ -30,7 +30,6 @@ Modules: :mod:`.files` (bundled data, shared file checks), the formats :mod:`.mo
 :mod:`.catalogue` (the named maps). This module is the public face: every name below.
 """
 
-
 from __future__ import annotations
 
 import os

@@ -80,7 +80,5 @@ def named(name: str) -> Grid:
     try:
         make = NAMED[name]
     except (KeyError, TypeError):
-        raise ProblemError(
-            f"unknown map name {name!r}; valid names: {', '.join(sorted(NAMED))}"
-        ) from None
+        raise ProblemError(f"unknown map name {name!r}; valid names: {', '.join(sorted(NAMED))}") from None
     return make()

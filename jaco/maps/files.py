@@ -56,6 +56,4 @@ def read_text(path: Path) -> str:
     try:
         return path.read_bytes().decode("utf-8")
     except UnicodeDecodeError as e:
-        raise MapFormatError(
-            f"{path.name} is not a text file (byte {e.start} is not UTF-8)"
-        ) from None
+        raise MapFormatError(f"{path.name} is not a text file (byte {e.start} is not UTF-8)") from None

@@ -38,7 +38,9 @@ def _pillow(path: Path) -> tuple[np.ndarray, str]:
             # Pillow's decompression-bomb limit (about 89 million pixels), checked before decoding
             w, h, limit = *img.size, Image.MAX_IMAGE_PIXELS
             if limit is not None and w * h > limit:
-                raise Image.DecompressionBombError(f"{w}x{h} = {w * h} pixels, more than PIL.Image.MAX_IMAGE_PIXELS = {limit}")
+                raise Image.DecompressionBombError(
+                    f"{w}x{h} = {w * h} pixels, more than PIL.Image.MAX_IMAGE_PIXELS = {limit}"
+                )
             img.load()
             if img.mode == "P":
                 img = img.convert("RGBA" if "transparency" in img.info else "RGB")
@@ -59,8 +61,7 @@ def _pnm_header(data: bytes, fname: str) -> tuple[bytes, int, int, int, int]:
     magic = data[:2]
     if magic not in _PNM_CHANNELS:
         raise MapFormatError(
-            f"{fname}: bad PGM magic number {magic!r}; expected b'P5' (binary) or b'P2' (ascii) "
-            f"(or P6/P3 colour)"
+            f"{fname}: bad PGM magic number {magic!r}; expected b'P5' (binary) or b'P2' (ascii) (or P6/P3 colour)"
         )
     # Three integers (width, height, maxval) separated by whitespace and/or comments.
     pos, fields = 2, list[int]()
@@ -106,8 +107,7 @@ def _pnm_raster(data: bytes, fname: str) -> np.ndarray:
         raster = data[pos : pos + n * bps]
         if len(raster) < n * bps:
             raise MapFormatError(
-                f"{fname}: truncated PGM pixel data: {w}x{h} needs {n * bps} bytes, "
-                f"found {len(raster)}"
+                f"{fname}: truncated PGM pixel data: {w}x{h} needs {n * bps} bytes, found {len(raster)}"
             )
         values = np.frombuffer(raster, dtype=np.uint8 if bps == 1 else ">u2").astype(np.int64)
     else:
@@ -166,9 +166,7 @@ def grey(pixels: np.ndarray, has_alpha: bool) -> np.ndarray:
     return pixels[..., :-1].mean(axis=2) if has_alpha else pixels.mean(axis=2)
 
 
-def load_image(
-    path: Path, *, threshold: float = 0.5, negate: bool = False, cell_size: float = 1.0
-) -> Grid:
+def load_image(path: Path, *, threshold: float = 0.5, negate: bool = False, cell_size: float = 1.0) -> Grid:
     """An image as a map: free where ``brightness / maxval > threshold`` (``negate``: darkness)."""
     if isinstance(threshold, bool) or not isinstance(threshold, (int, float)) or not 0.0 <= threshold < 1.0:
         raise MapFormatError(f"threshold must be a number in [0, 1), got {threshold!r}")

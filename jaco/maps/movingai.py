@@ -34,9 +34,7 @@ def load_movingai(path: Path, *, cell_size: float = 1.0) -> Grid:
 
     def header_line(i: int, expect: str) -> list[str]:
         if i >= len(lines) or (i == len(lines) - 1 and lines[i] == ""):
-            raise MapFormatError(
-                f"{fname} line {i + 1}: expected {expect}, found end of file (truncated header)"
-            )
+            raise MapFormatError(f"{fname} line {i + 1}: expected {expect}, found end of file (truncated header)")
         return lines[i].split()
 
     words = header_line(0, "'type octile'")
@@ -53,13 +51,9 @@ def load_movingai(path: Path, *, cell_size: float = 1.0) -> Grid:
         try:
             value = int(words[1])
         except ValueError:
-            raise MapFormatError(
-                f"{fname} line {i + 1}: {words[0]} must be an integer, found {words[1]!r}"
-            ) from None
+            raise MapFormatError(f"{fname} line {i + 1}: {words[0]} must be an integer, found {words[1]!r}") from None
         if value < 1:
-            raise MapFormatError(
-                f"{fname} line {i + 1}: {words[0]} must be positive, found {value}"
-            )
+            raise MapFormatError(f"{fname} line {i + 1}: {words[0]} must be positive, found {value}")
         sizes[words[0]] = value
     words = header_line(3, "'map'")
     if words != ["map"]:
@@ -71,21 +65,16 @@ def load_movingai(path: Path, *, cell_size: float = 1.0) -> Grid:
         rows.pop()
     if len(rows) != h:
         raise MapFormatError(
-            f"{fname}: header says height {h} but {len(rows)} map rows follow "
-            f"(lines 5..{4 + len(rows)})"
+            f"{fname}: header says height {h} but {len(rows)} map rows follow (lines 5..{4 + len(rows)})"
         )
     for r, row in enumerate(rows):
         if len(row) != w:
-            raise MapFormatError(
-                f"{fname} line {5 + r}: row {r} has {len(row)} cells, header says width {w}"
-            )
+            raise MapFormatError(f"{fname} line {5 + r}: row {r} has {len(row)} cells, header says width {w}")
     try:
         raw = np.frombuffer("".join(rows).encode("ascii"), dtype=np.uint8).reshape(h, w)
     except UnicodeEncodeError as e:
         r, c = divmod(e.start, w)
-        raise MapFormatError(
-            f"{fname} line {5 + r} column {c + 1}: unknown map symbol {rows[r][c]!r}"
-        ) from None
+        raise MapFormatError(f"{fname} line {5 + r} column {c + 1}: unknown map symbol {rows[r][c]!r}") from None
     lut = np.full(256, -1, dtype=np.int8)
     lut[np.frombuffer(MOVINGAI_PASSABLE.encode(), np.uint8)] = 1
     lut[np.frombuffer(MOVINGAI_BLOCKED.encode(), np.uint8)] = 0
@@ -152,28 +141,20 @@ def load_scenarios(path: str | os.PathLike) -> list[Scenario]:
                 f"found {len(line.split(chr(9)))}"
             )
         try:
-            bucket, width, height, sx, sy, gx, gy = (
-                int(cols[k]) for k in (0, 2, 3, 4, 5, 6, 7)
-            )
+            bucket, width, height, sx, sy, gx, gy = (int(cols[k]) for k in (0, 2, 3, 4, 5, 6, 7))
             optimal = float(cols[8])
         except ValueError:
             raise MapFormatError(
-                f"{fname} line {i}: columns 1 and 3-8 must be integers and column 9 a number, "
-                f"found {line!r}"
+                f"{fname} line {i}: columns 1 and 3-8 must be integers and column 9 a number, found {line!r}"
             ) from None
         if not math.isfinite(optimal) or optimal < 0:
-            raise MapFormatError(
-                f"{fname} line {i}: optimal length must be a number >= 0, found {cols[8]!r}"
-            )
+            raise MapFormatError(f"{fname} line {i}: optimal length must be a number >= 0, found {cols[8]!r}")
         for what, x, y in (("start", sx, sy), ("goal", gx, gy)):
             if not (0 <= x < width and 0 <= y < height):
                 raise MapFormatError(
-                    f"{fname} line {i}: {what} x={x}, y={y} is outside the declared "
-                    f"{width}x{height} map"
+                    f"{fname} line {i}: {what} x={x}, y={y} is outside the declared {width}x{height} map"
                 )
-        out.append(
-            Scenario(bucket, cols[1].strip(), width, height, (sy, sx), (gy, gx), optimal, len(out))
-        )
+        out.append(Scenario(bucket, cols[1].strip(), width, height, (sy, sx), (gy, gx), optimal, len(out)))
     return out
 
 
@@ -188,7 +169,9 @@ def _bounds(value, what: str, cast) -> tuple:
     try:
         lo, hi = (None if v is None else cast(v) for v in (lo, hi))
     except (TypeError, ValueError):
-        raise JacoError(f"{what} must be a number or a (low, high) pair with None for an open end, got {value!r}") from None
+        raise JacoError(
+            f"{what} must be a number or a (low, high) pair with None for an open end, got {value!r}"
+        ) from None
     if lo is not None and hi is not None and lo > hi:
         raise JacoError(f"{what}: low {lo} is above high {hi}")
     return lo, hi
@@ -198,8 +181,14 @@ def _within(x, lo, hi) -> bool:
     return (lo is None or x >= lo) and (hi is None or x <= hi)
 
 
-def select_scenarios(scenarios: list[Scenario] | tuple[Scenario, ...] | str | os.PathLike, *, index: Any = None, bucket: Any = None, optimal: Any = None,
-                     count: int | None = None) -> list[Scenario]:
+def select_scenarios(
+    scenarios: list[Scenario] | tuple[Scenario, ...] | str | os.PathLike,
+    *,
+    index: Any = None,
+    bucket: Any = None,
+    optimal: Any = None,
+    count: int | None = None,
+) -> list[Scenario]:
     """The scenarios (of :func:`load_scenarios`, or a ``.scen`` path) that a sweep should run.
 
     ``index``: an int or a list of ints, positions in the file (``Scenario.index``), in the order
@@ -228,8 +217,9 @@ def select_scenarios(scenarios: list[Scenario] | tuple[Scenario, ...] | str | os
             if isinstance(k, bool) or not isinstance(k, (int, np.integer)):
                 raise JacoError(f"index must be an int or a list of ints, got {k!r}")
             if k not in by_index:
-                raise JacoError(f"index {k} is out of range: there are {len(picked)} scenarios "
-                                f"({min(by_index)}..{max(by_index)})")
+                raise JacoError(
+                    f"index {k} is out of range: there are {len(picked)} scenarios ({min(by_index)}..{max(by_index)})"
+                )
         picked = [by_index[int(k)] for k in dict.fromkeys(wanted)]
     filters = []
     if bucket is not None:
@@ -243,8 +233,10 @@ def select_scenarios(scenarios: list[Scenario] | tuple[Scenario, ...] | str | os
         said = " and ".join(f"{k} {'' if lo is None else lo}..{'' if hi is None else hi}" for k, lo, hi in filters)
         buckets = [s.bucket for s in picked]
         lengths = [s.optimal for s in picked]
-        raise JacoError(f"no scenario has {said}: the {len(picked)} scenarios have buckets {min(buckets)}..{max(buckets)} "
-                        f"and optimal lengths {min(lengths):.4g}..{max(lengths):.4g}")
+        raise JacoError(
+            f"no scenario has {said}: the {len(picked)} scenarios have buckets {min(buckets)}..{max(buckets)} "
+            f"and optimal lengths {min(lengths):.4g}..{max(lengths):.4g}"
+        )
     if count is not None:
         if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
             raise JacoError(f"count must be a positive integer, got {count!r}")

@@ -41,21 +41,16 @@ def load_ros(path: Path, *, negate: bool | None = None, cell_size: float = 1.0) 
     except yaml.YAMLError as e:
         raise MapFormatError(f"{fname}: not valid YAML ({e})") from None
     if not isinstance(doc, dict):
-        raise MapFormatError(
-            f"{fname}: a ROS map yaml must be a mapping of keys, got {type(doc).__name__}"
-        )
+        raise MapFormatError(f"{fname}: a ROS map yaml must be a mapping of keys, got {type(doc).__name__}")
     required = ("image", "resolution", "origin", "occupied_thresh", "free_thresh")
     missing = [k for k in required if k not in doc]
     if missing:
-        raise MapFormatError(
-            f"{fname}: missing key(s) {', '.join(missing)} (required: {', '.join(required)})"
-        )
+        raise MapFormatError(f"{fname}: missing key(s) {', '.join(missing)} (required: {', '.join(required)})")
 
     res = _yaml_number(doc["resolution"], fname, "resolution")
     if not math.isfinite(res) or res <= 0:
         raise MapFormatError(
-            f"{fname}: resolution must be a positive number of metres per cell, "
-            f"got {doc['resolution']!r}"
+            f"{fname}: resolution must be a positive number of metres per cell, got {doc['resolution']!r}"
         )
     origin = doc["origin"]
     if not isinstance(origin, (list, tuple)) or len(origin) != 3:
@@ -69,18 +64,14 @@ def load_ros(path: Path, *, negate: bool | None = None, cell_size: float = 1.0) 
         if not 0.0 <= th <= 1.0:
             raise MapFormatError(f"{fname}: {key} must be in [0, 1], got {th}")
     if free_th >= occ_th:
-        raise MapFormatError(
-            f"{fname}: free_thresh ({free_th}) must be below occupied_thresh ({occ_th})"
-        )
+        raise MapFormatError(f"{fname}: free_thresh ({free_th}) must be below occupied_thresh ({occ_th})")
     yaml_negate = doc.get("negate", 0)
     if yaml_negate not in (0, 1, True, False):
         raise MapFormatError(f"{fname}: negate must be 0 or 1, got {yaml_negate!r}")
     neg = bool(yaml_negate) if negate is None else bool(negate)
     mode = str(doc.get("mode", "trinary")).lower()
     if mode not in _ROS_MODES:
-        raise MapFormatError(
-            f"{fname}: unknown mode {doc['mode']!r}; use one of {', '.join(_ROS_MODES)}"
-        )
+        raise MapFormatError(f"{fname}: unknown mode {doc['mode']!r}; use one of {', '.join(_ROS_MODES)}")
 
     image = doc["image"]
     if not isinstance(image, str) or not image:
@@ -111,9 +102,7 @@ def load_ros(path: Path, *, negate: bool | None = None, cell_size: float = 1.0) 
         "free_thresh": free_th,
         "occupancy": occ,
     }
-    return Grid(
-        occ == 0, name=path.stem, cell_size=cell_size, resolution=res, origin=origin, meta=meta
-    )
+    return Grid(occ == 0, name=path.stem, cell_size=cell_size, resolution=res, origin=origin, meta=meta)
 
 
 def _yaml_number(v, fname: str, key: str) -> float:

@@ -38,9 +38,7 @@ def load_npy(path: Path, *, cell_size: float = 1.0) -> Grid:
     except (ValueError, OSError, EOFError) as e:
         raise MapFormatError(f"{path.name}: not a readable .npy array ({e})") from None
     if arr.ndim != 2 or arr.size == 0:
-        raise MapFormatError(
-            f"{path.name}: a map array must be 2-D and non-empty, got shape {arr.shape}"
-        )
+        raise MapFormatError(f"{path.name}: a map array must be 2-D and non-empty, got shape {arr.shape}")
     if arr.dtype != np.bool_:
         if arr.dtype.kind not in "iu" or not np.isin(arr, (0, 1)).all():
             raise MapFormatError(

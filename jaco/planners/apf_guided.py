@@ -102,18 +102,40 @@ _TINY = float(np.finfo(np.float32).tiny)
 
 def _no_double(chosen) -> str | None:
     if chosen["construct"] == "double":
-        return (f"construct 'double' walks a second colony from the goal to the start, but the "
-                f"'{chosen['heuristic']}' table holds distances to the goal only")
+        return (
+            f"construct 'double' walks a second colony from the goal to the start, but the "
+            f"'{chosen['heuristic']}' table holds distances to the goal only"
+        )
     return None
 
 
-component("heuristic", "apf", heuristic=_heuristic(apf_distance), factor=apf_factor, rule=apf_table(apf_distance),
-          params=(BETA.with_default(20.0),), why_not=_no_double, source="Dong & Zhao 2021 eqs. 4, 5, 10")
-component("heuristic", "pf", heuristic=_heuristic(classic_distance), factor=apf_factor, rule=apf_table(classic_distance),
-          params=(BETA.with_default(20.0), K_REP_PARAM, D0_PARAM), why_not=_no_double, source="classic APF (Khatib)")
-component("rule", "apf", rule=ph.chain(ph.init_constant(), ph.evaporate(), deposit_best_half()),
-          params=(ALPHA.with_default(2.0), ph.RHO.with_default(0.3), ph.Q.with_default(1.0), ph.TAU0.with_default(1.0)),
-          source="Dong & Zhao 2021 eqs. 11, 12")
+component(
+    "heuristic",
+    "apf",
+    heuristic=_heuristic(apf_distance),
+    factor=apf_factor,
+    rule=apf_table(apf_distance),
+    params=(BETA.with_default(20.0),),
+    why_not=_no_double,
+    source="Dong & Zhao 2021 eqs. 4, 5, 10",
+)
+component(
+    "heuristic",
+    "pf",
+    heuristic=_heuristic(classic_distance),
+    factor=apf_factor,
+    rule=apf_table(classic_distance),
+    params=(BETA.with_default(20.0), K_REP_PARAM, D0_PARAM),
+    why_not=_no_double,
+    source="classic APF (Khatib)",
+)
+component(
+    "rule",
+    "apf",
+    rule=ph.chain(ph.init_constant(), ph.evaporate(), deposit_best_half()),
+    params=(ALPHA.with_default(2.0), ph.RHO.with_default(0.3), ph.Q.with_default(1.0), ph.TAU0.with_default(1.0)),
+    source="Dong & Zhao 2021 eqs. 11, 12",
+)
 
 #: The paper prints α = 2, β = 6, ρ = 0.7, Q = 1 (``PAPER_PARAMS``). The defaults move β to 20 and
 #: ρ to 0.3: with β = 6 no ant of 50 × 100 ever reached the goal on two dense 30 % maps and the
@@ -143,7 +165,9 @@ PF_ACO = compose(heuristic="pf", rule="apf").named(
     "artificial potential field, U = ½ρ_g² + ½k_rep(1/d − 1/d0)² within d0 (descent to the lowest "
     "neighbour; Euclidean where it ends in a local minimum). Everything else as apf-aco "
     "(eqs. 6, 10, 11, 12). Interpretations: jaco.apf and docs/planners.md (APF-ACO).",
-    **_APF_DEFAULTS, k_rep=K_REP_PARAM.default, d0=D0_PARAM.default,
+    **_APF_DEFAULTS,
+    k_rep=K_REP_PARAM.default,
+    d0=D0_PARAM.default,
 )
 
 PLANNERS = (APF_ACO, PF_ACO)

@@ -92,7 +92,9 @@ def selection(problem: Any) -> jax.Array:
     return free_share(problem) * angle_share(problem)
 
 
-def selection_factor(variant: Planner, trail: ph.Trail, problem: Any, params: Params, t: Any, n_iters: int) -> jax.Array:
+def selection_factor(
+    variant: Planner, trail: ph.Trail, problem: Any, params: Params, t: Any, n_iters: int
+) -> jax.Array:
     """The factor of transition rule (11) besides τ^α, in log space: ``β·log η + γ·log(P_free·P_θ)``
     ``(N, 8)``.
 
@@ -186,11 +188,28 @@ def deposit_at_or_below_mean() -> ph.Rule:
     return ph.deposit_all(at_or_below_mean_cycle)
 
 
-component("heuristic", "chaos", heuristic=heuristics.inverse_goal_distance, factor=selection_factor,
-          params=(BETA.with_default(8.0), GAMMA), source="Xi'an Technological University, rule (11)")
-component("rule", "chaos", rule=ph.chain(ph.init_constant(), chaos_perturb(), ph.evaporate(), deposit_at_or_below_mean()),
-          params=(ALPHA.with_default(1.0), ph.RHO.with_default(0.3), ph.Q.with_default(1.0), ph.TAU0.with_default(0.1),
-                  CHAOS_ITERS, CHAOS_MU), source="Xi'an Technological University, updates (14), (15)")
+component(
+    "heuristic",
+    "chaos",
+    heuristic=heuristics.inverse_goal_distance,
+    factor=selection_factor,
+    params=(BETA.with_default(8.0), GAMMA),
+    source="Xi'an Technological University, rule (11)",
+)
+component(
+    "rule",
+    "chaos",
+    rule=ph.chain(ph.init_constant(), chaos_perturb(), ph.evaporate(), deposit_at_or_below_mean()),
+    params=(
+        ALPHA.with_default(1.0),
+        ph.RHO.with_default(0.3),
+        ph.Q.with_default(1.0),
+        ph.TAU0.with_default(0.1),
+        CHAOS_ITERS,
+        CHAOS_MU,
+    ),
+    source="Xi'an Technological University, updates (14), (15)",
+)
 
 CHAOS_ACO = compose(heuristic="chaos", rule="chaos").named(
     "chaos-aco",
@@ -201,7 +220,14 @@ CHAOS_ACO = compose(heuristic="chaos", rule="chaos").named(
     "of the Logistic map (μ = 4) between the smallest and largest pheromone on those paths, then "
     "τ ← (1−ρ)τ + Σ Q/L_k over the paths at or below the mean. η = 1/(distance to the goal) "
     "(thesis eq. 3-7) as for the classic variants; pheromone on moves (τ_ij). See docs/planners.md.",
-    alpha=1.0, beta=8.0, rho=0.3, q=1.0, tau0=0.1, gamma=4.0, chaos_iters=10.0, chaos_mu=4.0,
+    alpha=1.0,
+    beta=8.0,
+    rho=0.3,
+    q=1.0,
+    tau0=0.1,
+    gamma=4.0,
+    chaos_iters=10.0,
+    chaos_mu=4.0,
 )
 
 PLANNERS = (CHAOS_ACO,)

@@ -95,8 +95,17 @@ _CACHE: dict = {}  # compositions by their arguments
 COMPONENTS: dict[str, dict[str, Component]] = {kind: {} for kind in KINDS}
 
 
-def component(kind: str, name: str, *, source: str, params: tuple = (), pheromone_on: str | None = None,
-              fixes: tuple = (), why_not: Callable | None = None, **parts: Any) -> Component:
+def component(
+    kind: str,
+    name: str,
+    *,
+    source: str,
+    params: tuple = (),
+    pheromone_on: str | None = None,
+    fixes: tuple = (),
+    why_not: Callable | None = None,
+    **parts: Any,
+) -> Component:
     """Declare a component of ``kind`` under ``name`` (a module that defines a new heuristic, rule,
     construct step, transition, schedule or cost calls this once, at import), so that
     :func:`compose` finds it by name; returns it. ``params``: the
@@ -117,19 +126,47 @@ def component(kind: str, name: str, *, source: str, params: tuple = (), pheromon
 
 # -- the engine's own components ---------------------------------------------------------------
 component("construct", "dying", construct=single_colony, source="thesis ch. 2: ants die at dead ends")
-component("heuristic", "distance", heuristic=heuristics.inverse_goal_distance, factor=eta_factor,
-          params=(BETA.with_default(4.0),), source="thesis eq. 3-7")
-component("heuristic", "step", heuristic=heuristics.inverse_step, factor=eta_factor,
-          params=(BETA.with_default(1.0),), source="thesis eq. 2-1")
+component(
+    "heuristic",
+    "distance",
+    heuristic=heuristics.inverse_goal_distance,
+    factor=eta_factor,
+    params=(BETA.with_default(4.0),),
+    source="thesis eq. 3-7",
+)
+component(
+    "heuristic",
+    "step",
+    heuristic=heuristics.inverse_step,
+    factor=eta_factor,
+    params=(BETA.with_default(1.0),),
+    source="thesis eq. 2-1",
+)
 component("transition", "roulette", transition="roulette", source="thesis eq. 2-1")
-component("transition", "q0", transition="pseudo-random", params=(Q0.with_default(0.8),),
-          source="Dorigo & Gambardella 1997, thesis 2-14")
+component(
+    "transition",
+    "q0",
+    transition="pseudo-random",
+    params=(Q0.with_default(0.8),),
+    source="Dorigo & Gambardella 1997, thesis 2-14",
+)
 component("schedule", "constant", schedule=constant, source="no schedule")
-component("schedule", "idaca", schedule=sch.idaca, params=sch.IDACA_PARAMS, fixes=("alpha", "beta"),
-          source="thesis eqs. 3-8..3-10")
+component(
+    "schedule",
+    "idaca",
+    schedule=sch.idaca,
+    params=sch.IDACA_PARAMS,
+    fixes=("alpha", "beta"),
+    source="thesis eqs. 3-8..3-10",
+)
 component("cost", "length", cost=costs.path_length, source="path length")
-component("cost", "multi", cost=costs.multi_objective, params=costs.MULTI_PARAMS,
-          source="Miao et al. 2021: J = kL·L + kS·S + kE·E")
+component(
+    "cost",
+    "multi",
+    cost=costs.multi_objective,
+    params=costs.MULTI_PARAMS,
+    source="Miao et al. 2021: J = kL·L + kS·S + kE·E",
+)
 
 #: The local searches (``compose(..., local_search=...)``, ``"<planner>+<local search>"``): beyond the
 #: sources, none of them is part of a published planner. Each is a ``Planner.local_search`` with
@@ -141,7 +178,7 @@ LOCAL_SEARCHES: dict = {
 #: Each local search's source, in a few words.
 LOCAL_SEARCH_SOURCES = {
     "shortcut": f"octile shortcut of the {ls.BEST} best paths of each iteration, window {ls.WINDOW}, at most "
-                f"{ls.PASSES} passes, before the pheromone update (daemon action, Dorigo & Stützle 2004)",
+    f"{ls.PASSES} passes, before the pheromone update (daemon action, Dorigo & Stützle 2004)",
 }
 _NAME = re.compile(r"^compose\((.*)\)$")
 
@@ -152,7 +189,6 @@ def _check(kind, value) -> str:
     return value
 
 
-
 def default_transition(rule: str) -> str:
     """The transition a rule brings when :func:`compose` is given none (its component's
     ``transition`` part: ``q0`` for ``acs`` and ``iaca``, ``adaptive-q0`` for ``iaaco``), else
@@ -161,8 +197,15 @@ def default_transition(rule: str) -> str:
     return r.parts.get("default_transition", "roulette") if r is not None else "roulette"
 
 
-def compose(construct: str = "dying", heuristic: str = "distance", rule: str = "as", transition: str | None = None,
-            schedule: str = "constant", cost: str = "length", local_search: str = "none") -> Planner:
+def compose(
+    construct: str = "dying",
+    heuristic: str = "distance",
+    rule: str = "as",
+    transition: str | None = None,
+    schedule: str = "constant",
+    cost: str = "length",
+    local_search: str = "none",
+) -> Planner:
     """A planner made of one component of each kind (the module docstring lists them).
 
     ``transition=None`` takes the rule's own: ``q0`` for ``acs`` and ``iaca``, ``adaptive-q0`` for
@@ -195,9 +238,13 @@ def _searching(base: Planner, local_search: str) -> Planner:
     """``base`` (a composition) with a local search: its name gets ``local_search=...``."""
     source = f"{base.source}; local_search {local_search}: {LOCAL_SEARCH_SOURCES[local_search]}"
     name = base.name[:-1] + f", local_search={local_search})"
-    return base._replace(name=name, composition=name, source=source,
-                         doc=f"{base.doc} Local search: {LOCAL_SEARCH_SOURCES[local_search]}.",
-                         local_search=LOCAL_SEARCHES[local_search])
+    return base._replace(
+        name=name,
+        composition=name,
+        source=source,
+        doc=f"{base.doc} Local search: {LOCAL_SEARCH_SOURCES[local_search]}.",
+        local_search=LOCAL_SEARCHES[local_search],
+    )
 
 
 def _build(c: dict) -> Planner:
@@ -228,9 +275,11 @@ def _build(c: dict) -> Planner:
     name = "compose(" + ", ".join(f"{k}={c[k]}" for k in KINDS) + ")"
     source = "; ".join(f"{kind} {c[kind]}: {p.source}" for kind, p in pieces.items())
     cells = "cells" in layouts
-    doc = (f"A composition: {c['construct']} construct, {c['heuristic']} heuristic, the {c['rule']} pheromone "
-           f"rule, {c['transition']} transition, {c['schedule']} schedule, {c['cost']} cost (jaco.compose). "
-           f"Pheromone on {'cells' if cells else 'moves'}. Sources: {source}.")
+    doc = (
+        f"A composition: {c['construct']} construct, {c['heuristic']} heuristic, the {c['rule']} pheromone "
+        f"rule, {c['transition']} transition, {c['schedule']} schedule, {c['cost']} cost (jaco.compose). "
+        f"Pheromone on {'cells' if cells else 'moves'}. Sources: {source}."
+    )
     return Planner(
         name=name,
         source=source,
@@ -255,7 +304,8 @@ def parse(name: str) -> Planner | None:
         kind, _, value = part.partition("=")
         kind, value = kind.strip(), value.strip()
         if kind not in KINDS + ("local_search",) or not value:
-            raise JacoError(f"cannot read {name!r}: expected compose(kind=value, ...) with kinds "
-                            f"{', '.join(KINDS)}, local_search")
+            raise JacoError(
+                f"cannot read {name!r}: expected compose(kind=value, ...) with kinds {', '.join(KINDS)}, local_search"
+            )
         kw[kind] = value
     return compose(**kw)

@@ -31,9 +31,7 @@ if TYPE_CHECKING:
 SQRT2 = np.float32(np.sqrt(2.0))
 
 #: ``OPPOSITE[k]``: the move that undoes move k (moves are symmetric, corner rule included).
-OPPOSITE = np.array(
-    [int(np.flatnonzero((MOVES == -m).all(axis=1))[0]) for m in MOVES], dtype=np.int32
-)
+OPPOSITE = np.array([int(np.flatnonzero((MOVES == -m).all(axis=1))[0]) for m in MOVES], dtype=np.int32)
 
 #: Population indices of :attr:`Crossed.population`.
 COLONY1, COLONY2, SPLICED = 0, 1, 2
@@ -71,8 +69,9 @@ def distance_along(moves: jax.Array) -> jax.Array:
     return jnp.where(on, straight.astype(jnp.float32) + SQRT2 * diagonal.astype(jnp.float32), jnp.inf)
 
 
-def crossover(cells1: jax.Array, moves1: jax.Array, cells2: jax.Array, moves2: jax.Array, start: Any, goal: Any,
-              n_cells: int) -> Splice:
+def crossover(
+    cells1: jax.Array, moves1: jax.Array, cells2: jax.Array, moves2: jax.Array, start: Any, goal: Any, n_cells: int
+) -> Splice:
     """Complete crossover of two colonies' walks (Sun et al. 2008, the thesis's ref. 58;
     docs/algorithms.md §3).
 
@@ -114,8 +113,17 @@ def crossover(cells1: jax.Array, moves1: jax.Array, cells2: jax.Array, moves2: j
     return Splice(jnp.where(ok, partner, 0), jnp.where(ok, s1, 0), jnp.where(ok, s2, 0), length)
 
 
-def assemble(cells1: jax.Array, moves1: jax.Array, a: jax.Array, s1: jax.Array, cells2: jax.Array, moves2: jax.Array,
-             b: jax.Array, s2: jax.Array, goal: Any) -> tuple[jax.Array, jax.Array]:
+def assemble(
+    cells1: jax.Array,
+    moves1: jax.Array,
+    a: jax.Array,
+    s1: jax.Array,
+    cells2: jax.Array,
+    moves2: jax.Array,
+    b: jax.Array,
+    s2: jax.Array,
+    goal: Any,
+) -> tuple[jax.Array, jax.Array]:
     """Paths ``(2S, C)`` made of the first ``s1[c]`` steps of colony-1 walk ``a[c]`` followed by
     the first ``s2[c]`` steps of colony-2 walk ``b[c]`` run backwards (ending on the goal).
 
@@ -179,8 +187,18 @@ class Crossed(NamedTuple):
     population: jax.Array  # the chosen one: COLONY1, COLONY2 or SPLICED
 
 
-def double_walk(variant: Planner, problem: Any, trail: ph.Trail, params: Params, t: Any, n_iters: int, key: jax.Array, *, n_ants: int,
-                steplimit: int) -> Crossed:
+def double_walk(
+    variant: Planner,
+    problem: Any,
+    trail: ph.Trail,
+    params: Params,
+    t: Any,
+    n_iters: int,
+    key: jax.Array,
+    *,
+    n_ants: int,
+    steplimit: int,
+) -> Crossed:
     """Walk both colonies, cross them over and cost the three populations.
 
     Colony 2 walks the problem with start and goal swapped, so a heuristic must read the goal
@@ -191,7 +209,9 @@ def double_walk(variant: Planner, problem: Any, trail: ph.Trail, params: Params,
     def colony(start, goal, k):
         prob = dataclasses.replace(problem, start=start, goal=goal)
         weights = move_weights(variant, trail, prob, params, t, n_iters)
-        return walk(prob, weights, k, params.q0 if exploit else 0.0, n_ants=n_ants, steplimit=steplimit, exploit=exploit)
+        return walk(
+            prob, weights, k, params.q0 if exploit else 0.0, n_ants=n_ants, steplimit=steplimit, exploit=exploit
+        )
 
     # Both colonies in one vmapped walk (one loop, one compiled body): colony 1 start → goal,
     # colony 2 goal → start, each with its own key and its heuristic toward its own goal.
@@ -220,8 +240,18 @@ def double_walk(variant: Planner, problem: Any, trail: ph.Trail, params: Params,
     return Crossed(tours1, tours2, sp, cand, cost, best_population(cost))
 
 
-def double_colony(variant: Planner, problem: Any, trail: ph.Trail, params: Params, t: Any, n_iters: int, key: jax.Array, *,
-                  n_ants: int, steplimit: int) -> tuple[ph.Trail, Colony]:
+def double_colony(
+    variant: Planner,
+    problem: Any,
+    trail: ph.Trail,
+    params: Params,
+    t: Any,
+    n_iters: int,
+    key: jax.Array,
+    *,
+    n_ants: int,
+    steplimit: int,
+) -> tuple[ph.Trail, Colony]:
     """Construct step of a double colony with complete crossover (thesis 3.5, Steps 2–4).
 
     ``n_ants`` ants per colony (2·n_ants walks per iteration). Returns the candidates of the best
@@ -275,13 +305,28 @@ _DOUBLE_NOTE = (
 )
 
 component("construct", "double", construct=double_colony, source="thesis ch. 3: two colonies, crossover")
-component("rule", "daca", rule=daca_rule(), pheromone_on="cells",
-          params=(ALPHA.with_default(1.0), ph.RHO.with_default(0.6), ph.Q.with_default(10.0), ph.TAU0.with_default(0.1)),
-          source="Sun, Lin, Lou et al. 2008 (thesis ref. 58); thesis eqs. 3-4..3-6")
-component("rule", "idaca", rule=idaca_rule(), pheromone_on="cells",
-          params=(ALPHA.with_default(1.0), ph.RHO.with_default(0.7), ph.Q.with_default(20.0),
-                  ph.TAU_MIN.with_default(0.01), ph.TAU_MAX.with_default(20.0)),
-          source="Hua Lu 2011 thesis 3.4.2, 3.5")
+component(
+    "rule",
+    "daca",
+    rule=daca_rule(),
+    pheromone_on="cells",
+    params=(ALPHA.with_default(1.0), ph.RHO.with_default(0.6), ph.Q.with_default(10.0), ph.TAU0.with_default(0.1)),
+    source="Sun, Lin, Lou et al. 2008 (thesis ref. 58); thesis eqs. 3-4..3-6",
+)
+component(
+    "rule",
+    "idaca",
+    rule=idaca_rule(),
+    pheromone_on="cells",
+    params=(
+        ALPHA.with_default(1.0),
+        ph.RHO.with_default(0.7),
+        ph.Q.with_default(20.0),
+        ph.TAU_MIN.with_default(0.01),
+        ph.TAU_MAX.with_default(20.0),
+    ),
+    source="Hua Lu 2011 thesis 3.4.2, 3.5",
+)
 
 IDACA = compose(construct="double", rule="idaca", schedule="idaca").named(
     "idaca",
@@ -291,8 +336,18 @@ IDACA = compose(construct="double", rule="idaca", schedule="idaca").named(
     "break_iter then plateau (eqs. 3-8, 3-9); ρ decays as ρ0·a^(−i(i−1)/(2Nc)) down to ρmin "
     "(eq. 3-10); MMAS-style update of 3.4.2: τ initialised to τmax, every feasible candidate of the "
     "best population deposits, τ ← (1−ρ)τ + ρ·Σ Q/L_k, clamped to [τmin, τmax]." + _DOUBLE_NOTE,
-    alpha_slope=0.03, alpha_end=2.5, beta_start=3.0, beta_slope=0.015, beta_end=2.0, break_iter=83.0,
-    rho=0.7, rho_min=0.3, rho_decay=2.0, q=20.0, tau_min=0.01, tau_max=20.0,
+    alpha_slope=0.03,
+    alpha_end=2.5,
+    beta_start=3.0,
+    beta_slope=0.015,
+    beta_end=2.0,
+    break_iter=83.0,
+    rho=0.7,
+    rho_min=0.3,
+    rho_decay=2.0,
+    q=20.0,
+    tau_min=0.01,
+    tau_max=20.0,
 )
 
 DACA = compose(construct="double", heuristic="step", rule="daca").named(
@@ -302,7 +357,11 @@ DACA = compose(construct="double", heuristic="step", rule="daca").named(
     "baseline for IDACA. Classic heuristic η = 1/d_ij (eq. 3-3), Ant System update on cells "
     "τ ← (1−ρ)τ + Σ_k Q/L_k over the best population's feasible candidates (eqs. 3-4..3-6), "
     "τ0 constant, no schedules. Ref. 58's own heuristic is not given in the thesis." + _DOUBLE_NOTE,
-    alpha=1.0, beta=1.0, rho=0.6, q=10.0, tau0=0.1,
+    alpha=1.0,
+    beta=1.0,
+    rho=0.6,
+    q=10.0,
+    tau0=0.1,
 )
 
 PLANNERS = (DACA, IDACA)

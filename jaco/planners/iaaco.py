@@ -46,10 +46,19 @@ SIGMA1, SIGMA2, LAM, MU_MIN, RS, DELTA0, K_RHO = declare(
     Param("sigma2", 0.9, 0, INF, "IAACO eq. 1: weight σ2 of the goal distance d_jG in η", hi_open=True),
     Param("lam", 1.0, 0, 20, "IAACO eq. 3: exponent λ of the angle guidance μ"),
     Param("mu_min", 0.1, 0, 1, "IAACO eq. 4: floor of the angle guidance μ (keeps every move possible)", lo_open=True),
-    Param("rs", 0.5, 0, INF, "IAACO eq. 5: safety radius Rs (cells) of the obstacle exclusion ξ",
-          lo_open=True, hi_open=True),
+    Param(
+        "rs",
+        0.5,
+        0,
+        INF,
+        "IAACO eq. 5: safety radius Rs (cells) of the obstacle exclusion ξ",
+        lo_open=True,
+        hi_open=True,
+    ),
     Param("delta0", 0.15, 0, 1, "IAACO eq. 7: q0 = δ0·exp(−½(Nc/Nmax)²); the paper uses δ0 ∈ [0.1, 0.5]"),
-    Param("k_rho", 0.3, 0, 1, "IAACO eq. 10: adaptive evaporation ρ = k·L_SG/J_best, k < 1", lo_open=True, hi_open=True),
+    Param(
+        "k_rho", 0.3, 0, 1, "IAACO eq. 10: adaptive evaporation ρ = k·L_SG/J_best, k < 1", lo_open=True, hi_open=True
+    ),
 )
 
 
@@ -181,21 +190,65 @@ def best_worst() -> ph.Rule:
 
 # -- the components and planners -------------------------------------------------------------
 _HEURISTIC = (BETA.with_default(20.0), LAM.with_default(3.0), SIGMA1, SIGMA2, MU_MIN.with_default(0.3), RS)
-component("heuristic", "iaaco", heuristic=iaaco_heuristic, factor=guided_factor(mu_robust), params=_HEURISTIC,
-          source="Miao et al. 2021 eqs. 1-5")
-component("heuristic", "iaaco-printed", heuristic=iaaco_heuristic, factor=guided_factor(mu_printed), params=_HEURISTIC,
-          source="Miao et al. 2021 eqs. 1-5 as printed")
-component("rule", "iaaco", rule=ph.chain(init_floor(), best_worst()), default_transition="adaptive-q0",
-          params=(ALPHA.with_default(1.0), ph.Q.with_default(2.5), ph.TAU0.with_default(0.01),
-                  ph.TAU_MIN.with_default(0.01), ph.RHO.with_default(0.9), K_RHO.with_default(0.6)),
-          source="Miao et al. 2021 eqs. 8-10")
-component("transition", "adaptive-q0", transition="pseudo-random", schedule=q0_schedule, params=(DELTA0,),
-          source="Miao et al. 2021 eqs. 6-7")
+component(
+    "heuristic",
+    "iaaco",
+    heuristic=iaaco_heuristic,
+    factor=guided_factor(mu_robust),
+    params=_HEURISTIC,
+    source="Miao et al. 2021 eqs. 1-5",
+)
+component(
+    "heuristic",
+    "iaaco-printed",
+    heuristic=iaaco_heuristic,
+    factor=guided_factor(mu_printed),
+    params=_HEURISTIC,
+    source="Miao et al. 2021 eqs. 1-5 as printed",
+)
+component(
+    "rule",
+    "iaaco",
+    rule=ph.chain(init_floor(), best_worst()),
+    default_transition="adaptive-q0",
+    params=(
+        ALPHA.with_default(1.0),
+        ph.Q.with_default(2.5),
+        ph.TAU0.with_default(0.01),
+        ph.TAU_MIN.with_default(0.01),
+        ph.RHO.with_default(0.9),
+        K_RHO.with_default(0.6),
+    ),
+    source="Miao et al. 2021 eqs. 8-10",
+)
+component(
+    "transition",
+    "adaptive-q0",
+    transition="pseudo-random",
+    schedule=q0_schedule,
+    params=(DELTA0,),
+    source="Miao et al. 2021 eqs. 6-7",
+)
 
 #: IAACO's defaults, in the order its tables show them.
 IAACO_DEFAULTS = dict(
-    alpha=1.0, beta=20.0, lam=3.0, q=2.5, tau0=0.01, tau_min=0.01, rho=0.9, k_rho=0.6, delta0=0.15,
-    sigma1=0.1, sigma2=0.9, mu_min=0.3, rs=0.5, k_len=0.7, k_safe=0.1, k_energy=0.2, rs_cost=1.0,
+    alpha=1.0,
+    beta=20.0,
+    lam=3.0,
+    q=2.5,
+    tau0=0.01,
+    tau_min=0.01,
+    rho=0.9,
+    k_rho=0.6,
+    delta0=0.15,
+    sigma1=0.1,
+    sigma2=0.9,
+    mu_min=0.3,
+    rs=0.5,
+    k_len=0.7,
+    k_safe=0.1,
+    k_energy=0.2,
+    rs_cost=1.0,
 )
 
 _DOC = (

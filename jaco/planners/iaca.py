@@ -107,7 +107,9 @@ def infeasible_update(tau: jax.Array, params: Params) -> jax.Array:
     return jnp.where(
         tau <= params.q1,
         tau + params.q_step,
-        jnp.where(tau <= params.q2, params.rho1 * tau, jnp.where(tau <= params.q3, params.rho2 * tau, tau - params.q_step)),
+        jnp.where(
+            tau <= params.q2, params.rho1 * tau, jnp.where(tau <= params.q3, params.rho2 * tau, tau - params.q_step)
+        ),
     )
 
 
@@ -123,8 +125,9 @@ def int_power(x: jax.Array | float, k: jax.Array | int) -> jax.Array:
     return out
 
 
-def local_update(tau: jax.Array, lo: jax.Array, hi: jax.Array, n_straight: jax.Array, n_diagonal: jax.Array,
-                 params: Any) -> jax.Array:
+def local_update(
+    tau: jax.Array, lo: jax.Array, hi: jax.Array, n_straight: jax.Array, n_diagonal: jax.Array, params: Any
+) -> jax.Array:
     """Eqs. (4-2..4-4) for the forward steps of one walk step, all ants together.
 
     ``n_straight``, ``n_diagonal`` ``(N,)``: how many ants entered each cell by a straight or a
@@ -155,8 +158,19 @@ def step_weights(tau_nb: jax.Array, r: jax.Array, allowed: jax.Array, params: An
 
 # -- the backtracking walk --------------------------------------------------------------------
 def native_backtrack_walk(
-    tau: jax.Array, rows: jax.Array, factors: jax.Array, words: jax.Array, start: Any, goal: Any, scalars: jax.Array,
-    offsets: Any, *, n_ants: int, steplimit: int, exploit: bool, table: bool
+    tau: jax.Array,
+    rows: jax.Array,
+    factors: jax.Array,
+    words: jax.Array,
+    start: Any,
+    goal: Any,
+    scalars: jax.Array,
+    offsets: Any,
+    *,
+    n_ants: int,
+    steplimit: int,
+    exploit: bool,
+    table: bool,
 ) -> tuple:
     """The C++ kernel's backtracking walk (``jaco_backtrack`` of ``jaco/engine/walk.cc``, called
     through :func:`jaco.engine.native.ffi_call`); same arguments and results as
@@ -174,8 +188,20 @@ def native_backtrack_walk(
         jax.ShapeDtypeStruct((n,), jnp.bool_),
     )
     call = native.ffi_call("jaco_backtrack", out)
-    return call(tau, rows, factors, words, start, goal, scalars, offsets, jnp.asarray(TABLES),
-                steplimit=np.int64(steplimit), exploit=bool(exploit), table=bool(table))
+    return call(
+        tau,
+        rows,
+        factors,
+        words,
+        start,
+        goal,
+        scalars,
+        offsets,
+        jnp.asarray(TABLES),
+        steplimit=np.int64(steplimit),
+        exploit=bool(exploit),
+        table=bool(table),
+    )
 
 
 class Backtracked(NamedTuple):
@@ -195,8 +221,15 @@ class Backtracked(NamedTuple):
 
 
 def backtrack_walk(
-    problem: Any, trail: ph.Trail, params: Params, key: jax.Array, *, n_ants: int, steplimit: int, exploit: bool = True,
-    factors: jax.Array | None = None
+    problem: Any,
+    trail: ph.Trail,
+    params: Params,
+    key: jax.Array,
+    *,
+    n_ants: int,
+    steplimit: int,
+    exploit: bool = True,
+    factors: jax.Array | None = None,
 ) -> Backtracked:
     """Walk ``n_ants`` backtracking ants (thesis 4.3) with the local update (4-2..4-4), in JAX or,
     on CPU when it is active, in the native kernel (:mod:`jaco.engine.native`): the same results
@@ -207,18 +240,45 @@ def backtrack_walk(
     rows = detour(problem)
     table = factors is not None
     factors = jnp.zeros(rows.shape, jnp.float32) if factors is None else jnp.asarray(factors, jnp.float32)
-    scalars = jnp.stack([jnp.asarray(v, jnp.float32) for v in (
-        params.q0 if exploit else 0.0, params.alpha, params.beta, trail.lo, trail.hi, params.rho_local, params.q)])
+    scalars = jnp.stack(
+        [
+            jnp.asarray(v, jnp.float32)
+            for v in (
+                params.q0 if exploit else 0.0,
+                params.alpha,
+                params.beta,
+                trail.lo,
+                trail.hi,
+                params.rho_local,
+                params.q,
+            )
+        ]
+    )
     args = (trail.tau, rows, factors, words, problem.start, problem.goal, scalars, problem.offsets)
     exploit = bool(exploit)
-    return Backtracked(*native.dispatch(
-        functools.partial(native_backtrack_walk, n_ants=n_ants, steplimit=steplimit, exploit=exploit, table=table),
-        functools.partial(jax_backtrack_walk, n_ants=n_ants, steplimit=steplimit, exploit=exploit, table=table), *args))
+    return Backtracked(
+        *native.dispatch(
+            functools.partial(native_backtrack_walk, n_ants=n_ants, steplimit=steplimit, exploit=exploit, table=table),
+            functools.partial(jax_backtrack_walk, n_ants=n_ants, steplimit=steplimit, exploit=exploit, table=table),
+            *args,
+        )
+    )
 
 
 def jax_backtrack_walk(
-    tau: jax.Array, rows: jax.Array, factors: jax.Array, words: jax.Array, start: Any, goal: Any, scalars: jax.Array,
-    offsets: Any, *, n_ants: int, steplimit: int, exploit: bool, table: bool
+    tau: jax.Array,
+    rows: jax.Array,
+    factors: jax.Array,
+    words: jax.Array,
+    start: Any,
+    goal: Any,
+    scalars: jax.Array,
+    offsets: Any,
+    *,
+    n_ants: int,
+    steplimit: int,
+    exploit: bool,
+    table: bool,
 ) -> tuple[jax.Array, ...]:
     """The backtracking walk in JAX, all ants in lock-step (the definition; :class:`Backtracked`).
     ``rows``: the detour table of eq. (4-5) (> 0 exactly on the moves the map allows); with
@@ -326,8 +386,18 @@ def infeasible_cells(stack: jax.Array, arrived: jax.Array, tabu: jax.Array) -> j
     return bad & ~good
 
 
-def backtrack_colony(variant: Planner, problem: Any, trail: ph.Trail, params: Params, t: Any, n_iters: int, key: jax.Array, *,
-                     n_ants: int, steplimit: int) -> tuple[ph.Trail, Colony]:
+def backtrack_colony(
+    variant: Planner,
+    problem: Any,
+    trail: ph.Trail,
+    params: Params,
+    t: Any,
+    n_iters: int,
+    key: jax.Array,
+    *,
+    n_ants: int,
+    steplimit: int,
+) -> tuple[ph.Trail, Colony]:
     """One iteration of IACA's backtracking ants (thesis 4.4, Steps 2–5): walks with the local
     update (4-2..4-4), then the infeasible-path update (4-6); returns the updated trail and the
     final stacks as a :class:`~jaco.engine.colony.Colony` (the rule's update follows). With IACA's
@@ -346,7 +416,9 @@ def _backtrack(variant, problem, trail, params, key, factors, *, n_ants: int, st
     walks = backtrack_walk(
         problem, trail, params, key, n_ants=n_ants, steplimit=steplimit, exploit=exploit, factors=factors
     )
-    tau = jnp.where(walks.infeasible, jnp.clip(infeasible_update(walks.tau, params), trail.lo, trail.hi), walks.tau)  # Eq. (4-6)
+    tau = jnp.where(
+        walks.infeasible, jnp.clip(infeasible_update(walks.tau, params), trail.lo, trail.hi), walks.tau
+    )  # Eq. (4-6)
     tours = stack_tours(problem, walks)
     cost = jnp.where(walks.arrived, variant.cost(tours, problem, params), jnp.inf)
     targets = step_targets("cells", tours.cells, tours.moves, problem.start, problem.nbr.shape[0])
@@ -358,15 +430,39 @@ def _backtrack(variant, problem, trail, params, key, factors, *, n_ants: int, st
 backtrack_colony.back_steps = True  # type: ignore[attr-defined]
 
 
-component("construct", "backtrack", construct=backtrack_colony, pheromone_on="cells",
-          params=(RHO_LOCAL, Q1, Q2, Q3, RHO1, RHO2, Q_STEP), source="Hua Lu 2011 thesis 4.3, eqs. 4-2..4-4, 4-6")
-component("heuristic", "iaca", heuristic=iaca_heuristic, factor=eta_factor, params=(BETA.with_default(8.0),),
-          source="thesis eq. 4-5")
-component("rule", "iaca", rule=ph.chain(iaca_init(), ph.evaporate(), ph.deposit_best_so_far(lambda p: p.sigma), ph.clamp()),
-          pheromone_on="cells", default_transition="q0",
-          params=(ALPHA.with_default(1.0), ph.RHO.with_default(0.05), ph.Q.with_default(0.1),
-                  ph.SIGMA.with_default(1000.0), ph.TAU_MIN.with_default(0.01), ph.TAU_MAX.with_default(20.0), K_INIT),
-          source="Hua Lu 2011 thesis 4.2.3, 4.4")
+component(
+    "construct",
+    "backtrack",
+    construct=backtrack_colony,
+    pheromone_on="cells",
+    params=(RHO_LOCAL, Q1, Q2, Q3, RHO1, RHO2, Q_STEP),
+    source="Hua Lu 2011 thesis 4.3, eqs. 4-2..4-4, 4-6",
+)
+component(
+    "heuristic",
+    "iaca",
+    heuristic=iaca_heuristic,
+    factor=eta_factor,
+    params=(BETA.with_default(8.0),),
+    source="thesis eq. 4-5",
+)
+component(
+    "rule",
+    "iaca",
+    rule=ph.chain(iaca_init(), ph.evaporate(), ph.deposit_best_so_far(lambda p: p.sigma), ph.clamp()),
+    pheromone_on="cells",
+    default_transition="q0",
+    params=(
+        ALPHA.with_default(1.0),
+        ph.RHO.with_default(0.05),
+        ph.Q.with_default(0.1),
+        ph.SIGMA.with_default(1000.0),
+        ph.TAU_MIN.with_default(0.01),
+        ph.TAU_MAX.with_default(20.0),
+        K_INIT,
+    ),
+    source="Hua Lu 2011 thesis 4.2.3, 4.4",
+)
 
 IACA = compose(construct="backtrack", heuristic="iaca", rule="iaca").named(
     "iaca",
@@ -381,8 +477,22 @@ IACA = compose(construct="backtrack", heuristic="iaca", rule="iaca").named(
     "without dead branches; after the walks, the piecewise rule (4-6) on the cells of failed "
     "ants and of popped dead branches; then, MMAS-style, evaporation (1−ρ), a deposit σ·Q/L* on "
     "the best-so-far path and the clamp to [τmin, τmax]. Every interpretation: docs/planners.md (IACA).",
-    alpha=1.0, beta=8.0, rho=0.05, q=0.1, sigma=1000.0, q0=0.9, tau_min=0.01, tau_max=20.0, k_init=10.0,
-    rho_local=0.1, q1=1.0, q2=5.0, q3=15.0, rho1=0.7, rho2=0.2, q_step=0.5,
+    alpha=1.0,
+    beta=8.0,
+    rho=0.05,
+    q=0.1,
+    sigma=1000.0,
+    q0=0.9,
+    tau_min=0.01,
+    tau_max=20.0,
+    k_init=10.0,
+    rho_local=0.1,
+    q1=1.0,
+    q2=5.0,
+    q3=15.0,
+    rho1=0.7,
+    rho2=0.2,
+    q_step=0.5,
 )
 
 PLANNERS = (IACA,)

@@ -28,8 +28,14 @@ if TYPE_CHECKING:
     from ..engine.planner import Construct
 
 (PENALTY,) = declare(
-    Param("penalty", 0.3, 0, INF, "pg-aco: a failed ant costs (1 + penalty)·L̄, L̄ the mean cost of the "
-          "iteration's successful ants", hi_open=True),
+    Param(
+        "penalty",
+        0.3,
+        0,
+        INF,
+        "pg-aco: a failed ant costs (1 + penalty)·L̄, L̄ the mean cost of the iteration's successful ants",
+        hi_open=True,
+    ),
 )
 
 #: Bound on the logits |θ| (τ ∈ [e^−20, e^20]): a policy can still be all but deterministic.
@@ -49,8 +55,9 @@ def first_visit(problem: Any, cells: jax.Array) -> jax.Array:
     return time.at[lanes.ravel(), jnp.where(cells >= 0, cells, n).ravel()].set(when.ravel(), mode="drop")
 
 
-def step_probabilities(problem: Any, weights: jax.Array, cells: jax.Array, moves: jax.Array
-                       ) -> tuple[jax.Array, jax.Array]:
+def step_probabilities(
+    problem: Any, weights: jax.Array, cells: jax.Array, moves: jax.Array
+) -> tuple[jax.Array, jax.Array]:
     """The policy (1) at every recorded step: ``(cur (S, A), p (S, A, 8))``.
 
     ``cur[t, a]`` is the cell ant a stood on at step t; ``p[t, a, j]`` the probability it gave move
@@ -162,9 +169,17 @@ def _needs_dying_ants(chosen) -> str | None:
 
 
 _ADAM = optax.adam(1.0)
-component("rule", "pg", rule=pg_init(_ADAM), construct=make_pg_colony(_ADAM), pheromone_on="moves", fixes=("alpha",),
-          params=(ph.RHO.with_default(0.03), ph.Q.with_default(0.2), PENALTY), why_not=_needs_dying_ants,
-          source="Meuleau & Dorigo 2002 (Artificial Life 8(2)); REINFORCE, Williams 1992")
+component(
+    "rule",
+    "pg",
+    rule=pg_init(_ADAM),
+    construct=make_pg_colony(_ADAM),
+    pheromone_on="moves",
+    fixes=("alpha",),
+    params=(ph.RHO.with_default(0.03), ph.Q.with_default(0.2), PENALTY),
+    why_not=_needs_dying_ants,
+    source="Meuleau & Dorigo 2002 (Artificial Life 8(2)); REINFORCE, Williams 1992",
+)
 
 
 def make_pg_aco(
@@ -195,8 +210,9 @@ def make_pg_aco(
         if baseline not in BASELINES:
             raise JacoError(f"baseline must be one of {', '.join(BASELINES)}, got {baseline!r}")
         base = compose(rule="pg")._replace(rule=pg_init(optimizer), construct=make_pg_colony(optimizer, baseline))
-    return base.named(name, source="Meuleau & Dorigo 2002 (Artificial Life 8(2)); REINFORCE, Williams 1992",
-                      doc=_DOC, **PG_DEFAULTS)
+    return base.named(
+        name, source="Meuleau & Dorigo 2002 (Artificial Life 8(2)); REINFORCE, Williams 1992", doc=_DOC, **PG_DEFAULTS
+    )
 
 
 PG_ACO = make_pg_aco()

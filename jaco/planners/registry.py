@@ -55,8 +55,14 @@ def get_planner(variant: str | Planner) -> Planner:
             if found is not None:
                 return with_cost(found, suffix) if suffix in COSTS else with_local_search(found, suffix)
     if not isinstance(variant, str):
-        several = " (several planners are a sweep axis: jaco.sweep(..., variant=[...]))" if isinstance(variant, (list, tuple)) else ""
-        raise JacoError(f"a planner must be a name (str) or a Planner, got {type(variant).__name__} {variant!r}{several}")
+        several = (
+            " (several planners are a sweep axis: jaco.sweep(..., variant=[...]))"
+            if isinstance(variant, (list, tuple))
+            else ""
+        )
+        raise JacoError(
+            f"a planner must be a name (str) or a Planner, got {type(variant).__name__} {variant!r}{several}"
+        )
     raise JacoError(
         f"unknown planner {variant!r}; registered: {', '.join(sorted(PLANNERS))} "
         "(or a composition: compose(construct=..., heuristic=..., rule=...); a suffix adds a cost or a local "
@@ -141,15 +147,18 @@ def with_local_search(variant: str | Planner, local_search: str = "shortcut") ->
         elif local_search == "none":
             new = base
         else:
-            new = base._replace(name=f"{base.name}+{local_search}", local_search=LOCAL_SEARCHES[local_search],
-                                source=f"{base.source}; {LOCAL_SEARCH_SOURCES[local_search]}",
-                                doc=f"{base.doc} Local search: {LOCAL_SEARCH_SOURCES[local_search]}.")
+            new = base._replace(
+                name=f"{base.name}+{local_search}",
+                local_search=LOCAL_SEARCHES[local_search],
+                source=f"{base.source}; {LOCAL_SEARCH_SOURCES[local_search]}",
+                doc=f"{base.doc} Local search: {LOCAL_SEARCH_SOURCES[local_search]}.",
+            )
         hit = _WITH_SEARCH[key] = new
     return hit
 
 
 def _composition_kwargs(name: str) -> dict:
-    inner = name.strip()[len("compose("):-1]
+    inner = name.strip()[len("compose(") : -1]
     return dict((k.strip(), v.strip()) for k, _, v in (p.partition("=") for p in inner.split(",") if p.strip()))
 
 

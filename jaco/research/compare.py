@@ -215,8 +215,10 @@ def _check_table(table, by, value, blocks, pairing=None) -> tuple[pd.DataFrame, 
         if name not in table.columns:
             raise JacoError(f"compare: no column {name!r} in the table (columns: {', '.join(map(str, table.columns))})")
     if not pd.api.types.is_numeric_dtype(table[value].dtype) or pd.api.types.is_bool_dtype(table[value].dtype):
-        raise JacoError(f"compare: value {value!r} must be a column of numbers (gap, length, cost ...), "
-                        f"it holds {table[value].dtype}")
+        raise JacoError(
+            f"compare: value {value!r} must be a column of numbers (gap, length, cost ...), "
+            f"it holds {table[value].dtype}"
+        )
     if blocks not in ("run", "query"):
         raise JacoError(f"compare: blocks must be 'run' or 'query', got {blocks!r}")
     if table[value].isna().any():
@@ -227,18 +229,30 @@ def _check_table(table, by, value, blocks, pairing=None) -> tuple[pd.DataFrame, 
         pairing = [pairing] if isinstance(pairing, str) else list(pairing)
         for name in pairing:
             if name not in table.columns or name in by:
-                raise JacoError(f"compare: pairing column {name!r} is not a column of the table outside by "
-                                f"(columns: {', '.join(map(str, table.columns))})")
+                raise JacoError(
+                    f"compare: pairing column {name!r} is not a column of the table outside by "
+                    f"(columns: {', '.join(map(str, table.columns))})"
+                )
     if not pairing:
         raise JacoError("compare: the table has no pairing column (a query or 'seed') to pair the runs by")
     keys = table[by + pairing]
     dup = keys.duplicated(keep=False)
     if dup.any():
-        rest = [c for c in table.columns if c not in (*by, *pairing, *RESULTS, "config")] + ["config"] * ("config" in table)
+        rest = [c for c in table.columns if c not in (*by, *pairing, *RESULTS, "config")] + ["config"] * (
+            "config" in table
+        )
         varying = [c for c in rest if table[dup].groupby(by + pairing, dropna=False)[c].nunique(dropna=False).max() > 1]
-        hint = (f"column {varying[0]!r} varies within a configuration and pair: add it to by "
-                f"(by={by + [varying[0]]!r}) or select its rows first") if varying else "the table repeats runs"
-        raise JacoError(f"compare: {int(dup.sum())} rows share a configuration and pair ({', '.join(by + pairing)}); {hint}")
+        hint = (
+            (
+                f"column {varying[0]!r} varies within a configuration and pair: add it to by "
+                f"(by={by + [varying[0]]!r}) or select its rows first"
+            )
+            if varying
+            else "the table repeats runs"
+        )
+        raise JacoError(
+            f"compare: {int(dup.sum())} rows share a configuration and pair ({', '.join(by + pairing)}); {hint}"
+        )
     if len(table.groupby(by, dropna=False)) < 2:
         raise JacoError(f"compare: the table has one configuration of {by}; need two or more")
     return table, by, pairing
@@ -298,9 +312,18 @@ def compare(
         q1, med, q3 = quantile(v, [0.25, 0.5, 0.75])
         lo, hi = bootstrap_median(v, n_boot=int(n_boot), confidence=confidence, rng=rng)
         ok = np.isfinite(v)
-        rows.append({"configuration": name, "runs": len(v), "success_rate": ok.mean(),
-                     f"{value}_q1": q1, f"{value}_median": med, f"{value}_q3": q3,
-                     f"{value}_median_low": lo, f"{value}_median_high": hi})
+        rows.append(
+            {
+                "configuration": name,
+                "runs": len(v),
+                "success_rate": ok.mean(),
+                f"{value}_q1": q1,
+                f"{value}_median": med,
+                f"{value}_q3": q3,
+                f"{value}_median_low": lo,
+                f"{value}_median_high": hi,
+            }
+        )
 
     # ranks within blocks (complete blocks only)
     block_values = values
@@ -312,16 +335,25 @@ def compare(
     complete = block_values.dropna()
     notes = []
     if len(complete) < len(block_values):
-        notes.append(f"{len(block_values) - len(complete)} of {len(block_values)} blocks lack a configuration "
-                     "and are left out of the ranks")
+        notes.append(
+            f"{len(block_values) - len(complete)} of {len(block_values)} blocks lack a configuration "
+            "and are left out of the ranks"
+        )
     if len(complete) == 0:
         raise JacoError("compare: no block (pair) has a run of every configuration")
     stand_in = _finite_stand_in(complete.to_numpy(np.float64).ravel()).reshape(complete.shape)
     ranks = rankdata(stand_in, axis=1)
     mean_ranks = pd.Series(ranks.mean(axis=0), index=names, name="mean_rank")
     k, n = len(names), len(complete)
-    friedman = {"statistic": None, "pvalue": None, "k": k, "n": n, "alpha": alpha, "blocks": blocks,
-                "cd": critical_difference(k, n, alpha)}
+    friedman = {
+        "statistic": None,
+        "pvalue": None,
+        "k": k,
+        "n": n,
+        "alpha": alpha,
+        "blocks": blocks,
+        "cd": critical_difference(k, n, alpha),
+    }
     if k >= 3 and n >= 2:
         if np.all(ranks == ranks[:, :1]):  # every block ties: nothing to tell apart
             friedman.update(statistic=0.0, pvalue=1.0)
@@ -341,8 +373,18 @@ def compare(
         x, y = both[a].to_numpy(np.float64), both[b].to_numpy(np.float64)
         stat, p = wilcoxon(x, y)
         d = signed_differences(x, y)
-        pairs.append({"a": a, "b": b, "pairs": len(both), "a_better": int((d < 0).sum()), "b_better": int((d > 0).sum()),
-                      "ties": int((d == 0).sum()), "statistic": stat, "p": p})
+        pairs.append(
+            {
+                "a": a,
+                "b": b,
+                "pairs": len(both),
+                "a_better": int((d < 0).sum()),
+                "b_better": int((d > 0).sum()),
+                "ties": int((d == 0).sum()),
+                "statistic": stat,
+                "p": p,
+            }
+        )
     pairwise = pd.DataFrame(pairs, columns=["a", "b", "pairs", "a_better", "b_better", "ties", "statistic", "p"])
     pairwise["p_holm"] = holm(pairwise["p"].to_numpy()) if len(pairwise) else []
     pairwise["significant"] = pairwise["p_holm"] < alpha
@@ -352,8 +394,21 @@ def compare(
         ratios = ratios_of.div(best, axis=0).where(np.isfinite(ratios_of), np.inf)
     ratios = ratios.where(ratios_of.notna())
 
-    out = Comparison(by, value, pairing, summary, pairwise, friedman, mean_ranks[order], ratios[order], values[order],
-                     alpha, confidence, ratio_of, notes=notes)
+    out = Comparison(
+        by,
+        value,
+        pairing,
+        summary,
+        pairwise,
+        friedman,
+        mean_ranks[order],
+        ratios[order],
+        values[order],
+        alpha,
+        confidence,
+        ratio_of,
+        notes=notes,
+    )
     out.text = _words(out)
     return out
 
@@ -374,28 +429,41 @@ def _pair_sentence(row, alpha) -> str:
     if row["ties"] == row["pairs"]:
         return f"{a} and {b} cannot be told apart: they tie on all {row['pairs']} pairs"
     if row["p_holm"] < alpha:
-        win, lose, w, lost = (a, b, row["a_better"], row["b_better"]) if row["a_better"] >= row["b_better"] else \
-            (b, a, row["b_better"], row["a_better"])
-        return (f"{win} beats {lose} on {w} of {row['pairs']} pairs ({lose} better on {lost}, {row['ties']} ties), "
-                f"p = {_p(row['p_holm'])} after Holm")
-    return (f"{a} and {b} cannot be told apart (p = {_p(row['p_holm'])} after Holm; {a} better on {row['a_better']}, "
-            f"{b} on {row['b_better']}, {row['ties']} ties)")
+        win, lose, w, lost = (
+            (a, b, row["a_better"], row["b_better"])
+            if row["a_better"] >= row["b_better"]
+            else (b, a, row["b_better"], row["a_better"])
+        )
+        return (
+            f"{win} beats {lose} on {w} of {row['pairs']} pairs ({lose} better on {lost}, {row['ties']} ties), "
+            f"p = {_p(row['p_holm'])} after Holm"
+        )
+    return (
+        f"{a} and {b} cannot be told apart (p = {_p(row['p_holm'])} after Holm; {a} better on {row['a_better']}, "
+        f"{b} on {row['b_better']}, {row['ties']} ties)"
+    )
 
 
 def _words(c: Comparison) -> str:
     v, s, alpha = c.value, c.summary, c.alpha
     unit = " (a fraction of the optimum, shown in %)" if v == "gap" else ""
-    lines = [f"{len(s)} configurations ({', '.join(c.by)}) compared on {v}{unit} over "
-             f"{len(c.values)} pairs ({', '.join(c.pairing)}); lower is better, a failed run counts as +inf."]
+    lines = [
+        f"{len(s)} configurations ({', '.join(c.by)}) compared on {v}{unit} over "
+        f"{len(c.values)} pairs ({', '.join(c.pairing)}); lower is better, a failed run counts as +inf."
+    ]
     top = s.iloc[0]
     ci = f"{100 * c.confidence:g}% CI {_fmt_value(v, top[f'{v}_median_low'])}–{_fmt_value(v, top[f'{v}_median_high'])}"
-    lines.append(f"Best mean rank: {top['configuration']} (median {v} {_fmt_value(v, top[f'{v}_median'])}, {ci}; "
-                 f"success {percent(top['success_rate'], 0)} of {top['runs']} runs).")
+    lines.append(
+        f"Best mean rank: {top['configuration']} (median {v} {_fmt_value(v, top[f'{v}_median'])}, {ci}; "
+        f"success {percent(top['success_rate'], 0)} of {top['runs']} runs)."
+    )
     f = c.friedman
     if f["pvalue"] is not None:
         verdict = "the configurations differ" if f["pvalue"] < alpha else "no evidence that the configurations differ"
-        lines.append(f"Friedman test over {f['n']} blocks: chi2 = {f['statistic']:.3g}, p = {_p(f['pvalue'])}: {verdict}; "
-                     f"mean ranks closer than CD = {f['cd']:.3g} cannot be told apart (Nemenyi, alpha = {alpha:g}).")
+        lines.append(
+            f"Friedman test over {f['n']} blocks: chi2 = {f['statistic']:.3g}, p = {_p(f['pvalue'])}: {verdict}; "
+            f"mean ranks closer than CD = {f['cd']:.3g} cannot be told apart (Nemenyi, alpha = {alpha:g})."
+        )
     shown = set()
     best = top["configuration"]
     order = s["configuration"].tolist()
@@ -404,7 +472,9 @@ def _words(c: Comparison) -> str:
         if (x, y) in shown:
             continue
         shown.add((x, y))
-        row = c.pairwise[((c.pairwise.a == x) & (c.pairwise.b == y)) | ((c.pairwise.a == y) & (c.pairwise.b == x))].iloc[0]
+        row = c.pairwise[
+            ((c.pairwise.a == x) & (c.pairwise.b == y)) | ((c.pairwise.a == y) & (c.pairwise.b == x))
+        ].iloc[0]
         lines.append(_pair_sentence(row, alpha) + ".")
     failed = s[s["success_rate"] == 0]["configuration"].tolist()
     if failed:
@@ -417,24 +487,38 @@ def _tables_text(c: Comparison) -> str:
     v = c.value
     s = c.summary
     pct = v == "gap"
-    fmt = (lambda x: _fmt_value(v, x))  # noqa: E731
-    span = (lambda a, b: fmt(a) if fmt(a) == fmt(b) else f"{fmt(a)}–{fmt(b)}")  # noqa: E731
-    head = pd.DataFrame({
-        "configuration": s["configuration"],
-        "runs": s["runs"].map(str),
-        "success": s["success_rate"].map(lambda x: percent(x, 0)),
-        f"median {v}": s[f"{v}_median"].map(fmt),
-        "quartiles": [span(a, b) for a, b in zip(s[f"{v}_q1"], s[f"{v}_q3"])],
-        f"{100 * c.confidence:g}% CI of median": [span(a, b) for a, b in zip(s[f"{v}_median_low"], s[f"{v}_median_high"])],
-        "mean rank": s["mean_rank"].map(lambda x: f"{x:.2f}"),
-    })
+    fmt = lambda x: _fmt_value(v, x)  # noqa: E731
+    span = lambda a, b: fmt(a) if fmt(a) == fmt(b) else f"{fmt(a)}–{fmt(b)}"  # noqa: E731
+    head = pd.DataFrame(
+        {
+            "configuration": s["configuration"],
+            "runs": s["runs"].map(str),
+            "success": s["success_rate"].map(lambda x: percent(x, 0)),
+            f"median {v}": s[f"{v}_median"].map(fmt),
+            "quartiles": [span(a, b) for a, b in zip(s[f"{v}_q1"], s[f"{v}_q3"])],
+            f"{100 * c.confidence:g}% CI of median": [
+                span(a, b) for a, b in zip(s[f"{v}_median_low"], s[f"{v}_median_high"])
+            ],
+            "mean rank": s["mean_rank"].map(lambda x: f"{x:.2f}"),
+        }
+    )
     pw = c.pairwise
-    pairs = pd.DataFrame({
-        "A": pw["a"], "B": pw["b"], "pairs": pw["pairs"].map(str), "A better": pw["a_better"].map(str),
-        "B better": pw["b_better"].map(str), "ties": pw["ties"].map(str), "p": pw["p"].map(_p),
-        "p (Holm)": pw["p_holm"].map(_p), f"differ at {c.alpha:g}": pw["significant"].map(lambda b: "yes" if b else "no"),
-    })
+    pairs = pd.DataFrame(
+        {
+            "A": pw["a"],
+            "B": pw["b"],
+            "pairs": pw["pairs"].map(str),
+            "A better": pw["a_better"].map(str),
+            "B better": pw["b_better"].map(str),
+            "ties": pw["ties"].map(str),
+            "p": pw["p"].map(_p),
+            "p (Holm)": pw["p_holm"].map(_p),
+            f"differ at {c.alpha:g}": pw["significant"].map(lambda b: "yes" if b else "no"),
+        }
+    )
     unit = " (gaps in %)" if pct else ""
-    return (f"per configuration{unit}:\n{text_table(head, left=['configuration'])}\n\n"
-            f"paired comparisons (two-sided Wilcoxon signed-rank, Holm over {len(pw)} pairs of configurations):\n"
-            f"{text_table(pairs, left=['A', 'B'])}")
+    return (
+        f"per configuration{unit}:\n{text_table(head, left=['configuration'])}\n\n"
+        f"paired comparisons (two-sided Wilcoxon signed-rank, Holm over {len(pw)} pairs of configurations):\n"
+        f"{text_table(pairs, left=['A', 'B'])}"
+    )

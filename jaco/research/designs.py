@@ -216,4 +216,6 @@ def as_design(params: Any) -> Design:
         return table(params)
     if isinstance(params, Mapping):
         return grid(params)
-    raise ParamError(f"params must be a dict of axes, a jaco.research.designs.Design or a DataFrame, got {type(params).__name__}")
+    raise ParamError(
+        f"params must be a dict of axes, a jaco.research.designs.Design or a DataFrame, got {type(params).__name__}"
+    )

@@ -58,8 +58,8 @@ FORMAT_VERSION = 4
 #: for backtracking ants; since format 4 :func:`jaco.engine.checks.default_steplimit`.
 FORMAT_CHANGES = {
     2: "its random numbers were drawn as one uniform table per iteration; since format 2 each "
-       "uniform is Threefry of the iteration key, the ant and the step, so the rerun draws other "
-       "numbers and takes other paths (rerun it with the jaco that wrote it to reproduce it)",
+    "uniform is Threefry of the iteration key, the ant and the step, so the rerun draws other "
+    "numbers and takes other paths (rerun it with the jaco that wrote it to reproduce it)",
 }
 #: Maps with at most this many cells are embedded as text rows ('.' free, '@' blocked), larger
 #: ones as a base64 zlib-compressed bit mask (np.packbits, row-major).
@@ -115,8 +115,7 @@ def version_warnings(recorded: dict, format_version: int = FORMAT_VERSION) -> li
         old, new = recorded.get(k), now.get(k)
         if old != new:
             out.append(
-                f"record written with {k} {old}, this is {k} {new}: "
-                "the rerun may differ in floating point rounding"
+                f"record written with {k} {old}, this is {k} {new}: the rerun may differ in floating point rounding"
             )
     return out
 
@@ -471,12 +470,18 @@ _HEADER = {
 }
 _MAP = {
     "name": (_STR, "a string", False),
-    "shape": (lambda v: isinstance(v, list) and len(v) == 2 and all(_int_in(1, 2**31)(x) for x in v),
-              "[height, width], two positive integers", True),
+    "shape": (
+        lambda v: isinstance(v, list) and len(v) == 2 and all(_int_in(1, 2**31)(x) for x in v),
+        "[height, width], two positive integers",
+        True,
+    ),
     "cell_size": (lambda v: _is_num(v) and v > 0, "a positive number", False),
     "resolution": (_maybe(lambda v: _is_num(v) and v > 0), "a positive number or null", False),
-    "origin": (_maybe(lambda v: isinstance(v, list) and len(v) == 3 and all(_is_num(x) for x in v)),
-               "[x, y, yaw] or null", False),
+    "origin": (
+        _maybe(lambda v: isinstance(v, list) and len(v) == 3 and all(_is_num(x) for x in v)),
+        "[x, y, yaw] or null",
+        False,
+    ),
     "sha256": (_maybe(_STR), "a string", False),
     "source": (_maybe(_map_of(_STR)), "a mapping or null", False),
     "rows": (_list_of(_STR), "a list of strings", False),
@@ -506,16 +511,28 @@ _RESULT = {
     "pheromone_sha256": (_maybe(_STR), "a string or null", False),
 }
 _SWEEP_CALL = {
-    "grid": (lambda v: isinstance(v, dict) or (isinstance(v, list) and v and all(isinstance(x, dict) for x in v)),
-             "a map entry or a non-empty list of them", True),
+    "grid": (
+        lambda v: isinstance(v, dict) or (isinstance(v, list) and v and all(isinstance(x, dict) for x in v)),
+        "a map entry or a non-empty list of them",
+        True,
+    ),
     "start": (_PAIRS, "[row, col] or a list of them", True),
     "goal": (_PAIRS, "[row, col] or a list of them", True),
-    "variant": (_either(_STR, lambda v: isinstance(v, list) and v and all(isinstance(x, str) for x in v)),
-                "a planner name or a list of names", True),
-    "params": (_either(_AXES, lambda v: isinstance(v, dict) and list(v) == ["design"] and _AXES(v["design"])),
-               "a mapping of parameter names to lists of numbers", True),
-    "seeds": (_either(_POS_INT, lambda v: isinstance(v, list) and v and all(_int_in(0, 2**32)(x) for x in v)),
-              "a positive count or a list of integers in [0, 2**32)", True),
+    "variant": (
+        _either(_STR, lambda v: isinstance(v, list) and v and all(isinstance(x, str) for x in v)),
+        "a planner name or a list of names",
+        True,
+    ),
+    "params": (
+        _either(_AXES, lambda v: isinstance(v, dict) and list(v) == ["design"] and _AXES(v["design"])),
+        "a mapping of parameter names to lists of numbers",
+        True,
+    ),
+    "seeds": (
+        _either(_POS_INT, lambda v: isinstance(v, list) and v and all(_int_in(0, 2**32)(x) for x in v)),
+        "a positive count or a list of integers in [0, 2**32)",
+        True,
+    ),
     "n_ants": (_POS_INT, "a positive integer", True),
     "n_iters": (_POS_INT, "a positive integer", True),
     "steplimit": (_maybe(_POS_INT), "a positive integer or null", True),

@@ -136,8 +136,13 @@ class RunRecord:
     def solve_kwargs(self) -> dict:
         c = self.call
         kw = dict(
-            seed=c["seed"], n_ants=c["n_ants"], n_iters=c["n_iters"], steplimit=c["steplimit"],
-            connectivity=c["connectivity"], keep_pheromone=c["keep_pheromone"], **c["params"],
+            seed=c["seed"],
+            n_ants=c["n_ants"],
+            n_iters=c["n_iters"],
+            steplimit=c["steplimit"],
+            connectivity=c["connectivity"],
+            keep_pheromone=c["keep_pheromone"],
+            **c["params"],
         )
         if c.get("waypoints"):
             kw["waypoints"] = _uncells(c["waypoints"])
@@ -161,8 +166,10 @@ class RunRecord:
         old = self.result
         diffs = []
         if not np.array_equal(np.asarray(old.path), np.asarray(new.path)):
-            diffs.append(f"path: recorded {len(old.path)} cells, rerun {len(new.path)} cells"
-                         + ("" if len(old.path) != len(new.path) else " (different cells)"))
+            diffs.append(
+                f"path: recorded {len(old.path)} cells, rerun {len(new.path)} cells"
+                + ("" if len(old.path) != len(new.path) else " (different cells)")
+            )
         for name in ("success", "best_iteration"):
             if getattr(old, name) != getattr(new, name):
                 diffs.append(f"{name}: recorded {getattr(old, name)}, rerun {getattr(new, name)}")
@@ -182,8 +189,10 @@ class RunRecord:
             h = hashlib.sha256(np.ascontiguousarray(new.pheromone).tobytes()).hexdigest()
             if h != self.pheromone_sha256:
                 diffs.append("pheromone: the final pheromone differs (sha256)")
-        what = (f"path {len(new.path)} cells, length {new.length:.6g}, "
-                f"history {len(next(iter(new.history.values()), []))} iterations")
+        what = (
+            f"path {len(new.path)} cells, length {new.length:.6g}, "
+            f"history {len(next(iter(new.history.values()), []))} iterations"
+        )
         return Rerun(not diffs, diffs, list(self.warnings), new, what)
 
 
@@ -214,8 +223,7 @@ def _result_from(doc: dict, grid: Grid):
         goal=_uncells(c["goal"]),
         grid=grid,
     )
-    for name, value in (("connectivity", int(c.get("connectivity", 8))),
-                        ("waypoints", _uncells(c.get("waypoints")))):
+    for name, value in (("connectivity", int(c.get("connectivity", 8))), ("waypoints", _uncells(c.get("waypoints")))):
         if hasattr(res, name) and value is not None:
             setattr(res, name, value)
     return res
@@ -283,7 +291,10 @@ def save_sweep(table: Any, path: Any, *args: Any, **kwargs: Any) -> Path:
     design = as_design(given["params"])  # a dict of axes is a full grid; a Design or DataFrame as given
     rows = {k: [float(x) for x in v] for k, v in design.values.items()}
     if isinstance(given["params"], dict) or given["params"] is None:
-        axes = {k: [float(x) for x in np.atleast_1d(np.asarray(vals, np.float64))] for k, vals in (given["params"] or {}).items()}
+        axes = {
+            k: [float(x) for x in np.atleast_1d(np.asarray(vals, np.float64))]
+            for k, vals in (given["params"] or {}).items()
+        }
         n_configs = math.prod(len(x) for x in axes.values())
         recorded_params: dict = axes
     else:  # recorded as explicit rows, rebuilt with jaco.research.designs.table on rerun
@@ -293,7 +304,9 @@ def save_sweep(table: Any, path: Any, *args: Any, **kwargs: Any) -> Path:
     seed_list = list(range(int(seeds_arg))) if isinstance(seeds_arg, (int, np.integer)) else [int(s) for s in seeds_arg]
     grids = [given["grid"]] if isinstance(given["grid"], Grid) else list(given["grid"])
     pair = lambda x: np.ndim(x) == 1 and len(x) == 2  # noqa: E731
-    n_q = max(len(grids), 1 if pair(given["start"]) else len(given["start"]), 1 if pair(given["goal"]) else len(given["goal"]))
+    n_q = max(
+        len(grids), 1 if pair(given["start"]) else len(given["start"]), 1 if pair(given["goal"]) else len(given["goal"])
+    )
     expected = len(variant_names) * n_q * n_configs * len(seed_list)
     if len(table) != expected:
         raise RecordError(
@@ -321,8 +334,12 @@ def save_sweep(table: Any, path: Any, *args: Any, **kwargs: Any) -> Path:
     text = _csv_text(table)
     doc = _header("sweep")
     doc["call"] = call
-    doc["table"] = {"file": path.name, "rows": len(table), "columns": list(map(str, table.columns)),
-                    "sha256": hashlib.sha256(text.encode()).hexdigest()}
+    doc["table"] = {
+        "file": path.name,
+        "rows": len(table),
+        "columns": list(map(str, table.columns)),
+        "sha256": hashlib.sha256(text.encode()).hexdigest(),
+    }
     # both files complete before either replaces an old one; renamed together (sidecar, then
     # table) under a lock, so two processes saving one record never leave a mixed pair
     sidecar = _sidecar(path)
@@ -419,7 +436,7 @@ def load_run(path: Any) -> RunRecord | SweepRecord:
     except RecursionError:
         raise RecordError(f"{path.name}: not a jaco record (JSON nested too deeply)") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
-        raise RecordError(f"{path.name}: not a jaco record (no \"format\": \"{FORMAT}\")")
+        raise RecordError(f'{path.name}: not a jaco record (no "format": "{FORMAT}")')
     check_record(doc, path.name)
     if doc.get("format_version", 0) > FORMAT_VERSION:
         raise RecordError(
@@ -431,8 +448,16 @@ def load_run(path: Any) -> RunRecord | SweepRecord:
     try:
         if doc.get("kind") == "run":
             grid, map_notes = grid_from_entry(doc["map"], path.name)
-            rec = RunRecord(path, doc["call"], grid, _result_from(doc, grid), recorded,
-                            doc["map"].get("sha256"), doc["result"].get("pheromone_sha256"), notes + map_notes)
+            rec = RunRecord(
+                path,
+                doc["call"],
+                grid,
+                _result_from(doc, grid),
+                recorded,
+                doc["map"].get("sha256"),
+                doc["result"].get("pheromone_sha256"),
+                notes + map_notes,
+            )
             return rec
         if doc.get("kind") == "sweep":
             entries = doc["call"]["grid"]
@@ -444,15 +469,20 @@ def load_run(path: Any) -> RunRecord | SweepRecord:
                 grids, map_notes = [g for g, _ in built], [n for _, ns in built for n in ns]
             table_path = path.parent / doc["table"]["file"]
             if not table_path.is_file():
-                raise RecordError(f"{path.name}: its table {table_path.name!r} is missing (expected beside the sidecar)")
+                raise RecordError(
+                    f"{path.name}: its table {table_path.name!r} is missing (expected beside the sidecar)"
+                )
             text = table_path.read_text(encoding="utf-8")
             if hashlib.sha256(text.encode()).hexdigest() != doc["table"].get("sha256"):
-                map_notes.append(f"table {table_path.name}: its sha256 differs from the sidecar's: the table was modified")
+                map_notes.append(
+                    f"table {table_path.name}: its sha256 differs from the sidecar's: the table was modified"
+                )
             from .tables import read_table
 
             table = read_table(text)
-            return SweepRecord(path, doc["call"], grids, table, text, recorded, notes + map_notes,
-                               doc.get("format_version", 0))
+            return SweepRecord(
+                path, doc["call"], grids, table, text, recorded, notes + map_notes, doc.get("format_version", 0)
+            )
     except (KeyError, TypeError, ValueError) as e:
         raise RecordError(f"{path.name}: incomplete record ({type(e).__name__}: {e})") from None
     raise RecordError(f"{path.name}: unknown record kind {doc.get('kind')!r} (expected 'run' or 'sweep')")

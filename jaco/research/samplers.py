@@ -54,21 +54,27 @@ def check_sampler(sampler: Any, space: Space, n_objectives: int) -> str:
     if not isinstance(sampler, str):
         optuna = require("optuna", "jaco.search")
         if not isinstance(sampler, optuna.samplers.BaseSampler):
-            raise JacoError(f"sampler must be a name ({', '.join(OPTUNA_SAMPLERS)}, evosax:NAME) or an Optuna sampler, "
-                            f"got {type(sampler).__name__}")
+            raise JacoError(
+                f"sampler must be a name ({', '.join(OPTUNA_SAMPLERS)}, evosax:NAME) or an Optuna sampler, "
+                f"got {type(sampler).__name__}"
+            )
         return type(sampler).__name__
     if sampler.startswith(EVOSAX_PREFIX):
         require("evosax", f"sampler {sampler!r}")
         from evosax import algorithms
 
-        name = sampler[len(EVOSAX_PREFIX):]
+        name = sampler[len(EVOSAX_PREFIX) :]
         if name not in algorithms.distribution_based_algorithms:
-            raise JacoError(f"unknown evosax strategy {name!r}; distribution-based ones: "
-                            f"{', '.join(sorted(algorithms.distribution_based_algorithms))}")
+            raise JacoError(
+                f"unknown evosax strategy {name!r}; distribution-based ones: "
+                f"{', '.join(sorted(algorithms.distribution_based_algorithms))}"
+            )
         bad = [n for n, d in space.dims.items() if not isinstance(d, Float)]
         if bad:
-            raise SpaceError(f"evosax strategies search real parameters of one planner; {bad[0]!r} is "
-                             f"{'the planner' if bad[0] == VARIANT else 'not a (low, high) range'}: use an Optuna sampler")
+            raise SpaceError(
+                f"evosax strategies search real parameters of one planner; {bad[0]!r} is "
+                f"{'the planner' if bad[0] == VARIANT else 'not a (low, high) range'}: use an Optuna sampler"
+            )
         if n_objectives > 1:
             raise JacoError("evosax strategies minimise one objective: use sampler='nsga2' (or 'tpe') for several")
         return sampler
@@ -123,18 +129,34 @@ def optuna_sampler(name: str, space: Space, *, seed: int, batch: int, trials: in
         warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
         if name == "tpe":
             # TPE models once n_startup_trials are told: with small batches, from the second batch on
-            return s.TPESampler(seed=seed, multivariate=True, group=space.conditional(), constant_liar=True,
-                                n_startup_trials=min(10, batch))
+            return s.TPESampler(
+                seed=seed,
+                multivariate=True,
+                group=space.conditional(),
+                constant_liar=True,
+                n_startup_trials=min(10, batch),
+            )
         if name == "cmaes":
             beside = s.TPESampler(seed=seed, multivariate=True, constant_liar=True)
-            return s.CmaEsSampler(seed=seed, popsize=batch, n_startup_trials=0, independent_sampler=beside,
-                                  warn_independent_sampling=False)
+            return s.CmaEsSampler(
+                seed=seed,
+                popsize=batch,
+                n_startup_trials=0,
+                independent_sampler=beside,
+                warn_independent_sampling=False,
+            )
         if name == "random":
             return s.RandomSampler(seed=seed)
         if name == "qmc":
-            return s.QMCSampler(qmc_type="sobol", scramble=True, seed=seed, warn_asynchronous_seeding=False,
-                                warn_independent_sampling=False)
+            return s.QMCSampler(
+                qmc_type="sobol",
+                scramble=True,
+                seed=seed,
+                warn_asynchronous_seeding=False,
+                warn_independent_sampling=False,
+            )
         if name == "grid":
+
             class Grid(s.GridSampler):
                 def after_trial(self, study, trial, state, values):
                     pass  # Optuna's stops the study when the grid is done; jaco.search asks no more than its size
@@ -150,8 +172,11 @@ def optuna_sampler(name: str, space: Space, *, seed: int, batch: int, trials: in
 def suggest(trial: Any, space: Space) -> tuple[str, dict]:
     """Ask ``trial`` for a planner and its parameters (define-by-run: a parameter is suggested
     only for the planners that use it); returns the planner's name and the suggested values."""
-    planner = trial.suggest_categorical(VARIANT, list(space.dims[VARIANT].choices)) if space.searches_planner \
+    planner = (
+        trial.suggest_categorical(VARIANT, list(space.dims[VARIANT].choices))
+        if space.searches_planner
         else next(iter(space.planners))
+    )
     values = {}
     for name, dim in space.dims.items():
         if name == VARIANT or not space.uses(planner, name):
@@ -225,7 +250,7 @@ class EvosaxProposer:
         self.lo = np.where(self.log, np.log(lo), lo)
         self.hi = np.where(self.log, np.log(hi), hi)
         self.bounds = (lo, hi)
-        cls = algorithms.distribution_based_algorithms[name[len(EVOSAX_PREFIX):]]
+        cls = algorithms.distribution_based_algorithms[name[len(EVOSAX_PREFIX) :]]
         options = dict(options or {})
         if cls.__name__ == "Open_ES":  # evosax's defaults (sgd 1e-3, std 1) suit raw weights, not z: jaco.tune's
             options.setdefault("optimizer", optax.adam(0.1))
@@ -233,7 +258,7 @@ class EvosaxProposer:
         try:
             self.strategy = cls(population_size=batch, solution=jnp.zeros(len(self.names)), **options)
         except (TypeError, AssertionError) as e:
-            raise JacoError(f"evosax strategy {name[len(EVOSAX_PREFIX):]}: {e or 'invalid population size'}") from None
+            raise JacoError(f"evosax strategy {name[len(EVOSAX_PREFIX) :]}: {e or 'invalid population size'}") from None
         self.params = self.strategy.default_params
         self.key = jax.random.key(seed)
         k_init = jax.random.fold_in(self.key, 2**31 - 1)
@@ -257,8 +282,9 @@ class EvosaxProposer:
 
         _, k_tell = self._keys(generation)
         with _evosax_rules():
-            self.state, _ = self.strategy.tell(k_tell, jnp.asarray(z, jnp.float32), jnp.asarray(fitness, jnp.float32),
-                                               self.state, self.params)
+            self.state, _ = self.strategy.tell(
+                k_tell, jnp.asarray(z, jnp.float32), jnp.asarray(fitness, jnp.float32), self.state, self.params
+            )
 
     def values(self, z: np.ndarray) -> list[dict]:
         """Parameter values of each member (inside the ranges, whatever z)."""

@@ -68,7 +68,13 @@ from .space import SIZES, VARIANT, Space, parse_space
 
 FORMAT = "jaco-search"
 FORMAT_VERSION = 1
-OBJECTIVES: dict[str, Literal["minimize", "maximize"]] = {"gap": "minimize", "length": "minimize", "turns": "minimize", "success": "maximize", "budget": "minimize"}
+OBJECTIVES: dict[str, Literal["minimize", "maximize"]] = {
+    "gap": "minimize",
+    "length": "minimize",
+    "turns": "minimize",
+    "success": "maximize",
+    "budget": "minimize",
+}
 PENALIZED = ("gap", "length", "turns")
 ATTR = "jaco"  # the study's user attribute with everything jaco needs to rerun and resume it
 
@@ -114,11 +120,15 @@ def _fidelity(fidelity) -> Halving | None:
         return fidelity
     if fidelity in ("halving", "hyperband"):
         return Halving(hyperband=fidelity == "hyperband")
-    raise SearchError(f"fidelity must be None, 'halving', 'hyperband' or a jaco.research.search.Halving, got {fidelity!r}")
+    raise SearchError(
+        f"fidelity must be None, 'halving', 'hyperband' or a jaco.research.search.Halving, got {fidelity!r}"
+    )
 
 
 def _objectives(objective) -> tuple[str, ...]:
-    names = (objective,) if isinstance(objective, str) else tuple(objective) if isinstance(objective, (list, tuple)) else ()
+    names = (
+        (objective,) if isinstance(objective, str) else tuple(objective) if isinstance(objective, (list, tuple)) else ()
+    )
     if not names or not all(isinstance(n, str) for n in names):
         raise SearchError(f"objective must be a name or a list of names ({', '.join(OBJECTIVES)}), got {objective!r}")
     for n in names:
@@ -166,7 +176,9 @@ def _storage(storage):
     if isinstance(storage, Path):
         storage = str(storage)
     if not isinstance(storage, str) or not storage.strip():
-        raise SearchError(f"storage must be a URL (sqlite:///study.db), a .db or .journal path, or an Optuna storage, got {storage!r}")
+        raise SearchError(
+            f"storage must be a URL (sqlite:///study.db), a .db or .journal path, or an Optuna storage, got {storage!r}"
+        )
     if storage.startswith("journal:") or storage.endswith((".journal", ".log")):
         path = Path(storage.removeprefix("journal:"))
         return "journal", path, f"journal {path}"
@@ -294,8 +306,13 @@ class Evaluator:
         longest = max(steplimit.values())  # one penalty for every planner: a failure is worse than any success
         worst = math.sqrt(2.0) * longest * cell  # a path of steplimit diagonal steps
         with np.errstate(divide="ignore", invalid="ignore"):
-            default = {"length": worst, "turns": np.full(len(cell), float(longest)),
-                       "gap": np.where(self.optimal > 0, (worst - self.optimal) / np.where(self.optimal > 0, self.optimal, 1), 0.0)}
+            default = {
+                "length": worst,
+                "turns": np.full(len(cell), float(longest)),
+                "gap": np.where(
+                    self.optimal > 0, (worst - self.optimal) / np.where(self.optimal > 0, self.optimal, 1), 0.0
+                ),
+            }
         self.penalty = {n: (default[n] if v is None else np.full(len(cell), v)) for n, v in penalties.items()}
         self.compiles = 0
 
@@ -306,12 +323,21 @@ class Evaluator:
         width = min(_pow2(n_trials), _pow2(self.batch)) * len(self.seeds)
         key = (planner, n_ants, n_iters, width)
         if key not in self.runners:
+
             def compiling():
                 self.compiles += 1
 
             shape = RunShape(n_ants, n_iters, self.steplimit[planner])  # the queries' problems hold their moves
-            self.runners[key] = Runner(self.space.planners[planner], self.queries, shape=shape, mesh=self.mesh,
-                                       rows=width, budget=self.budget, on_compile=compiling, paths=self.paths)
+            self.runners[key] = Runner(
+                self.space.planners[planner],
+                self.queries,
+                shape=shape,
+                mesh=self.mesh,
+                rows=width,
+                budget=self.budget,
+                on_compile=compiling,
+                paths=self.paths,
+            )
         return self.runners[key]
 
     def __call__(self, jobs: list[Job]) -> None:
@@ -325,7 +351,7 @@ class Evaluator:
             values = {k: np.repeat([j["values"][k] for j in group], n_s) for k in names}  # trial-major, seeds inner
             outs = runner(values, np.tile(self.seeds, len(group)))
             for i, job in enumerate(group):
-                part = [o[:, i * n_s:(i + 1) * n_s] for o in outs]
+                part = [o[:, i * n_s : (i + 1) * n_s] for o in outs]
                 job["runs"] = self._runs(part)
                 job["objective"] = self.objective(job["runs"], n_ants, n_iters)
 
@@ -379,6 +405,7 @@ def trial_info(frozen: Any) -> dict:
 
 def _plain_runs(runs: dict) -> dict:
     """Per-run arrays as JSON lists (a failed run's length and gap as None)."""
+
     def conv(x):
         if isinstance(x, (bool, np.bool_)):
             return bool(x)
@@ -460,19 +487,38 @@ def search(
             raise SearchError("evosax strategies need every member of a generation evaluated: no fidelity with evosax")
         halving.rungs(n_iters if isinstance(n_iters, int) else 1)
     sizes = {k: space.fixed.get(k, v) for k, v in (("n_ants", n_ants), ("n_iters", n_iters))}
-    largest = {k: int(max(space.dims[k].choices) if hasattr(space.dims.get(k), "choices") else space.dims[k].high)
-               if k in space.dims else sizes[k] for k in SIZES}
+    largest = {
+        k: int(max(space.dims[k].choices) if hasattr(space.dims.get(k), "choices") else space.dims[k].high)
+        if k in space.dims
+        else sizes[k]
+        for k in SIZES
+    }
     from ..engine.checks import check_sizes, default_steplimit
     from ..engine.memory import check_run_memory
 
-    queries, _ = prepare_queries(grid, start, goal, n_ants=largest["n_ants"], n_iters=largest["n_iters"],
-                                 steplimit=steplimit, connectivity=connectivity)
+    queries, _ = prepare_queries(
+        grid,
+        start,
+        goal,
+        n_ants=largest["n_ants"],
+        n_iters=largest["n_iters"],
+        steplimit=steplimit,
+        connectivity=connectivity,
+    )
     # each planner's own default step limit (backtracking ants get twice the dying ants'), or the one given
-    steplimits = {name: default_steplimit(queries.grid, v) if steplimit is None else steplimit
-                  for name, v in space.planners.items()}
+    steplimits = {
+        name: default_steplimit(queries.grid, v) if steplimit is None else steplimit
+        for name, v in space.planners.items()
+    }
     check_sizes(largest["n_ants"], largest["n_iters"], max(steplimits.values()))
-    check_run_memory(queries.grid.n_cells, largest["n_ants"], largest["n_iters"], max(steplimits.values()),
-                     runs=len(queries.queries), what="a search chunk")
+    check_run_memory(
+        queries.grid.n_cells,
+        largest["n_ants"],
+        largest["n_iters"],
+        max(steplimits.values()),
+        runs=len(queries.queries),
+        what="a search chunk",
+    )
     seed_list = check_seeds(seeds)
     budget = check_budget(memory_budget)
     storage_obj, lock_path, storage_text = _storage(storage)
@@ -484,11 +530,32 @@ def search(
 
         for v in space.planners.values():
             recordable_name(v)  # a stored trial must name a planner the registry finds again
-    info = _study_info(space, objectives, penalties, queries, seed_list, sizes, steplimits, connectivity,
-                       sampler_name, seed, halving, batch)
+    info = _study_info(
+        space,
+        objectives,
+        penalties,
+        queries,
+        seed_list,
+        sizes,
+        steplimits,
+        connectivity,
+        sampler_name,
+        seed,
+        halving,
+        batch,
+    )
 
-    evaluator = Evaluator(space, queries, seed_list, steplimit=steplimits, objectives=objectives, penalties=penalties,
-                          batch=batch, budget=budget, devices=devices)
+    evaluator = Evaluator(
+        space,
+        queries,
+        seed_list,
+        steplimit=steplimits,
+        objectives=objectives,
+        penalties=penalties,
+        batch=batch,
+        budget=budget,
+        devices=devices,
+    )
     bar = _progress.Bar(_progress.enabled(progress), f"search {sampler_name}", "trial")
     t0 = time.perf_counter()
     with _quiet(), _opened(storage_obj, lock_path) as store:
@@ -503,8 +570,13 @@ def search(
         else:
             optuna_s = sampler
         try:
-            study = optuna.create_study(storage=store, sampler=optuna_s, study_name=study_name or "jaco",
-                                        directions=[OBJECTIVES[n] for n in objectives], load_if_exists=True)
+            study = optuna.create_study(
+                storage=store,
+                sampler=optuna_s,
+                study_name=study_name or "jaco",
+                directions=[OBJECTIVES[n] for n in objectives],
+                load_if_exists=True,
+            )
         except ValueError as e:  # e.g. an existing study with other directions
             raise SearchError(f"study {study_name or 'jaco'!r} in {storage_text}: {e}") from None
         _attach(study, info, storage_text)
@@ -515,14 +587,17 @@ def search(
         finally:
             bar.close()
         timings = dict(run.timings, wall_s=time.perf_counter() - t0, compiles=evaluator.compiles)
-    if isinstance(storage_obj, str) and storage_obj != "journal":  # read back through plain connections (SQLite: no WAL)
+    if (
+        isinstance(storage_obj, str) and storage_obj != "journal"
+    ):  # read back through plain connections (SQLite: no WAL)
         with _quiet():
             study = optuna.load_study(study_name=study.study_name, storage=storage_obj)
     return Study(study, timings=timings)
 
 
-def _study_info(space, objectives, penalties, queries, seeds, sizes, steplimit, connectivity, sampler, seed, halving,
-                batch) -> dict:
+def _study_info(
+    space, objectives, penalties, queries, seeds, sizes, steplimit, connectivity, sampler, seed, halving, batch
+) -> dict:
     """What a study stores about its search: enough to rerun any trial, and to check that a
     resumed study is the same search."""
     from .record_format import map_entry, versions
@@ -540,9 +615,15 @@ def _study_info(space, objectives, penalties, queries, seeds, sizes, steplimit, 
         "space": space.describe(),
         "objectives": list(objectives),
         "penalty": {k: v for k, v in penalties.items()},
-        "queries": [{"map": where[map_entry(g)["sha256"]], "start": list(s), "goal": list(t),
-                     "optimal": float(p.optimal) * g.cell_size}
-                    for (g, s, t), p in zip(queries.queries, queries.problems)],
+        "queries": [
+            {
+                "map": where[map_entry(g)["sha256"]],
+                "start": list(s),
+                "goal": list(t),
+                "optimal": float(p.optimal) * g.cell_size,
+            }
+            for (g, s, t), p in zip(queries.queries, queries.problems)
+        ],
         "seeds": [int(s) for s in seeds],
         "n_ants": sizes["n_ants"] if "n_ants" not in space.dims else None,
         "n_iters": sizes["n_iters"] if "n_iters" not in space.dims else None,
@@ -558,8 +639,20 @@ def _study_info(space, objectives, penalties, queries, seeds, sizes, steplimit, 
 
 
 #: What must be equal for a study to resume (the rest, e.g. versions and batch, may change).
-SAME_SEARCH = ("space", "objectives", "penalty", "queries", "seeds", "n_ants", "n_iters", "steplimit", "connectivity",
-               "sampler", "sampler_seed", "fidelity")
+SAME_SEARCH = (
+    "space",
+    "objectives",
+    "penalty",
+    "queries",
+    "seeds",
+    "n_ants",
+    "n_iters",
+    "steplimit",
+    "connectivity",
+    "sampler",
+    "sampler_seed",
+    "fidelity",
+)
 
 
 def _attach(study, info: dict, where: str) -> None:
@@ -569,7 +662,9 @@ def _attach(study, info: dict, where: str) -> None:
     old = study.user_attrs.get(ATTR)
     if old is None:
         if study.trials:
-            raise SearchError(f"study {study.study_name!r} in {where} was not made by jaco.search: use another study_name")
+            raise SearchError(
+                f"study {study.study_name!r} in {where} was not made by jaco.search: use another study_name"
+            )
         study.set_user_attr(ATTR, json.loads(json.dumps(info)))
         return
     now = json.loads(json.dumps(info))
@@ -609,7 +704,9 @@ class _Run:
             value = None
         if value is not None:
             name = self.info["objectives"][0]
-            self.bar.status(f"best {name} {100 * value:.2f}%" if name in ("gap", "success") else f"best {name} {value:.4g}")
+            self.bar.status(
+                f"best {name} {100 * value:.2f}%" if name in ("gap", "success") else f"best {name} {value:.4g}"
+            )
 
     def _job(self, trial, planner, params: dict, sizes: dict) -> Job:
         """A job: every parameter of the planner (``params`` over its defaults, checked)."""
@@ -618,8 +715,14 @@ class _Run:
         v = self.space.planners[planner]
         params = {k: x for k, x in params.items() if k in v.params}
         values = {k: float(np.asarray(x)) for k, x in resolve_params(v, params, where=f"planner {planner!r}").items()}
-        return Job(trial=trial, planner=planner, values=values, own={k: values[k] for k in v.params}, stored={},
-                   **{k: int(sizes[k]) for k in SIZES})
+        return Job(
+            trial=trial,
+            planner=planner,
+            values=values,
+            own={k: values[k] for k in v.params},
+            stored={},
+            **{k: int(sizes[k]) for k in SIZES},
+        )
 
     def _ask(self, n: int, extra_attrs=None) -> list[Job]:
         t0 = time.perf_counter()
@@ -629,8 +732,16 @@ class _Run:
             planner, suggested = suggest(trial, self.space)
             job = self._job(trial, planner, {**self.space.fixed, **suggested}, {**self.sizes, **suggested})
             # one attribute, one storage write: what reruns the trial and places it in the search
-            trial.set_user_attr("jaco_trial", {"planner": planner, "params": job["own"], "n_ants": job["n_ants"],
-                                               "generation": self.generation, **(extra_attrs(i) if extra_attrs else {})})
+            trial.set_user_attr(
+                "jaco_trial",
+                {
+                    "planner": planner,
+                    "params": job["own"],
+                    "n_ants": job["n_ants"],
+                    "generation": self.generation,
+                    **(extra_attrs(i) if extra_attrs else {}),
+                },
+            )
             jobs.append(job)
         self.timings["sampler_s"] += time.perf_counter() - t0
         return jobs
@@ -760,8 +871,10 @@ class _Run:
             jobs = []
             for m, t in sorted(members.items()):
                 if not (0 <= m < len(z) and np.array_equal(np.asarray(trial_info(t)["z"], np.float32), z[m])):
-                    raise SearchError(f"study {self.study.study_name!r}: generation {generation} does not replay its "
-                                      "stored proposals (another strategy, batch or seed?)")
+                    raise SearchError(
+                        f"study {self.study.study_name!r}: generation {generation} does not replay its "
+                        "stored proposals (another strategy, batch or seed?)"
+                    )
                 if t.state == TrialState.COMPLETE:
                     fitness[m] = sign * t.values[0]
                 else:  # left RUNNING by a killed process: evaluate it now
@@ -769,8 +882,10 @@ class _Run:
             missing = [m for m in range(len(z)) if m not in members]
             proposals = self.proposer.values(z)
             self.study.sampler.pending = [proposals[m] for m in missing]
-            new = self._ask(len(missing), lambda i, missing=missing, z=z: {"member": missing[i],
-                                                                    "z": [float(x) for x in z[missing[i]]]})
+            new = self._ask(
+                len(missing),
+                lambda i, missing=missing, z=z: {"member": missing[i], "z": [float(x) for x in z[missing[i]]]},
+            )
             jobs += [Job(j, member=m) for j, m in zip(new, missing)]
             self._evaluate(jobs)
             self._tell(jobs)
@@ -795,8 +910,10 @@ class Study:
         self.timings = dict(timings or {})
 
     def __repr__(self) -> str:
-        return (f"Study({self.study.study_name!r}: {len(self.study.trials)} trials, sampler {self.info['sampler']}, "
-                f"objectives {', '.join(self.info['objectives'])})")
+        return (
+            f"Study({self.study.study_name!r}: {len(self.study.trials)} trials, sampler {self.info['sampler']}, "
+            f"objectives {', '.join(self.info['objectives'])})"
+        )
 
     @property
     def objectives(self) -> list[str]:
@@ -848,11 +965,18 @@ class Study:
         rows = []
         for t in frozen:
             a = trial_info(t)
-            row = {"number": t.number, "state": t.state.name, "generation": a.get("generation"),
-                   VARIANT: a.get("planner")}
+            row = {
+                "number": t.number,
+                "state": t.state.name,
+                "generation": a.get("generation"),
+                VARIANT: a.get("planner"),
+            }
             row.update({k: v for k, v in t.params.items() if k != VARIANT})
-            values = t.values if t.values is not None else (
-                [t.intermediate_values[max(t.intermediate_values)]] if t.intermediate_values else [math.nan])
+            values = (
+                t.values
+                if t.values is not None
+                else ([t.intermediate_values[max(t.intermediate_values)]] if t.intermediate_values else [math.nan])
+            )
             for name, v in zip(self.objectives, values):
                 row[name] = v
             runs = a["runs"]
@@ -884,9 +1008,16 @@ class Study:
         sign = 1.0 if OBJECTIVES[name] == "minimize" else -1.0
         complete = table["state"].eq("COMPLETE")
         best = (sign * table[name].where(complete)).cummin().ffill() * sign  # a pruned trial keeps the best
-        out = pd.DataFrame({"number": table["number"].to_numpy(), "value": table[name].to_numpy(),
-                            "best": best.to_numpy(), "iterations": table["iterations"].cumsum().to_numpy(),
-                            "end_s": table["end_s"].to_numpy(), "state": table["state"].to_numpy()})
+        out = pd.DataFrame(
+            {
+                "number": table["number"].to_numpy(),
+                "value": table[name].to_numpy(),
+                "best": best.to_numpy(),
+                "iterations": table["iterations"].cumsum().to_numpy(),
+                "end_s": table["end_s"].to_numpy(),
+                "state": table["state"].to_numpy(),
+            }
+        )
         return out.reset_index(drop=True)
 
     def runs(self, number: int | None = None) -> pd.DataFrame:
@@ -899,8 +1030,15 @@ class Study:
             for n_iters, runs in trial_info(t)["runs"].items():
                 for q, query in enumerate(self.info["queries"]):
                     for j, s in enumerate(self.info["seeds"]):
-                        row = {"number": t.number, VARIANT: trial_info(t)["planner"], "n_iters": int(n_iters),
-                               "query": q, "start": tuple(query["start"]), "goal": tuple(query["goal"]), "seed": s}
+                        row = {
+                            "number": t.number,
+                            VARIANT: trial_info(t)["planner"],
+                            "n_iters": int(n_iters),
+                            "query": q,
+                            "start": tuple(query["start"]),
+                            "goal": tuple(query["goal"]),
+                            "seed": s,
+                        }
                         for k, v in runs.items():
                             x = v[q][j]
                             row[k] = math.inf if x is None else x
@@ -944,18 +1082,32 @@ class TrialRecord:
         goals = [tuple(q["goal"]) for q in info["queries"]]
         diffs, n_runs = [], 0
         for n_iters, runs in sorted(a["runs"].items(), key=lambda kv: int(kv[0])):
-            new = sweep(grids, starts, goals, a["planner"], table({k: [v] for k, v in a["params"].items()}),
-                        info["seeds"], n_ants=int(a["n_ants"]), n_iters=int(n_iters), steplimit=info["steplimit"][a["planner"]],
-                        connectivity=info["connectivity"], progress=False)
+            new = sweep(
+                grids,
+                starts,
+                goals,
+                a["planner"],
+                table({k: [v] for k, v in a["params"].items()}),
+                info["seeds"],
+                n_ants=int(a["n_ants"]),
+                n_iters=int(n_iters),
+                steplimit=info["steplimit"][a["planner"]],
+                connectivity=info["connectivity"],
+                progress=False,
+            )
             n_q, n_s = len(info["queries"]), len(info["seeds"])
-            got = {"success": new["success"].to_numpy().reshape(n_q, n_s),
-                   "length": new["length"].to_numpy().reshape(n_q, n_s),
-                   "best_iteration": new["best_iteration"].to_numpy().reshape(n_q, n_s)}
+            got = {
+                "success": new["success"].to_numpy().reshape(n_q, n_s),
+                "length": new["length"].to_numpy().reshape(n_q, n_s),
+                "best_iteration": new["best_iteration"].to_numpy().reshape(n_q, n_s),
+            }
             for k, v in got.items():
                 old = np.asarray([[math.inf if x is None else x for x in r] for r in runs[k]], np.float64)
                 same = np.array_equal(old, np.asarray(v, np.float64))
                 if not same:
-                    diffs.append(f"{n_iters} iterations, {k}: {int(np.sum(old != np.asarray(v, np.float64)))} of {old.size} runs differ")
+                    diffs.append(
+                        f"{n_iters} iterations, {k}: {int(np.sum(old != np.asarray(v, np.float64)))} of {old.size} runs differ"
+                    )
             n_runs += n_q * n_s
         what = f"trial {self.trial.number}: {n_runs} runs of {a['planner']}"
         return Rerun(not diffs, diffs, notes, None, what)

@@ -91,9 +91,7 @@ def _dim(name: str, spec) -> Dim | float:
         tags = [x for x in spec[2:] if isinstance(x, str)]
         ends = spec[:2]
         if len(spec) < 2 or len(tags) != len(spec) - 2 or set(tags) - {"log", "int", "linear"}:
-            raise SpaceError(
-                f"space[{name!r}]: a range is (low, high) with optional 'log' and/or 'int', got {spec!r}"
-            )
+            raise SpaceError(f"space[{name!r}]: a range is (low, high) with optional 'log' and/or 'int', got {spec!r}")
         try:
             lo, hi = (float(x) for x in ends)
         except (TypeError, ValueError):
@@ -115,7 +113,9 @@ def _check_range(name: str, dim: Float | Int) -> None:
     if not (math.isfinite(lo) and math.isfinite(hi)):
         raise SpaceError(f"space[{name!r}]: the range must be finite, got ({lo:g}, {hi:g})")
     if not lo < hi:
-        raise SpaceError(f"space[{name!r}]: empty range ({lo:g}, {hi:g}); it needs low < high (a fixed value is a number)")
+        raise SpaceError(
+            f"space[{name!r}]: empty range ({lo:g}, {hi:g}); it needs low < high (a fixed value is a number)"
+        )
     if dim.log and lo <= 0:
         raise SpaceError(f"space[{name!r}]: a log range needs low > 0, got ({lo:g}, {hi:g})")
     if name in SPECS:
@@ -166,8 +166,10 @@ class Space:
 
     def describe(self) -> dict:
         """The space as plain JSON (stored with a study, compared when it resumes)."""
-        out = {n: d.describe() if not isinstance(d, Categorical) or n != VARIANT else list(d.choices)
-               for n, d in self.dims.items()}
+        out = {
+            n: d.describe() if not isinstance(d, Categorical) or n != VARIANT else list(d.choices)
+            for n, d in self.dims.items()
+        }
         out.update({n: v for n, v in self.fixed.items()})
         if VARIANT not in self.dims:
             out[VARIANT] = next(iter(self.planners))
@@ -221,7 +223,9 @@ def parse_space(space: Any, variant: Any = None) -> Space:
         elif isinstance(dim, Categorical):
             if not dim.choices:
                 raise SpaceError(f"space[{name!r}]: an empty list of values")
-            if not all(isinstance(c, (int, float, np.integer, np.floating)) and not isinstance(c, bool) for c in dim.choices):
+            if not all(
+                isinstance(c, (int, float, np.integer, np.floating)) and not isinstance(c, bool) for c in dim.choices
+            ):
                 raise SpaceError(f"space[{name!r}]: the values must be numbers, got {list(dim.choices)}")
             if len(set(dim.choices)) != len(dim.choices):
                 raise SpaceError(f"space[{name!r}]: a value is listed twice in {list(dim.choices)}")

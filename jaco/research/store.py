@@ -96,7 +96,9 @@ class SweepStore:
             self.db = sqlite3.connect(self.path, isolation_level=None, timeout=30)
             tables = {r[0] for r in self.db.execute("SELECT name FROM sqlite_master WHERE type='table'")}
             if tables and "jaco_sweep_store" not in tables:
-                raise StoreError(f"{str(self.path)!r} is an SQLite file but not a jaco sweep store (tables {sorted(tables)})")
+                raise StoreError(
+                    f"{str(self.path)!r} is an SQLite file but not a jaco sweep store (tables {sorted(tables)})"
+                )
             self.db.executescript(
                 """
                 CREATE TABLE IF NOT EXISTS jaco_sweep_store (schema_version INTEGER NOT NULL);
@@ -110,7 +112,9 @@ class SweepStore:
             if version is None:
                 self.db.execute("INSERT INTO jaco_sweep_store VALUES (?)", (SCHEMA_VERSION,))
             elif version[0] > SCHEMA_VERSION:
-                raise StoreError(f"store {str(self.path)!r} has schema version {version[0]}, newer than this jaco reads")
+                raise StoreError(
+                    f"store {str(self.path)!r} has schema version {version[0]}, newer than this jaco reads"
+                )
         except sqlite3.DatabaseError as e:
             self.close()
             raise StoreError(f"{str(self.path)!r} is not a jaco sweep store ({e})") from None
@@ -167,8 +171,9 @@ class SweepStore:
         blobs = [np.ascontiguousarray(o, _DTYPES[name]).tobytes() for name, o in zip(FIELDS, outputs)]
         self.db.execute("BEGIN IMMEDIATE")
         try:
-            self.db.execute("INSERT INTO chunks VALUES (?, ?, ?, ?, ?, ?)",
-                            (key, np.asarray(rows, "<i8").tobytes(), *blobs))
+            self.db.execute(
+                "INSERT INTO chunks VALUES (?, ?, ?, ?, ?, ?)", (key, np.asarray(rows, "<i8").tobytes(), *blobs)
+            )
             self.db.execute("COMMIT")
         except BaseException:
             self.db.execute("ROLLBACK")

@@ -73,7 +73,9 @@ def _queries(grid, start, goal):
 
     grids = [grid] if isinstance(grid, Grid) else list(grid) if isinstance(grid, (list, tuple)) else []
     if not grids or not all(isinstance(g, Grid) for g in grids):
-        raise JacoError(f"grid must be a jaco.Grid or a non-empty list of Grids of one shape, got {type(grid).__name__}")
+        raise JacoError(
+            f"grid must be a jaco.Grid or a non-empty list of Grids of one shape, got {type(grid).__name__}"
+        )
     starts = [start] if is_pair(start) else as_list(start, "start")
     goals = [goal] if is_pair(goal) else as_list(goal, "goal")
     n = max(len(grids), len(starts), len(goals))
@@ -153,8 +155,16 @@ def _shapes(batch) -> tuple:
     return tuple((tuple(x.shape), str(x.dtype)) for x in jax.tree.leaves(batch))
 
 
-def _executable(variant: Planner, shape: RunShape, mesh: Mesh, batch, n_params: int, chunk: int, on_compile=None,
-                paths: bool = False):
+def _executable(
+    variant: Planner,
+    shape: RunShape,
+    mesh: Mesh,
+    batch,
+    n_params: int,
+    chunk: int,
+    on_compile=None,
+    paths: bool = False,
+):
     """The compiled chunk program for ``chunk`` configurations per device (cached), and whether
     it was compiled by this call (``on_compile()`` is called first when it is)."""
     pkey, program = _program(variant, shape, mesh, paths)
@@ -191,8 +201,17 @@ def _fit(budget: int, fixed: int, per: float, rows_per_device: int) -> int:
     return math.ceil(rows_per_device / n_chunks)
 
 
-def _plan(variant: Planner, shape: RunShape, mesh: Mesh, batch, n_params: int, n_rows: int, budget: int,
-          on_compile=None, paths: bool = False):
+def _plan(
+    variant: Planner,
+    shape: RunShape,
+    mesh: Mesh,
+    batch,
+    n_params: int,
+    n_rows: int,
+    budget: int,
+    on_compile=None,
+    paths: bool = False,
+):
     """Choose the chunk size under the budget from the compiled program's memory analysis: as
     many of ``n_rows`` runs per chunk as fit (``n_rows`` is also the cap: a caller that wants
     smaller chunks passes the chunk it wants).
@@ -271,8 +290,11 @@ def _config_table(variant, params) -> tuple[dict, list[str]]:
     if isinstance(params, dict):
         check_values(params, variant.params, where)  # the variant's own names in the message
         n = math.prod(np.size(v) for v in params.values())
-        check_memory(n * CONFIG_BYTES, f"a grid of {n} configurations",
-                     "use fewer values per axis, or a random or Latin hypercube design")
+        check_memory(
+            n * CONFIG_BYTES,
+            f"a grid of {n} configurations",
+            "use fewer values per axis, or a random or Latin hypercube design",
+        )
     design = as_design(params)
     unknown = [k for k in design.names if k not in variant.params]
     if unknown:
@@ -296,8 +318,17 @@ class Queries(NamedTuple):
         return self.queries[0][0]
 
 
-def prepare_queries(grid: Any, start: Any, goal: Any, *, n_ants: int, n_iters: int, steplimit: int | None,
-                    connectivity: int, variant: Any = None) -> tuple[Queries, int]:
+def prepare_queries(
+    grid: Any,
+    start: Any,
+    goal: Any,
+    *,
+    n_ants: int,
+    n_iters: int,
+    steplimit: int | None,
+    connectivity: int,
+    variant: Any = None,
+) -> tuple[Queries, int]:
     """Validate the maps, queries and sizes (before anything compiles) and build the problems;
     returns them and the step limit (when ``steplimit`` is None, the map's default for ``variant``:
     :func:`jaco.engine.checks.default_steplimit`)."""
@@ -310,7 +341,9 @@ def prepare_queries(grid: Any, start: Any, goal: Any, *, n_ants: int, n_iters: i
     # one configuration of every query must fit: the chunks are cut under memory_budget from there
     check_run_memory(queries[0][0].n_cells, n_ants, n_iters, steplimit, runs=len(queries), what="a sweep chunk")
     problems = [make_problem(g, s, t, connectivity=connectivity) for g, s, t in queries]
-    return Queries([(g, tuple(int(x) for x in s), tuple(int(x) for x in t)) for g, s, t in queries], problems), steplimit
+    return Queries(
+        [(g, tuple(int(x) for x in s), tuple(int(x) for x in t)) for g, s, t in queries], problems
+    ), steplimit
 
 
 def check_budget(memory_budget: Any) -> int:
@@ -326,8 +359,18 @@ class Runner:
     numpy arrays ``(queries, rows)``. Every row equals :func:`jaco.solve` with its values and seed,
     whatever the chunk it ran in. Built by :func:`jaco.sweep` and :func:`jaco.search`."""
 
-    def __init__(self, variant: Planner, queries: Queries, *, shape: RunShape, mesh: Mesh, rows: int, budget: int,
-                 on_compile=None, paths: bool = False):
+    def __init__(
+        self,
+        variant: Planner,
+        queries: Queries,
+        *,
+        shape: RunShape,
+        mesh: Mesh,
+        rows: int,
+        budget: int,
+        on_compile=None,
+        paths: bool = False,
+    ):
         self.variant, self.queries, self.mesh, self.paths, self.shape = variant, queries, mesh, paths, shape
         batch = stack(queries.problems)
         n_params = len(variant.default_params().to_dict())
@@ -347,8 +390,11 @@ class Runner:
             hi = min(lo + self.width, n)
             idx = np.minimum(np.arange(lo, lo + self.width), n - 1)  # pad the last chunk
             prm = params_from({k: np.asarray(v)[idx] for k, v in values.items()}, (self.width,))
-            args = (_put(np.asarray(seeds, np.uint32)[idx], self._on_cfg), self._batch,
-                    jax.tree.map(lambda x: _put(x, self._on_cfg), prm))
+            args = (
+                _put(np.asarray(seeds, np.uint32)[idx], self._on_cfg),
+                self._batch,
+                jax.tree.map(lambda x: _put(x, self._on_cfg), prm),
+            )
             update = (lambda done, lo=lo, hi=hi: on_iteration(lo, hi, done)) if on_iteration else (lambda done: None)
             with _progress.reporting(update):
                 got = _progress.run_interruptibly(lambda args=args: [_fetch(x) for x in self.exe(*args)])
@@ -374,12 +420,34 @@ class _Setup(NamedTuple):
     info: dict
 
 
-def _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices,
-           on_compile=None, chunk=None):
+def _setup(
+    grid,
+    start,
+    goal,
+    variant,
+    params,
+    seeds,
+    n_ants,
+    n_iters,
+    steplimit,
+    connectivity,
+    memory_budget,
+    devices,
+    on_compile=None,
+    chunk=None,
+):
     """Validate everything (before compiling), then plan the chunks and compile the program."""
     variant = get_planner(variant)
-    qs, steplimit = prepare_queries(grid, start, goal, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,
-                                    connectivity=connectivity, variant=variant)
+    qs, steplimit = prepare_queries(
+        grid,
+        start,
+        goal,
+        n_ants=n_ants,
+        n_iters=n_iters,
+        steplimit=steplimit,
+        connectivity=connectivity,
+        variant=variant,
+    )
     seed_list = check_seeds(seeds)
     budget = check_budget(memory_budget)
     if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1):
@@ -387,16 +455,25 @@ def _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit
     values, _ = _config_table(variant, params)
     n_cfg = len(next(iter(values.values())))
     n_rows = n_cfg * len(seed_list) * len(qs.queries)
-    check_memory(n_rows * 8 * (2 * len(values) + 16), f"a table of {n_rows} runs",
-                 "use fewer configurations, seeds or queries (or several sweeps)")
+    check_memory(
+        n_rows * 8 * (2 * len(values) + 16),
+        f"a table of {n_rows} runs",
+        "use fewer configurations, seeds or queries (or several sweeps)",
+    )
     mesh = Mesh(np.array(_devices(devices)), (AXIS,))
     config = np.repeat(np.arange(n_cfg), len(seed_list))  # configuration-major, seeds inner
     seed_arr = np.tile(seed_list, n_cfg)
     rows = len(config) if chunk is None else min(len(config), int(chunk))
     shape = RunShape(n_ants, n_iters, steplimit, connectivity)
     runner = Runner(variant, qs, shape=shape, mesh=mesh, rows=rows, budget=budget, on_compile=on_compile)
-    info = dict(runs=len(config) * len(qs.problems), configurations=n_cfg, seeds=len(seed_list),
-                queries=len(qs.problems), steplimit=int(steplimit), **runner.info)
+    info = dict(
+        runs=len(config) * len(qs.problems),
+        configurations=n_cfg,
+        seeds=len(seed_list),
+        queries=len(qs.problems),
+        steplimit=int(steplimit),
+        **runner.info,
+    )
     if chunk is not None:  # chunks: over every row, not only the capped first one
         info["chunks"] = math.ceil(len(config) / runner.width)
     return _Setup(variant, qs.queries, qs.problems, values, config, seed_arr, runner, info)
@@ -425,7 +502,18 @@ def plan_sweep(
     ``bytes_per_chunk`` from XLA's memory analysis, ``bytes_per_config_estimate`` and
     ``_measured``, ``compiles``...). The compiled program is cached, so the sweep reuses it."""
     return _setup(
-        grid, start, goal, planner, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices,
+        grid,
+        start,
+        goal,
+        planner,
+        params,
+        seeds,
+        n_ants,
+        n_iters,
+        steplimit,
+        connectivity,
+        memory_budget,
+        devices,
         chunk=chunk,
     ).info
 
@@ -492,8 +580,17 @@ def sweep(
     stacked with a first column ``planner``; ``attrs["sweep"]`` maps each planner to its plan.
     """
     if isinstance(planner, (list, tuple)) and not isinstance(planner, Planner):  # a Planner is a tuple too
-        kwargs = dict(n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, connectivity=connectivity,
-                      memory_budget=memory_budget, progress=progress, devices=devices, store=store, chunk=chunk)
+        kwargs = dict(
+            n_ants=n_ants,
+            n_iters=n_iters,
+            steplimit=steplimit,
+            connectivity=connectivity,
+            memory_budget=memory_budget,
+            progress=progress,
+            devices=devices,
+            store=store,
+            chunk=chunk,
+        )
         return _over_variants(planner, lambda v: sweep(grid, start, goal, v, params, seeds, **kwargs), params)
     name = get_planner(planner).name
     if store is not None:
@@ -502,20 +599,64 @@ def sweep(
         store = check_store_path(store)
     bar = _progress.Bar(_progress.enabled(progress) and jax.process_index() == 0, f"sweep {name}", "run")
     try:
-        return _sweep(bar, grid, start, goal, planner, params, seeds, n_ants, n_iters, steplimit, connectivity,
-                      memory_budget, devices, store, chunk)
+        return _sweep(
+            bar,
+            grid,
+            start,
+            goal,
+            planner,
+            params,
+            seeds,
+            n_ants,
+            n_iters,
+            steplimit,
+            connectivity,
+            memory_budget,
+            devices,
+            store,
+            chunk,
+        )
     finally:
         bar.close()
 
 
-def _sweep(bar, grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices,
-           store=None, chunk=None):
+def _sweep(
+    bar,
+    grid,
+    start,
+    goal,
+    variant,
+    params,
+    seeds,
+    n_ants,
+    n_iters,
+    steplimit,
+    connectivity,
+    memory_budget,
+    devices,
+    store=None,
+    chunk=None,
+):
     """The body of :func:`sweep` for one planner, moving ``bar`` (:class:`jaco.progress.Bar`)."""
     if store is not None and chunk is None:
         n_runs = len(as_design(params)) * len(check_seeds(seeds))
         chunk = max(1, math.ceil(n_runs / STORE_CHUNKS))
-    st = _setup(grid, start, goal, variant, params, seeds, n_ants, n_iters, steplimit, connectivity, memory_budget, devices,
-                on_compile=lambda: bar.status("compiling…"), chunk=chunk)
+    st = _setup(
+        grid,
+        start,
+        goal,
+        variant,
+        params,
+        seeds,
+        n_ants,
+        n_iters,
+        steplimit,
+        connectivity,
+        memory_budget,
+        devices,
+        on_compile=lambda: bar.status("compiling…"),
+        chunk=chunk,
+    )
     n_rows, n_q = len(st.config), len(st.problems)
     outs = [np.empty((n_q, n_rows), dt) for dt in (np.float32, np.float32, np.int32, np.int32)]
     todo = np.arange(n_rows)
@@ -523,8 +664,17 @@ def _sweep(bar, grid, start, goal, variant, params, seeds, n_ants, n_iters, step
         from .store import SweepStore
 
         with SweepStore(store) as held:  # locked until the sweep ends
-            key = held.fingerprint(st.variant, st.queries, st.values, st.config, st.seeds, n_ants=n_ants,
-                                   n_iters=n_iters, steplimit=st.runner.shape.steplimit, connectivity=connectivity)
+            key = held.fingerprint(
+                st.variant,
+                st.queries,
+                st.values,
+                st.config,
+                st.seeds,
+                n_ants=n_ants,
+                n_iters=n_iters,
+                steplimit=st.runner.shape.steplimit,
+                connectivity=connectivity,
+            )
             todo = np.flatnonzero(~held.load(key, outs))
             return _run_sweep(bar, st, outs, todo, held, key)
     return _run_sweep(bar, st, outs, todo)
@@ -549,8 +699,12 @@ def _run_sweep(bar, st, outs, todo, store=None, key=None) -> pd.DataFrame:
         bar.update((n_rows - len(todo) + lo) * n_q + (hi - lo) * n_q * min(int(done), n_iters) // n_iters)
 
     if len(todo):
-        st.runner({k: v[st.config[todo]] for k, v in st.values.items()}, st.seeds[todo], on_chunk=finished,
-                  on_iteration=running)
+        st.runner(
+            {k: v[st.config[todo]] for k, v in st.values.items()},
+            st.seeds[todo],
+            on_chunk=finished,
+            on_iteration=running,
+        )
     table = _tidy(st.variant, st.queries, st.problems, st.values, st.config, st.seeds, *outs)
     table.attrs["sweep"] = dict(st.info, resumed_runs=int((n_rows - len(todo)) * n_q)) if store is not None else st.info
     return table
@@ -585,9 +739,13 @@ def _tidy(variant, queries, problems, values, config, seed_arr, cost, length, be
         optimal = float(problems[q].optimal) * g.cell_size
         cols = {}
         if n_q > 1:  # the query as integer columns, so that a CSV round trip keeps them numbers
-            cols = {"map": [g.name] * n_rows, "start_row": np.full(n_rows, s[0], np.int64),
-                    "start_col": np.full(n_rows, s[1], np.int64), "goal_row": np.full(n_rows, t[0], np.int64),
-                    "goal_col": np.full(n_rows, t[1], np.int64)}
+            cols = {
+                "map": [g.name] * n_rows,
+                "start_row": np.full(n_rows, s[0], np.int64),
+                "start_col": np.full(n_rows, s[1], np.int64),
+                "goal_row": np.full(n_rows, t[0], np.int64),
+                "goal_col": np.full(n_rows, t[1], np.int64),
+            }
         cols["config"] = config.astype(np.int64)
         cols.update({k: values[k][config] for k in variant.params})
         cols.update(
@@ -643,10 +801,19 @@ def summarize(table: pd.DataFrame, by: Any = None) -> pd.DataFrame:
     quartile = {name: (lambda v, q=q: v.quantile(q)) for name, q in (("q1", 0.25), ("median", 0.5), ("q3", 0.75))}
     stats: dict[str, tuple[str, Any]] = {"success_rate": ("success", "mean")}
     for col in ("length", "gap"):
-        stats.update({f"{col}_{k}": (col, f) for k, f in (("median", quartile["median"]), ("q1", quartile["q1"]),
-                                                         ("q3", quartile["q3"]), ("mean", "mean"), ("std", "std"),
-                                                         ("min", "min"))})
+        stats.update(
+            {
+                f"{col}_{k}": (col, f)
+                for k, f in (
+                    ("median", quartile["median"]),
+                    ("q1", quartile["q1"]),
+                    ("q3", quartile["q3"]),
+                    ("mean", "mean"),
+                    ("std", "std"),
+                    ("min", "min"),
+                )
+            }
+        )
     del stats["gap_std"]
     stats["runs"] = ("seed", "count")
     return finite.groupby(by, sort=False, dropna=False).agg(**stats).reset_index()
-

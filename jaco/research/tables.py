@@ -182,7 +182,11 @@ def _same(a: pd.Series, b: pd.Series) -> np.ndarray:
     numbers bit for bit at the precision ``a`` was written in (float32 when each of its values is
     a float32, else float64; NaN equals NaN, 0.0 and -0.0 differ), anything else as text."""
     numeric = pd.api.types.is_numeric_dtype
-    if numeric(a.dtype) and numeric(b.dtype) and not (pd.api.types.is_bool_dtype(a.dtype) ^ pd.api.types.is_bool_dtype(b.dtype)):
+    if (
+        numeric(a.dtype)
+        and numeric(b.dtype)
+        and not (pd.api.types.is_bool_dtype(a.dtype) ^ pd.api.types.is_bool_dtype(b.dtype))
+    ):
         x, y = a.to_numpy(np.float64), b.to_numpy(np.float64)
         if _written_as_float32(x):
             x, y = x.astype(np.float32), y.astype(np.float32)
@@ -223,8 +227,11 @@ def short_name(name: str) -> str:
 
     rule = parts.get("rule", "as")
     head = "/".join(parts.get(k, d) for k, d in (("construct", "dying"), ("heuristic", "distance"), ("rule", "as")))
-    extra = [f"+{k}={parts[k]}" for k, d in (("transition", default_transition(rule)), ("schedule", "constant"),
-                                            ("cost", "length")) if parts.get(k, d) != d]
+    extra = [
+        f"+{k}={parts[k]}"
+        for k, d in (("transition", default_transition(rule)), ("schedule", "constant"), ("cost", "length"))
+        if parts.get(k, d) != d
+    ]
     return head + "".join(extra)
 
 

@@ -135,7 +135,9 @@ def _compiled(variant: Planner, names, optimizer, *, n_ants, n_iters, steplimit,
     """The jitted tuning loop for these static choices, cached by the variant and the optimiser
     themselves (both hashable: an optax transformation is a tuple of its functions)."""
     key = ("tune", variant, optimizer, names, n_ants, n_iters, steplimit, steps, population, n_seeds)
-    return cached(key, lambda: _build(variant, names, optimizer, n_ants, n_iters, steplimit, steps, population, n_seeds))
+    return cached(
+        key, lambda: _build(variant, names, optimizer, n_ants, n_iters, steplimit, steps, population, n_seeds)
+    )
 
 
 def _build(variant, names, optimizer, n_ants, n_iters, steplimit, steps, population, n_seeds):
@@ -208,8 +210,10 @@ def _names(variant: Planner, tune) -> tuple[str, ...]:
         if not isinstance(name, str):
             raise ParamError(f"tune: parameter names must be strings, got {name!r}")
         if name not in param_names():
-            raise ParamError(f"unknown parameter {name!r}{did_you_mean(name, usable)}; tunable for {variant.name!r}: "
-                             f"{', '.join(usable)}")
+            raise ParamError(
+                f"unknown parameter {name!r}{did_you_mean(name, usable)}; tunable for {variant.name!r}: "
+                f"{', '.join(usable)}"
+            )
         if not tunable(name):
             pairs = " and ".join(f"{a} < {b}" for a, b in ORDERED if name in (a, b))
             raise ParamError(
@@ -217,9 +221,7 @@ def _names(variant: Planner, tune) -> tuple[str, ...]:
                 f"transforms cannot keep; sweep it with jaco.sweep instead"
             )
         if name not in variant.params:
-            raise ParamError(
-                f"planner {variant.name!r} does not use parameter {name!r}; tunable: {', '.join(usable)}"
-            )
+            raise ParamError(f"planner {variant.name!r} does not use parameter {name!r}; tunable: {', '.join(usable)}")
     if len(set(names)) != len(names):
         raise ParamError(f"tune: a parameter is named twice in {names!r}")
     return names
@@ -315,8 +317,15 @@ def tune(
         penalty = _positive_float("penalty", penalty)
 
     loop, run = _compiled(
-        planner, names, optimizer, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,
-        steps=steps, population=population, n_seeds=n_seeds,
+        planner,
+        names,
+        optimizer,
+        n_ants=n_ants,
+        n_iters=n_iters,
+        steplimit=steplimit,
+        steps=steps,
+        population=population,
+        n_seeds=n_seeds,
     )
     base = params_from(values)
     key = jax.random.key(seed)
