@@ -67,9 +67,9 @@ def _kill_after(proc, count, at_least: int, what: str, timeout: float = 120.0) -
 #: The longest test files first. A file runs whole in one process (``--dist loadfile``), so a long
 #: one that starts last leaves the other processes idle at the end; started first, the short files
 #: fill the gaps around it (longest processing time first).
-LONGEST = ("test_variants.py", "test_notebooks.py", "test_native.py", "test_experiments.py", "test_quality.py",
-           "test_local_search.py", "test_bench.py", "test_compose.py", "test_signals.py", "test_sweeps.py",
-           "test_search.py")
+LONGEST = ("test_native.py", "test_notebooks.py", "test_variants.py", "test_local_search.py",
+           "test_experiments.py", "test_quality.py", "test_bench.py", "test_signals.py", "test_search.py",
+           "test_sweeps.py")
 
 
 def pytest_collection_modifyitems(items):
