@@ -12,6 +12,7 @@ its version the cache is not used.
 
 import hashlib
 import os
+import platform
 import shutil
 import subprocess
 import tempfile
@@ -20,6 +21,29 @@ from pathlib import Path
 from setuptools import Extension, setup
 from setuptools.command.build_ext import build_ext
 
+# The lane kernels (jaco/engine/walk_lanes.cc) are compiled once per instruction set, with that
+# set's flags and lane count; the kernel uses, at run time, the widest one the CPU has (walk.cc).
+# Nothing else is built with machine-specific flags, so the library runs on any CPU of its
+# platform. JACO_NATIVE_ISAS (comma-separated names) builds only the sets named, e.g. "baseline".
+_X86 = platform.machine().lower() in ("x86_64", "amd64")
+_ISAS = {
+    "baseline": ([], 4),  # SSE2 on x86-64 (4 floats a vector), NEON on arm64
+    "avx2": (["-mavx2", "-mbmi", "-mbmi2", "-mpopcnt"], 8),
+    "avx512": (["-mavx512f", "-mavx512bw", "-mavx512vl", "-mavx512dq", "-mavx2", "-mbmi", "-mbmi2", "-mpopcnt",
+                "-mprefer-vector-width=512"], 16),
+}
+_LANES = "jaco/engine/walk_lanes.cc"
+
+
+def _isas() -> dict:
+    """The instruction sets to build: all of _ISAS on x86-64, the baseline elsewhere, as JACO_NATIVE_ISAS narrows."""
+    names = list(_ISAS) if _X86 else ["baseline"]
+    wanted = os.environ.get("JACO_NATIVE_ISAS")
+    if wanted:
+        names = [n for n in names if n in {w.strip() for w in wanted.split(",")}] or ["baseline"]
+    return {n: _ISAS[n] for n in dict.fromkeys(["baseline", *names])}
+
+
 _COMMANDS = ("compiler_so", "compiler_so_cxx", "compiler_cxx", "linker_so", "linker_so_cxx")  # those setuptools has
 
 
@@ -27,6 +51,17 @@ def _cache_dir() -> Path:
     if os.environ.get("JACO_CACHE_DIR"):
         return Path(os.environ["JACO_CACHE_DIR"])
     return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "jaco"
+
+
+def _cpu_flags() -> str:
+    """This CPU's feature flags (Linux), else its processor name: for a build tuned to it."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith(("flags", "Features")):
+                return line
+    except OSError:
+        pass
+    return platform.processor()
 
 
 class BuildNative(build_ext):
@@ -47,6 +82,7 @@ class BuildNative(build_ext):
             shutil.copyfile(cached, out)
             print(f"jaco: reusing the native walk built before from the same sources, compiler and jaxlib: {cached}")
             return
+        self._build_lanes(ext)
         super().build_extension(ext)
         if cached is not None and out.is_file():
             try:  # a temporary file renamed into place: concurrent installs never see half a kernel
@@ -59,6 +95,27 @@ class BuildNative(build_ext):
             except OSError as e:
                 print(f"jaco: could not keep the native walk in {cached.parent} ({e}); it is installed all the same")
 
+    def _build_lanes(self, ext):
+        """Compile walk_lanes.cc once per instruction set into objects linked with walk.cc. A set the
+        compiler refuses is left out (walk.cc then never offers it); the baseline must build."""
+        for isa, (flags, lanes) in _isas().items():
+            try:
+                objects = self.compiler.compile(
+                    [_LANES],
+                    output_dir=os.path.join(self.build_temp, f"lanes-{isa}"),
+                    macros=[("JACO_ISA", isa), ("JACO_LANES", str(lanes))],
+                    include_dirs=ext.include_dirs,
+                    extra_postargs=[*ext.extra_compile_args, *flags],
+                )
+            except Exception as e:  # noqa: BLE001 - a compiler without this set
+                if isa == "baseline":
+                    raise
+                print(f"jaco: the lane kernels for {isa} were not built ({e}); the others will be used")
+                continue
+            ext.extra_objects = [*(ext.extra_objects or []), *objects]
+            if isa != "baseline":
+                ext.define_macros = [*ext.define_macros, (f"JACO_HAVE_{isa.upper()}", "1")]
+
     def _cache_key(self, ext, jaxlib_version: str, name: str):
         """The sha256 of what the built kernel depends on, or None when the compiler's version is unknown."""
         h = hashlib.sha256()
@@ -66,7 +123,13 @@ class BuildNative(build_ext):
             h.update(path.encode() + b"\0" + Path(path).read_bytes() + b"\0")
         commands = [getattr(self.compiler, attr, None) for attr in _COMMANDS]
         commands = [c for c in commands if c]
-        for part in (commands, ext.extra_compile_args, ext.extra_link_args, ext.define_macros, jaxlib_version, name):
+        # What the build assumes of the CPU: the instruction sets compiled (each used only where the
+        # CPU has it) and, where the compiler's own flags ask for this machine's CPU, this CPU.
+        assumed = [_isas(), platform.machine()]
+        if any("native" in flag for c in commands for flag in c):
+            assumed.append(_cpu_flags())
+        for part in (commands, ext.extra_compile_args, ext.extra_link_args, ext.define_macros, jaxlib_version, name,
+                     assumed):
             h.update(repr(part).encode() + b"\0")
         for program in dict.fromkeys(c[0] for c in commands):
             try:
@@ -84,6 +147,7 @@ setup(
         Extension(
             "jaco.engine._walk",
             ["jaco/engine/walk.cc"],
+            depends=[_LANES, "jaco/engine/walk_lanes.h", "jaco/engine/walk_shared.h"],
             language="c++",
             extra_compile_args=["-std=c++17", "-O3", "-ffp-contract=off"],
             optional=True,

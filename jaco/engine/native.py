@@ -56,7 +56,62 @@ def _load():
         except (OSError, AttributeError) as e:  # a stale or broken build
             lib, why = None, f"the native walk could not be loaded ({e})"
         _state["lib"], _state["why"] = lib, why
+        if lib is not None:
+            _bind_isa(lib)
     return _state["lib"], _state["why"]
+
+
+def _bind_isa(lib) -> None:
+    """Declare the kernel's instruction-set functions; apply ``JACO_NATIVE_ISA`` if set."""
+    lib.jaco_isa_name.restype = ctypes.c_char_p
+    for name in ("jaco_isa_count", "jaco_isa_built", "jaco_isa_runs", "jaco_isa_get", "jaco_isa_set"):
+        getattr(lib, name).restype = ctypes.c_int
+    choice = os.environ.get("JACO_NATIVE_ISA")
+    if choice:
+        _set_isa(lib, choice, "JACO_NATIVE_ISA")
+
+
+def isas() -> dict[str, str]:
+    """The instruction sets of the lane kernels: ``{name: state}``, the state ``"active"``,
+    ``"runs"`` (built, and this CPU has it), ``"not on this CPU"`` or ``"not built"``; widest last.
+    Empty when the kernel is not available."""
+    lib = _load()[0]
+    if lib is None:
+        return {}
+    active = lib.jaco_isa_get()
+    out = {}
+    for i in range(lib.jaco_isa_count()):
+        state = "not built" if not lib.jaco_isa_built(i) else "runs" if lib.jaco_isa_runs(i) else "not on this CPU"
+        out[lib.jaco_isa_name(i).decode()] = "active" if i == active else state
+    return out
+
+
+def isa() -> str | None:
+    """The instruction set the lane kernels use now (None without the kernel)."""
+    return next((name for name, state in isas().items() if state == "active"), None)
+
+
+def set_isa(choice: str | None) -> None:
+    """Use the lane kernels built for instruction set ``choice`` (``"baseline"``, ``"avx2"``,
+    ``"avx512"``; see :func:`isas`), or with ``None`` the widest one this CPU runs (the default).
+    Every set takes the same moves bit for bit: this changes speed only, for calls from now on,
+    compiled or not. A set that was not built, or that this CPU lacks, is an error."""
+    lib = _load()[0]
+    if lib is None:
+        raise JacoError(f"no native kernel to choose an instruction set for: {unavailable_reason()}")
+    _set_isa(lib, choice or "auto", "set_isa")
+
+
+def _set_isa(lib, choice: str, where: str) -> None:
+    names = [lib.jaco_isa_name(i).decode() for i in range(lib.jaco_isa_count())]
+    if choice == "auto":
+        lib.jaco_isa_set(-1)
+        return
+    if choice not in names:
+        raise JacoError(f"{where}: unknown instruction set {choice!r}; the kernel knows {', '.join(names)} (or auto)")
+    if lib.jaco_isa_set(names.index(choice)) != 0:
+        state = "was not built" if not lib.jaco_isa_built(names.index(choice)) else "is not supported by this CPU"
+        raise JacoError(f"{where}: instruction set {choice!r} {state}; this kernel runs {', '.join(n for n, s in isas().items() if s in ('active', 'runs'))}")
 
 
 def available() -> bool:

@@ -20,121 +20,15 @@
 #include <mutex>
 #include <vector>
 
+#include "walk_lanes.h"
 #include "xla/ffi/api/ffi.h"
 
 namespace ffi = xla::ffi;
 
 namespace {
 
-// ---- counter-based uniforms ----------------------------------------------------------------
-inline uint32_t rotl(uint32_t x, int r) { return (x << r) | (x >> (32 - r)); }
+#include "walk_shared.h"
 
-// Threefry-2x32, 20 rounds (Salmon et al. 2011), as jax.extend.random.threefry2x32_p.
-inline void threefry(uint32_t k0, uint32_t k1, uint32_t& x0, uint32_t& x1) {
-  const uint32_t ks[3] = {k0, k1, k0 ^ k1 ^ 0x1BD11BDAu};
-  static const int rot[2][4] = {{13, 15, 26, 6}, {17, 29, 16, 24}};
-  x0 += ks[0];
-  x1 += ks[1];
-  for (int i = 0; i < 5; ++i) {
-    for (int j = 0; j < 4; ++j) {
-      x0 += x1;
-      x1 = rotl(x1, rot[i % 2][j]);
-      x1 ^= x0;
-    }
-    x0 += ks[(i + 1) % 3];
-    x1 += ks[(i + 2) % 3] + uint32_t(i + 1);
-  }
-}
-
-inline float unit_float(uint32_t bits) {
-  const uint32_t b = (bits >> 9) | 0x3F800000u;
-  float f;
-  std::memcpy(&f, &b, sizeof f);
-  return f - 1.0f;
-}
-
-// The uniforms of one ant: step s uses word s % 2 of Threefry(key; ant, s / 2).
-struct AntRng {
-  uint32_t k0, k1, ant;
-  uint32_t block = 0xFFFFFFFFu;
-  uint32_t words[2] = {0, 0};
-  float at(uint32_t step) {
-    if ((step >> 1) != block) {
-      block = step >> 1;
-      words[0] = ant;
-      words[1] = block;
-      threefry(k0, k1, words[0], words[1]);
-    }
-    return unit_float(words[step & 1]);
-  }
-};
-
-// ---- the roulette (jaco.engine.walk.choose) --------------------------------------------------
-inline int choose(const float* w, float u, float q0, bool exploit) {
-  float c[8];
-  c[0] = w[0];
-  for (int k = 1; k < 8; ++k) c[k] = c[k - 1] + w[k];
-  const float total = c[7];
-  if (exploit) {
-    if (u < q0) {  // the argmax; ties to the lowest index
-      int best = 0;
-      for (int k = 1; k < 8; ++k)
-        if (w[k] > w[best]) best = k;
-      return best;
-    }
-    u = (u - q0) / std::max(1.0f - q0, 1e-12f);
-  }
-  // The largest float below total (std::nextafter(total, 0) for a positive total, without the call).
-  uint32_t tb;
-  std::memcpy(&tb, &total, sizeof tb);
-  tb -= 1;
-  float below;
-  std::memcpy(&below, &tb, sizeof below);
-  const float x = std::min(u * total, below);
-  int k = 0;
-  for (int i = 0; i < 8; ++i) k += (c[i] <= x);
-  return k;
-}
-
-// ---- powers from tables (jaco.engine.bitexact) ----------------------------------------------------
-constexpr int kBits = 10;
-constexpr int kTable = (1 << kBits) + 1;
-
-inline float bits_float(int32_t b) {
-  float f;
-  std::memcpy(&f, &b, sizeof f);
-  return f;
-}
-
-inline float table_log2(float x, const int32_t* log_table) {
-  int32_t b;
-  std::memcpy(&b, &x, sizeof b);
-  const int32_t e = (b >> 23) - 127;
-  const int32_t m = b & 0x7FFFFF;
-  const int32_t i = m >> (23 - kBits);
-  const int32_t f = m & ((1 << (23 - kBits)) - 1);
-  const int32_t lo = log_table[i], hi = log_table[i + 1];
-  const int32_t frac = lo + (((hi - lo) * f) >> (23 - kBits));
-  return float(e) + float(frac) * 0x1p-24f;
-}
-
-inline float table_exp2(float y, const int32_t* exp_table) {
-  const float n = std::floor(y);
-  const float r = y - n;
-  const int32_t fx = std::min(int32_t(r * 0x1p24f), (1 << 24) - 1);
-  const int32_t j = fx >> (24 - kBits);
-  const int32_t g = fx & ((1 << (24 - kBits)) - 1);
-  const int32_t lo = exp_table[j], hi = exp_table[j + 1];
-  const int32_t mant = lo + (((hi - lo) * g) >> (24 - kBits));
-  const int32_t ni = int32_t(std::min(std::max(n, -126.0f), 127.0f));
-  const float value = float(mant) * 0x1p-23f * bits_float((ni + 127) << 23);
-  return n < -126.0f ? 0.0f : (n > 127.0f ? INFINITY : value);
-}
-
-inline float table_power(float x, float a, const int32_t* tables) {
-  if (!(x > 0.0f)) return 0.0f;
-  return table_exp2(a * table_log2(x, tables), tables + kTable);
-}
 
 // ---- running colonies on the intra-op threads ------------------------------------------------
 // Colonies are taken in turn by the calling thread and the pool's threads. State is shared
@@ -177,6 +71,73 @@ int64_t leading(const ffi::AnyBuffer::Dimensions& dims, int trailing) {
   return n;
 }
 
+// ---- the instruction set of the lane kernels (walk_lanes.cc) -----------------------------------
+// Each instruction set that setup.py built is used only where this CPU has it: the widest such one
+// by default, another by jaco_isa_set (jaco.engine.native.set_isa, JACO_NATIVE_ISA). Every set
+// takes the same moves, so the choice changes speed alone.
+using LaneWalk = void (*)(const LaneColony&);
+
+bool cpu_has(const char* isa) {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_cpu_init();
+  if (!std::strcmp(isa, "avx2"))
+    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("bmi2") && __builtin_cpu_supports("popcnt");
+  if (!std::strcmp(isa, "avx512"))
+    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+           __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512dq") && cpu_has("avx2");
+#endif
+  return !std::strcmp(isa, "baseline");
+}
+
+struct Isa {
+  const char* name;
+  LaneWalk walk;
+};
+
+#ifdef JACO_HAVE_AVX2
+constexpr LaneWalk kAvx2 = walk_lanes_avx2;
+#else
+constexpr LaneWalk kAvx2 = nullptr;  // not built (a compiler or CPU family without it)
+#endif
+#ifdef JACO_HAVE_AVX512
+constexpr LaneWalk kAvx512 = walk_lanes_avx512;
+#else
+constexpr LaneWalk kAvx512 = nullptr;
+#endif
+const Isa kIsas[] = {{"baseline", walk_lanes_baseline}, {"avx2", kAvx2}, {"avx512", kAvx512}};
+constexpr int kNIsas = int(sizeof kIsas / sizeof kIsas[0]);
+
+bool isa_runs(int i) { return i >= 0 && i < kNIsas && kIsas[i].walk && cpu_has(kIsas[i].name); }
+
+int widest_isa() {
+  int best = 0;
+  for (int i = 0; i < kNIsas; ++i)
+    if (isa_runs(i)) best = i;
+  return best;
+}
+
+std::atomic<int> current_isa{-1};
+
+LaneWalk lane_walk() {
+  int i = current_isa.load(std::memory_order_relaxed);
+  if (i < 0) current_isa.store(i = widest_isa(), std::memory_order_relaxed);
+  return kIsas[i].walk;
+}
+
+// The width w of the grid whose 8 moves the offsets are (each r·w + c with (r, c) in {-1, 0, 1}^2,
+// all 8 different and none (0, 0)), when w >= 3; else 0.
+int32_t grid_width(const int32_t* off) {
+  const int32_t w = *std::max_element(off, off + 8) - 1;
+  if (w < 3) return 0;
+  bool seen[9] = {};
+  for (int k = 0; k < 8; ++k) {
+    const int32_t r = (off[k] + w + 1) / w - 1, c = off[k] - r * w;  // off in [-w-1, w+1]
+    if (off[k] < -w - 1 || r < -1 || r > 1 || c < -1 || c > 1 || (r == 0 && c == 0) || seen[3 * r + c + 4]) return 0;
+    seen[3 * r + c + 4] = true;
+  }
+  return w;
+}
+
 // ---- the dying-ant walk (jaco.engine.walk.jax_walk) ------------------------------------------
 ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Buffer<ffi::U32> words,
                     ffi::Buffer<ffi::S32> start, ffi::Buffer<ffi::S32> goal, ffi::Buffer<ffi::F32> q0,
@@ -196,50 +157,22 @@ ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Bu
   int32_t* cl0 = cells->typed_data();
   int32_t *ns0 = n_steps->typed_data(), *nd0 = n_diagonal->typed_data();
   bool *arr0 = arrived->typed_data(), *vis0 = visited->typed_data();
+  const LaneWalk walk = lane_walk();
+  (void)steplimit;  // S, the step buffer's length
 
   for_each_colony(pool, B, [=]() {
-    return [=, tabu = std::vector<uint32_t>(N, 0), tag = uint32_t(0)](int64_t b) mutable {
-      const int32_t last = int32_t(N - 1);
-      const float* W = W0 + b * N * 8;
-      const int32_t* off = off0 + b * 8;
-      int8_t* mv = mv0 + b * S * A;
-      int32_t* cl = cl0 + b * S * A;
-      bool* vis = vis0 + b * N;
-      std::memset(mv, -1, S * A);
-      std::memset(cl, -1, S * A * sizeof(int32_t));
-      std::memset(vis, 0, N);
-      vis[st[b]] = true;
-      for (int64_t a = 0; a < A; ++a) {
-        if (++tag == 0) {  // stamps wrapped around: clear them
-          std::fill(tabu.begin(), tabu.end(), 0u);
-          tag = 1;
-        }
-        AntRng rng{K[2 * b], K[2 * b + 1], uint32_t(a)};
-        int32_t cur = st[b], steps = 0, diagonal = 0;
-        tabu[cur] = tag;
-        for (int64_t t = 0; t < steplimit && cur != gl[b]; ++t) {
-          const float* row = W + int64_t(cur) * 8;
-          float w[8];
-          for (int k = 0; k < 8; ++k) {  // a forbidden move has weight 0: any cell will do for its tabu look-up
-            const int32_t next = std::min(std::max(cur + off[k], 0), last);
-            w[k] = tabu[next] == tag ? 0.0f : row[k];
-          }
-          // A dead end (no weight left: the ant dies). Weights are 0 or at least 1e-30, so the sum
-          // is positive exactly when one is.
-          if (!(w[0] + w[1] + w[2] + w[3] + w[4] + w[5] + w[6] + w[7] > 0.0f)) break;
-          const int k = choose(w, rng.at(uint32_t(t)), q[b], exploit);
-          cur += off[k];
-          mv[t * A + a] = int8_t(k);
-          cl[t * A + a] = cur;
-          tabu[cur] = tag;
-          vis[cur] = true;
-          steps += 1;
-          diagonal += k >= 4;
-        }
-        ns0[b * A + a] = steps;
-        nd0[b * A + a] = diagonal;
-        arr0[b * A + a] = cur == gl[b];
+    return [=, tabu = std::vector<uint32_t>()](int64_t b) mutable {
+      LaneColony colony{W0 + b * N * 8, off0 + b * 8, st[b], gl[b], int32_t(N), q[b], K[2 * b], K[2 * b + 1],
+                        A, S, exploit, mv0 + b * S * A, cl0 + b * S * A, ns0 + b * A, nd0 + b * A, arr0 + b * A,
+                        vis0 + b * N, nullptr, grid_width(off0 + b * 8), {}, {}};
+      const int64_t pad = int64_t(colony.width) + 2;
+      if (int64_t(tabu.size()) < N + 2 * pad) tabu.assign(N + 2 * pad, 0u);  // zero between colonies
+      colony.tabu = tabu.data() + pad;
+      for (int k = 0; k < 8 && colony.width; ++k) {
+        colony.row_of[k] = (off0[b * 8 + k] + colony.width + 1) / colony.width - 1;
+        colony.col_of[k] = off0[b * 8 + k] - colony.row_of[k] * colony.width;
       }
+      walk(colony);
     };
   });
   return ffi::Error::Success();
@@ -895,3 +828,25 @@ XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoShortcut, ShortcutImpl,
                                   .Ret<ffi::Buffer<ffi::S32>>()   // shortened paths (..., S, C)
                                   .Attr<int64_t>("window")
                                   .Attr<int64_t>("passes"));
+
+
+// ---- the instruction set, from Python (jaco.engine.native.isas / set_isa) -------------------------
+extern "C" {
+__attribute__((visibility("default"))) int jaco_isa_count() { return kNIsas; }
+__attribute__((visibility("default"))) const char* jaco_isa_name(int i) {
+  return i >= 0 && i < kNIsas ? kIsas[i].name : "";
+}
+__attribute__((visibility("default"))) int jaco_isa_built(int i) { return i >= 0 && i < kNIsas && kIsas[i].walk; }
+__attribute__((visibility("default"))) int jaco_isa_runs(int i) { return isa_runs(i); }
+__attribute__((visibility("default"))) int jaco_isa_get() {
+  lane_walk();
+  return current_isa.load();
+}
+// -1: the widest set this CPU runs; another set is taken only where it was built and the CPU runs it.
+__attribute__((visibility("default"))) int jaco_isa_set(int i) {
+  if (i == -1) i = widest_isa();
+  if (!isa_runs(i)) return -1;
+  current_isa.store(i);
+  return 0;
+}
+}

@@ -1,0 +1,421 @@
+// The dying-ant walk (jaco.engine.walk.jax_walk) with L ants of a colony in L SIMD lanes.
+//
+// setup.py compiles this file once per instruction set: JACO_ISA names the set (the function is
+// walk_lanes_<JACO_ISA>), JACO_LANES its lane count, and the compiler flags let it use the set's
+// vector registers (SSE2: 4 floats, AVX2: 8, AVX-512: 16). The lanes are plain loops over
+// `l < L` with no branches, which the compiler turns into vector instructions (gathers where the
+// set has them); the source is the same for every set, so every set takes the same moves.
+//
+// Every lane does its ant's float operations of the JAX walk in the same order (the running sums
+// added left to right, one multiply for the target, no fused multiply-add: -ffp-contract=off), so
+// the moves are the JAX walk's bit for bit. A lane whose ant stops (goal, dead end, step limit)
+// takes the colony's next ant at once, so the lanes stay busy however long the walks are.
+//
+// Tabu lists are bits: tabu[cell] has bit l set while the ant of lane l has entered the cell;
+// the bits of an ant are cleared along its path when it stops, so nothing is cleared per colony.
+// Uniforms: each lane holds U = 2L uniforms of its ant, L Threefry blocks drawn together (one
+// vector pass) when the ant starts and whenever it has used them all.
+//
+// Nothing here may be shared with the other objects (see walk_shared.h): everything has internal
+// linkage but the one entry point.
+
+#include <cstdint>
+#include <cstring>
+#include <math.h>
+
+#include <utility>
+
+#include "walk_lanes.h"
+
+#if defined(__AVX2__) || defined(__AVX512F__)
+#include <immintrin.h>
+#endif
+
+#ifndef JACO_ISA
+#define JACO_ISA baseline
+#endif
+#ifndef JACO_LANES
+#define JACO_LANES 8
+#endif
+#define JACO_CAT2(a, b) a##b
+#define JACO_CAT(a, b) JACO_CAT2(a, b)
+
+namespace {
+
+#include "walk_shared.h"
+
+constexpr int L = JACO_LANES;
+constexpr int U = 2 * L;
+static_assert(L <= 32, "the tabu bits of a cell are one uint32");
+
+// L lanes as one vector (GCC/Clang vector extensions: element-wise arithmetic, comparisons that
+// give -1 or 0 per lane); selects are bitwise, so a selected float keeps its bits.
+typedef float vf __attribute__((vector_size(4 * L)));
+typedef int32_t vi __attribute__((vector_size(4 * L)));
+typedef uint32_t vu __attribute__((vector_size(4 * L)));
+
+// Uniforms of steps 2·block0 .. 2·block0 + U − 1 of one ant: word s % 2 of Threefry(key; ant, s / 2),
+// as AntRng::at, for L blocks at once (block0 + l in lane l).
+inline void draw(uint32_t k0, uint32_t k1, uint32_t ant, uint32_t block0, float* out) {
+  const uint32_t ks[3] = {k0, k1, k0 ^ k1 ^ 0x1BD11BDAu};
+  vu x1;
+  for (int l = 0; l < L; ++l) x1[l] = block0 + uint32_t(l);
+  vu x0 = x1 - x1 + (ant + ks[0]);
+  x1 += ks[1];
+#define JACO_MIX(r)        \
+  x0 += x1;                \
+  x1 = (x1 << r) | (x1 >> (32 - r)); \
+  x1 ^= x0;
+#define JACO_ROUND(a, b, c, d, i) \
+  JACO_MIX(a) JACO_MIX(b) JACO_MIX(c) JACO_MIX(d) x0 += ks[(i + 1) % 3]; x1 += ks[(i + 2) % 3] + uint32_t(i + 1);
+  JACO_ROUND(13, 15, 26, 6, 0)
+  JACO_ROUND(17, 29, 16, 24, 1)
+  JACO_ROUND(13, 15, 26, 6, 2)
+  JACO_ROUND(17, 29, 16, 24, 3)
+  JACO_ROUND(13, 15, 26, 6, 4)
+#undef JACO_ROUND
+#undef JACO_MIX
+  const vu one = (x0 - x0) + 0x3F800000u;
+  vf f0, f1;
+  const vu b0 = (x0 >> 9) | one, b1 = (x1 >> 9) | one;
+  std::memcpy(&f0, &b0, sizeof f0);
+  std::memcpy(&f1, &b1, sizeof f1);
+  f0 -= 1.0f;  // unit_float
+  f1 -= 1.0f;
+  for (int l = 0; l < L; ++l) {
+    out[2 * l] = f0[l];
+    out[2 * l + 1] = f1[l];
+  }
+}
+
+inline vi bits_of(vf x) {
+  vi y;
+  std::memcpy(&y, &x, sizeof y);
+  return y;
+}
+inline vf float_of(vi x) {
+  vf y;
+  std::memcpy(&y, &x, sizeof y);
+  return y;
+}
+// base[index[l]] of every lane, the vector built in registers (element inserts): a vector
+// written lane by lane in memory and read back whole stalls the CPU (store forwarding fails).
+template <typename V, typename T, size_t... l>
+inline V load_lanes(const T* base, vi index, std::index_sequence<l...>) {
+  return V{base[index[l]]...};
+}
+
+// base[index] of every lane: one gather instruction where the set has one for L lanes.
+inline vi gather(const int32_t* base, vi index) {
+  vi out;
+#if defined(__AVX512F__) && JACO_LANES == 16
+  __m512i i, r;
+  std::memcpy(&i, &index, sizeof i);
+  r = _mm512_i32gather_epi32(i, base, 4);
+  std::memcpy(&out, &r, sizeof out);
+#elif defined(__AVX2__) && JACO_LANES == 8
+  __m256i i, r;
+  std::memcpy(&i, &index, sizeof i);
+  r = _mm256_i32gather_epi32(base, i, 4);
+  std::memcpy(&out, &r, sizeof out);
+#else
+  out = load_lanes<vi>(base, index, std::make_index_sequence<L>());
+#endif
+  return out;
+}
+inline vf gather(const float* base, vi index) {
+  vf out;
+#if defined(__AVX512F__) && JACO_LANES == 16
+  __m512i i;
+  __m512 r;
+  std::memcpy(&i, &index, sizeof i);
+  r = _mm512_i32gather_ps(i, base, 4);
+  std::memcpy(&out, &r, sizeof out);
+#elif defined(__AVX2__) && JACO_LANES == 8
+  __m256i i;
+  __m256 r;
+  std::memcpy(&i, &index, sizeof i);
+  r = _mm256_i32gather_ps(base, i, 4);
+  std::memcpy(&out, &r, sizeof out);
+#else
+  out = load_lanes<vf>(base, index, std::make_index_sequence<L>());
+#endif
+  return out;
+}
+
+#if defined(__AVX2__)
+// out[k] = (W[i0 + k], ..., W[i7 + k]): eight rows of 8 floats transposed.
+inline void transpose8(const float* W, int32_t i0, int32_t i1, int32_t i2, int32_t i3, int32_t i4, int32_t i5,
+                       int32_t i6, int32_t i7, __m256 out[8]) {
+  const __m256 r0 = _mm256_loadu_ps(W + i0), r1 = _mm256_loadu_ps(W + i1), r2 = _mm256_loadu_ps(W + i2),
+               r3 = _mm256_loadu_ps(W + i3), r4 = _mm256_loadu_ps(W + i4), r5 = _mm256_loadu_ps(W + i5),
+               r6 = _mm256_loadu_ps(W + i6), r7 = _mm256_loadu_ps(W + i7);
+  const __m256 t0 = _mm256_unpacklo_ps(r0, r1), t1 = _mm256_unpackhi_ps(r0, r1), t2 = _mm256_unpacklo_ps(r2, r3),
+               t3 = _mm256_unpackhi_ps(r2, r3), t4 = _mm256_unpacklo_ps(r4, r5), t5 = _mm256_unpackhi_ps(r4, r5),
+               t6 = _mm256_unpacklo_ps(r6, r7), t7 = _mm256_unpackhi_ps(r6, r7);
+  const __m256 q0 = _mm256_shuffle_ps(t0, t2, 0x44), q1 = _mm256_shuffle_ps(t0, t2, 0xEE),
+               q2 = _mm256_shuffle_ps(t1, t3, 0x44), q3 = _mm256_shuffle_ps(t1, t3, 0xEE),
+               q4 = _mm256_shuffle_ps(t4, t6, 0x44), q5 = _mm256_shuffle_ps(t4, t6, 0xEE),
+               q6 = _mm256_shuffle_ps(t5, t7, 0x44), q7 = _mm256_shuffle_ps(t5, t7, 0xEE);
+  out[0] = _mm256_permute2f128_ps(q0, q4, 0x20);
+  out[1] = _mm256_permute2f128_ps(q1, q5, 0x20);
+  out[2] = _mm256_permute2f128_ps(q2, q6, 0x20);
+  out[3] = _mm256_permute2f128_ps(q3, q7, 0x20);
+  out[4] = _mm256_permute2f128_ps(q0, q4, 0x31);
+  out[5] = _mm256_permute2f128_ps(q1, q5, 0x31);
+  out[6] = _mm256_permute2f128_ps(q2, q6, 0x31);
+  out[7] = _mm256_permute2f128_ps(q3, q7, 0x31);
+}
+#endif
+
+// The 8 move weights of every lane's cell as 8 vectors (w[k][l] = W[row[l] + k]): each row is 8
+// floats in a row, so where the set has them, L row loads and a transpose (no gathers).
+inline void move_weights(const float* W, vi row, vf w[8]) {
+#if defined(__AVX2__) && JACO_LANES % 8 == 0
+  union Halves {  // lanes 8h .. 8h + 7 in part[h]
+    vf whole;
+    __m256 part[L / 8];
+  } moves[8];
+  for (int h = 0; h < L / 8; ++h) {
+    __m256 t[8];
+    transpose8(W, row[8 * h], row[8 * h + 1], row[8 * h + 2], row[8 * h + 3], row[8 * h + 4], row[8 * h + 5],
+               row[8 * h + 6], row[8 * h + 7], t);
+    for (int k = 0; k < 8; ++k) moves[k].part[h] = t[k];
+  }
+  for (int k = 0; k < 8; ++k) w[k] = moves[k].whole;
+#else
+  for (int k = 0; k < 8; ++k) w[k] = gather(W + k, row);
+#endif
+}
+
+#if defined(__AVX2__) && JACO_LANES % 8 == 0
+#define JACO_ROWS 1
+// The tabu words of every lane's 3x3 neighbourhood: marks[3 (r + 1) + c + 1][l] = tabu[cell[l] +
+// r·width + c], as three loads of 4 words per lane (one a row) and a transpose, where the per-move
+// look-up would take 8 gathers.
+inline void neighbourhood(const uint32_t* tabu, vi cell, int32_t width, vi marks[9]) {
+  union Halves {
+    vi whole;
+    __m256i part[L / 8];
+  } out[9];
+  for (int h = 0; h < L / 8; ++h)
+    for (int r = 0; r < 3; ++r) {
+      __m256i x[4];
+      for (int i = 0; i < 4; ++i) {  // lanes i and i + 4 of this half, 4 words from column -1 each
+        const uint32_t* lo = tabu + cell[8 * h + i] + (r - 1) * width - 1;
+        const uint32_t* hi = tabu + cell[8 * h + i + 4] + (r - 1) * width - 1;
+        x[i] = _mm256_loadu2_m128i(reinterpret_cast<const __m128i*>(hi), reinterpret_cast<const __m128i*>(lo));
+      }
+      const __m256i t0 = _mm256_unpacklo_epi32(x[0], x[1]), t1 = _mm256_unpackhi_epi32(x[0], x[1]);
+      const __m256i t2 = _mm256_unpacklo_epi32(x[2], x[3]), t3 = _mm256_unpackhi_epi32(x[2], x[3]);
+      out[3 * r].part[h] = _mm256_unpacklo_epi64(t0, t2);
+      out[3 * r + 1].part[h] = _mm256_unpackhi_epi64(t0, t2);
+      out[3 * r + 2].part[h] = _mm256_unpacklo_epi64(t1, t3);
+    }
+  for (int i = 0; i < 9; ++i) marks[i] = out[i].whole;
+}
+#else
+#define JACO_ROWS 0
+#endif
+
+inline vi pick(vi mask, vi a, vi b) { return (a & mask) | (b & ~mask); }
+inline vf pick(vi mask, vf a, vf b) { return float_of(pick(mask, bits_of(a), bits_of(b))); }
+
+// The lanes' state: lane l walks ant `ant[l]`, stands on `cur[l]`, came from `prev[l]` (-1 at the
+// start) and has taken `t[l]` steps; `uniform[l][i]` is the uniform of its step drawn[l] + i.
+struct Lanes {
+  vi cur, prev, t, drawn, diagonal, ant, live;  // live: -1 while the lane walks an ant
+  float uniform[L][U];
+};
+
+// Every lane's choice at once (an idle lane computes one too, unused): the roulette of
+// jaco.engine.walk.choose over the weights of the moves into cells not tabu. A lane's tabu cells
+// are the marked ones and its previous cell, which is marked only when the ant leaves the cell
+// after it (so the gathers of a step never wait for the marks of the step before).
+template <bool Exploit>
+inline void choose_lanes(const Lanes& s, const float* __restrict W, const vi offset[8],
+                         const uint32_t* __restrict tabu, int32_t last, float q0, const LaneColony& c, vi& chosen,
+                         vi& ok) {
+  const vi zero = s.cur - s.cur, top_cell = zero + last, row = s.cur * 8;
+  vi bit, at;
+  for (int l = 0; l < L; ++l) {
+    bit[l] = int32_t(1u << l);
+    at[l] = l * U;
+  }
+  vf u = gather(&s.uniform[0][0], at + s.t - s.drawn);
+  vf w[8];
+  move_weights(W, row, w);
+  vi around[9];
+#if JACO_ROWS
+  const bool rows = c.width > 0;
+  if (rows) neighbourhood(tabu, s.cur, c.width, around);
+#else
+  const bool rows = false;
+#endif
+  for (int k = 0; k < 8; ++k) {  // a forbidden move has weight 0: any cell will do for its tabu look-up
+    vi nb = s.cur + offset[k], marks;
+    if (rows) {  // a cell off the map or in the next row: its weight is 0, its marks do not matter
+      marks = around[3 * (c.row_of[k] + 1) + c.col_of[k] + 1];
+    } else {
+      const vi in = pick(nb < zero, zero, pick(nb > top_cell, top_cell, nb));
+      marks = gather(reinterpret_cast<const int32_t*>(tabu), in);
+    }
+    const vi free = ((marks & bit) == zero) & (nb != s.prev);
+    w[k] = float_of(bits_of(w[k]) & free);  // 0.0f where tabu
+  }
+  vf sum[8];
+  sum[0] = w[0];
+  for (int k = 1; k < 8; ++k) sum[k] = sum[k - 1] + w[k];
+  const vf total = sum[7];
+  vi best = zero, greedy = zero;
+  if (Exploit) {  // the argmax, ties to the lowest index, when u < q0
+    vf top = w[0];
+    for (int k = 1; k < 8; ++k) {
+      const vi higher = w[k] > top;
+      best = pick(higher, zero + k, best);
+      top = pick(higher, w[k], top);
+    }
+    greedy = u < q0;
+    u = (u - q0) / max_of(1.0f - q0, 1e-12f);
+  }
+  const vf target = u * total, below = float_of(bits_of(total) - 1);
+  const vf x = pick(below < target, below, target);  // min_of(target, below)
+  vi k = zero;
+  for (int i = 0; i < 8; ++i) k -= sum[i] <= x;
+  chosen = pick(greedy, best, k);
+  ok = total > 0.0f;  // else a dead end: the ant dies
+}
+
+inline unsigned lanes_set(vi mask) {  // bit l: lane l's mask is set
+#if defined(__AVX512F__) && JACO_LANES == 16
+  __m512i m;
+  std::memcpy(&m, &mask, sizeof m);
+  return _mm512_movepi32_mask(m);
+#elif defined(__AVX2__) && JACO_LANES == 8
+  __m256 m;
+  std::memcpy(&m, &mask, sizeof m);
+  return unsigned(_mm256_movemask_ps(m));
+#else
+  unsigned m = 0;
+  for (int l = 0; l < L; ++l) m |= unsigned(mask[l] != 0) << l;
+  return m;
+#endif
+}
+
+// offset[chosen[l]] of every lane: one permute where the set has one.
+inline vi move_offset(const int32_t* offsets, vi chosen) {
+#if defined(__AVX512F__) && JACO_LANES == 16
+  __m512i c, r;
+  std::memcpy(&c, &chosen, sizeof c);
+  r = _mm512_permutexvar_epi32(c, _mm512_castsi256_si512(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(offsets))));
+  vi out;
+  std::memcpy(&out, &r, sizeof out);
+  return out;
+#elif defined(__AVX2__) && JACO_LANES == 8
+  __m256i c, r;
+  std::memcpy(&c, &chosen, sizeof c);
+  r = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(offsets)), c);
+  vi out;
+  std::memcpy(&out, &r, sizeof out);
+  return out;
+#else
+  return gather(offsets, chosen & 7);  // a dead end counts 8 (masked out later)
+#endif
+}
+
+}  // namespace
+
+void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
+  const int64_t A = c.n_ants, S = c.steplimit;
+  const int32_t last = c.n_cells - 1, start = c.start, goal = c.goal;
+  uint32_t* tabu = c.tabu;
+  std::memset(c.moves, -1, S * A);
+  std::memset(c.cells, -1, S * A * sizeof(int32_t));
+  std::memset(c.visited, 0, c.n_cells);
+  c.visited[start] = true;
+  vi offset[8];
+  for (int k = 0; k < 8; ++k)
+    for (int l = 0; l < L; ++l) offset[k][l] = c.offsets[k];
+
+  Lanes s;
+  const vi zero = offset[0] - offset[0];
+  s.cur = zero + start;
+  s.prev = zero - 1;
+  s.t = s.drawn = s.diagonal = s.ant = s.live = zero;
+  int64_t next = 0;
+  int n_live = 0;
+  // Lane l takes the next ant that has a step to take (an ant on the goal, or with no step
+  // allowed by the limit, is finished at once), or idles.
+  auto load = [&](int l) {
+    for (; next < A; ++next) {
+      if (start == goal || S == 0) {
+        c.n_steps[next] = 0;
+        c.n_diagonal[next] = 0;
+        c.arrived[next] = start == goal;
+        continue;
+      }
+      s.ant[l] = int32_t(next++);
+      s.cur[l] = start;
+      s.prev[l] = -1;
+      s.t[l] = s.diagonal[l] = s.drawn[l] = 0;
+      s.live[l] = -1;
+      draw(c.k0, c.k1, uint32_t(s.ant[l]), 0, s.uniform[l]);
+      ++n_live;
+      return;
+    }
+    s.live[l] = 0;
+    s.t[l] = s.drawn[l] = 0;
+  };
+  // The ant of lane l stops: its results, and its marks cleared (start and every cell entered).
+  auto finish = [&](int l) {
+    const int32_t a = s.ant[l], n = s.t[l];
+    const uint32_t clear = ~(1u << l);
+    c.n_steps[a] = n;
+    c.n_diagonal[a] = s.diagonal[l];
+    c.arrived[a] = s.cur[l] == goal;
+    tabu[start] &= clear;
+    for (int32_t i = 0; i < n; ++i) tabu[c.cells[int64_t(i) * A + a]] &= clear;
+    --n_live;
+  };
+  for (int l = 0; l < L; ++l) load(l);
+
+  while (n_live > 0) {
+    vi chosen, ok;
+    if (c.exploit)
+      choose_lanes<true>(s, c.weights, offset, tabu, last, c.q0, c, chosen, ok);
+    else
+      choose_lanes<false>(s, c.weights, offset, tabu, last, c.q0, c, chosen, ok);
+    // The step of every walking lane with a move (the others keep their cell).
+    const vi step = s.live & ok;
+    const vi cell = pick(step, s.cur + move_offset(c.offsets, chosen), s.cur);
+    const vi slot = s.t * int32_t(A) + s.ant;
+    int32_t marked[L], entered[L], at[L], move[L];
+    std::memcpy(marked, &s.prev, sizeof marked);
+    std::memcpy(entered, &cell, sizeof entered);
+    std::memcpy(at, &slot, sizeof at);
+    std::memcpy(move, &chosen, sizeof move);
+    for (unsigned m = lanes_set(step); m; m &= m - 1) {  // lane order: two lanes may share a cell's word
+      const int l = __builtin_ctz(m);
+      c.moves[at[l]] = int8_t(move[l]);
+      c.cells[at[l]] = entered[l];
+      c.visited[entered[l]] = true;
+      if (marked[l] >= 0) tabu[marked[l]] |= 1u << l;
+    }
+    s.prev = pick(step, s.cur, s.prev);
+    s.cur = cell;
+    s.t -= step;
+    s.diagonal -= step & (chosen >= 4);
+    const vi ended = s.live & (~ok | (cell == goal) | (s.t == int32_t(S)));
+    for (unsigned m = lanes_set(ended); m; m &= m - 1) {
+      const int l = __builtin_ctz(m);
+      finish(l);
+      load(l);
+    }
+    const vi refill = s.live & ~ended & ((s.t - s.drawn) == U);
+    for (unsigned m = lanes_set(refill); m; m &= m - 1) {
+      const int l = __builtin_ctz(m);
+      s.drawn[l] = s.t[l];
+      draw(c.k0, c.k1, uint32_t(s.ant[l]), uint32_t(s.t[l]) >> 1, s.uniform[l]);
+    }
+  }
+}

@@ -1,0 +1,37 @@
+// The dying-ant walk of one colony with its ants in SIMD lanes (walk_lanes.cc), and the
+// instruction sets it is built for. walk.cc chooses one at run time (jaco_set_isa), never one
+// the CPU lacks.
+#pragma once
+
+#include <cstdint>
+
+// One colony's walk: its inputs and where its results go (the slices of the FFI buffers).
+struct LaneColony {
+  const float* weights;   // (N, 8) move weights, 0 exactly on the moves not allowed
+  const int32_t* offsets;  // (8,) cell offset of each move
+  int32_t start, goal, n_cells;
+  float q0;
+  uint32_t k0, k1;        // the iteration's key words
+  int64_t n_ants, steplimit;
+  bool exploit;
+  int8_t* moves;          // (S, A), S = steplimit, -1 where no step
+  int32_t* cells;         // (S, A), -1 where no step
+  int32_t* n_steps;       // (A,)
+  int32_t* n_diagonal;    // (A,)
+  bool* arrived;          // (A,)
+  bool* visited;          // (N,)
+  uint32_t* tabu;         // (N,) scratch of the thread, all zero on entry and on return; valid
+                          // from tabu[-pad] to tabu[N - 1 + pad], pad = width + 2 (the rows above
+                          // the first and below the last, always zero)
+  int32_t width;          // row length when the offsets are the 8 moves of a grid of that width
+                          // (at least 3), so a cell's 3x3 neighbourhood is 3 runs of 3 cells;
+                          // 0 otherwise (each neighbour is looked up on its own)
+  int32_t row_of[8], col_of[8];  // with width: move k is (row_of[k], col_of[k]) in {-1, 0, 1}^2
+};
+
+// The instruction sets, widest last. Each walk_lanes_<isa> is the same source compiled with that
+// set's flags (setup.py); JACO_HAVE_<ISA> says which were built.
+#define JACO_ISA_LIST(X) X(baseline) X(avx2) X(avx512)
+#define JACO_DECLARE_WALK(isa) void walk_lanes_##isa(const LaneColony& colony);
+JACO_ISA_LIST(JACO_DECLARE_WALK)
+#undef JACO_DECLARE_WALK
