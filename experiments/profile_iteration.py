@@ -111,9 +111,21 @@ def measure(cfg) -> dict:
             iters = cfg["run_iters"]
             run = jax.jit(jax.vmap(jr.make_run(var, n_ants=A, n_iters=iters, steplimit=steplimit), in_axes=(0, None, 0)))
             c, w = timed_ms(run, keys, prob, P, reps=max(1, reps // 3))
+            walk_rows = {"walk": timed_ms(walk_only, W, words, reps=reps)}
+            if walk == "native" and native.isa() != "baseline":  # the portable lanes beside the widest
+                widest = native.isa()
+                native.set_isa("baseline")
+                try:
+                    walk_rows["walk, baseline lanes (SSE2: 4 ants at once)"] = timed_ms(walk_only, W, words, reps=reps)
+                    same_isa = np.array_equal(np.asarray(walk_only(W, words)[0]), moves[walk])
+                finally:
+                    native.set_isa(None)
+                walk_rows = {f"walk ({widest} lanes)": walk_rows["walk"], **{k: v for k, v in walk_rows.items() if k != "walk"}}
+                if not same_isa:
+                    raise SystemExit("the baseline lanes took other moves than the widest")
             parts[walk] = {
                 "weights (τ^α η^β of every move)": timed_ms(weights, trail, P, reps=reps),
-                "walk": timed_ms(walk_only, W, words, reps=reps),
+                **walk_rows,
                 "tours (lengths, pheromone elements of every step)": timed_ms(tours, out, reps=reps),
                 "pheromone update (evaporation, deposit)": timed_ms(update, trail, targets, t.step_len, cost, P, reps=reps),
                 f"whole iteration (mean over a {iters}-iteration run)": (c / iters, w / iters),
@@ -141,17 +153,33 @@ def measure(cfg) -> dict:
     except ImportError:
         pass
     same = len(moves) < 2 or bool(np.array_equal(moves["native"], moves["jax"]))
+    ghz = None
+    try:
+        ghz = next(float(line.split(":")[1]) / 1e3 for line in open("/proc/cpuinfo") if line.startswith("cpu MHz"))
+    except (OSError, StopIteration, ValueError):
+        pass
     return dict(cfg=cfg, B=B, A=A, steplimit=steplimit, parts=parts, real=real, same=same, native=native_bar,
-                jax=jax.__version__, built=native.available())
+                jax=jax.__version__, built=native.available(), ghz=ghz,
+                isas=native.isas() if native.available() else {})
 
 
 def report(R, command) -> str:
     from report import fmt, table
 
     walks = [w for w in WALKS if w in R["parts"]]
-    names = list(R["parts"][walks[0]])
-    header = ["part"] + [f"{w} walk: {kind} ms" for w in walks for kind in ("CPU", "wall")]
-    rows = [[name] + [R["parts"][w][name][i] for w in walks for i in (0, 1)] for name in names]
+    names = list(dict.fromkeys(n for w in walks for n in R["parts"][w]))
+    ghz = R.get("ghz") or float("nan")
+    header = (["part"] + [f"{w} walk: {kind} ms" for w in walks for kind in ("CPU", "wall")]
+              + [f"{w} walk: CPU ns per real step" for w in walks] + ["native walk: cycles per real step"])
+
+    def cell(w, name, i):
+        return R["parts"][w][name][i] if name in R["parts"][w] else "–"
+
+    def per_step(w, name, scale=1e6):
+        return scale * R["parts"][w][name][0] / max(R["real"], 1) if name in R["parts"][w] else "–"
+
+    rows = [[name] + [cell(w, name, i) for w in walks for i in (0, 1)] + [per_step(w, name) for w in walks]
+            + [per_step("native", name, 1e6 * ghz) if "native" in walks else "–"] for name in names]
     lines = [
         "## One iteration, part by part (`experiments/profile_iteration.py`)",
         "",
@@ -162,8 +190,8 @@ def report(R, command) -> str:
         "",
         table(header, rows),
         "",
-        f"The walks take {fmt(R['real'])} real ant-steps; "
-        + "; ".join(f"{w} walk {1e6 * R['parts'][w]['walk'][0] / max(R['real'], 1):.0f} ns CPU per step" for w in walks)
+        f"The walks take {fmt(R['real'])} real ant-steps. Cycles at the {ghz:.2f} GHz the kernel reports; native "
+        "lane kernels: " + ", ".join(f"{k} ({v})" for k, v in R.get("isas", {}).items())
         + ". The two walks' moves are identical: " + ("yes" if R["same"] else "**NO**") + ".",
     ]
     if not R["built"]:
@@ -178,11 +206,12 @@ def report(R, command) -> str:
         ]
     lines += [
         "",
-        "Reading: the native walk costs tens of ns per real step on one core and splits the configurations "
-        "over both cores. The JAX walk runs every ant on its own lane in lock-step until the batch's last "
-        "ant stops, and XLA:CPU runs each operation of a step as its own kernel: microseconds per loop step "
-        "and tens of ns per lane-step, most lanes idle. With the native walk, the deposit is a kernel too "
-        "(it adds the steps walked, not every step slot); weights and tours are elementwise XLA kernels.",
+        "Reading: the native walk advances the ants of a colony in SIMD lanes (docs/native.md) and splits "
+        "the configurations over both cores. The JAX walk runs every ant on its own lane in lock-step until "
+        "the batch's last ant stops, and XLA:CPU runs each operation of a step as its own kernel: "
+        "microseconds per loop step and tens of ns per lane-step, most lanes idle. With the native walk, the "
+        "deposit is a kernel too (it adds the steps walked, not every step slot); weights and tours are "
+        "elementwise XLA kernels over every move and every step slot, whatever the ants used.",
     ]
     return "\n".join(lines)
 

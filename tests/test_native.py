@@ -33,6 +33,17 @@ ROOT = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.skipif(not native.available(), reason="the native walk was not built")
 
 
+#: The instruction sets of the lane kernels that this build has and this CPU runs (widest last).
+RUNNABLE = [name for name, state in native.isas().items() if state in ("active", "runs")]
+
+
+@pytest.fixture
+def isa_choice():
+    """Restore the default instruction set after a test that chooses one."""
+    yield native.set_isa
+    native.set_isa(None)
+
+
 @pytest.fixture
 def walk_choice():
     """Restore the walk choice after a test that changes it."""
@@ -134,10 +145,14 @@ _EDGES = [dict(h=1, w=1, shape=(1, 1), density=0.0, seed=0, n_ants=4, steplimit=
 @example(_EDGES[0])
 @example(_EDGES[1])
 @example(_EDGES[2])
-def test_native_dying_walk_takes_the_jax_walks_moves(case):
+def test_native_dying_walk_takes_the_jax_walks_moves(case, isa_choice):
+    """Every instruction set this CPU runs (the lane kernels' widths differ: 4, 8, 16 ants at once)."""
     args = _arrays(case)
     key = (case["n_ants"], case["steplimit"], case["exploit"])
-    _same(_dying("jax", *key)(*args), _dying("native", *key)(*args))
+    expected = _dying("jax", *key)(*args)
+    for isa in RUNNABLE:
+        isa_choice(isa)
+        _same(expected, _dying("native", *key)(*args))
 
 
 @pytest.mark.slow  # the normal run compares IACA's whole runs with both walks (below)
@@ -257,6 +272,57 @@ def test_a_planner_of_each_walk_gives_the_same_runs_with_both_walks(variant, wal
         assert native_table.success.any()
 
 
+# -- the instruction sets of the lane kernels ----------------------------------------------------
+_LANE_CASES = [
+    # 30x30 with obstacles: 3x3 neighbourhoods read as rows; 50 ants refill the lanes many times
+    dict(h=30, w=30, shape=(30, 30), density=0.25, seed=11, n_ants=50, steplimit=240, exploit=False, connectivity=8),
+    dict(h=30, w=30, shape=(30, 30), density=0.25, seed=12, n_ants=50, steplimit=240, exploit=True, connectivity=8),
+    dict(h=7, w=9, shape=(7, 9), density=0.3, seed=13, n_ants=21, steplimit=9, exploit=False, connectivity=4),
+    *_EDGES,  # widths 1 and 2: each neighbour looked up on its own
+]
+
+
+@pytest.mark.parametrize("case", _LANE_CASES)
+def test_each_instruction_set_this_cpu_runs_takes_the_jax_walks_moves(case, isa_choice):
+    """The lane kernels of every set built and supported here (baseline always), forced one by one,
+    against the JAX walk; the same compiled program serves all (the set is chosen at run time)."""
+    args = _arrays(case, colonies=4)
+    key = (case["n_ants"], case["steplimit"], case["exploit"])
+    expected = _dying("jax", *key)(*args)
+    assert RUNNABLE[0] == "baseline" and (np.asarray(expected[2]).sum() > 0 or case["h"] * case["w"] <= 2)
+    for isa in RUNNABLE:
+        isa_choice(isa)
+        assert native.isa() == isa
+        _same(expected, _dying("native", *key)(*args))
+
+
+def test_the_widest_instruction_set_is_the_default_and_others_are_chosen_or_refused(isa_choice):
+    states = native.isas()
+    assert list(states) == ["baseline", "avx2", "avx512"] and states["baseline"] in ("active", "runs")
+    assert native.isa() == RUNNABLE[-1]  # the widest this CPU runs
+    isa_choice("baseline")
+    assert native.isa() == "baseline" and native.isas()[RUNNABLE[-1]] in ("runs", "active")
+    isa_choice(None)
+    assert native.isa() == RUNNABLE[-1]
+    with pytest.raises(jaco.JacoError, match="unknown instruction set 'sse9'.*baseline, avx2, avx512"):
+        isa_choice("sse9")
+    for name, state in states.items():
+        if state not in ("active", "runs"):
+            with pytest.raises(jaco.JacoError, match=f"'{name}' (was not built|is not supported by this CPU)"):
+                isa_choice(name)
+    assert native.isa() == RUNNABLE[-1]  # a refused choice changes nothing
+
+
+def test_the_environment_chooses_the_instruction_set():
+    code = "from jaco.engine import native; print(native.isa())"
+    env = dict(os.environ, JACO_NATIVE_ISA="baseline")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout.split() == ["baseline"], out.stderr[-2000:]
+    env["JACO_NATIVE_ISA"] = "sse9"
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    assert "JACO_NATIVE_ISA: unknown instruction set 'sse9'" in out.stderr
+
+
 # -- choosing the walk --------------------------------------------------------------------------
 def test_the_option_and_the_environment_choose_the_walk(walk_choice, monkeypatch):
     assert native.active_walk() == "native"  # built: auto takes it
@@ -302,6 +368,7 @@ def test_info_names_versions_devices_and_the_active_walk(capsys):
     out = capsys.readouterr().out
     assert f"jaco {jaco.__version__}" in out and f"jax {jax.__version__}" in out
     assert "walk: native" in out and "devices: " in out
+    assert f"native instruction sets: baseline ({native.isas()['baseline']})" in out and f"{native.isa()} (active)" in out
 
 
 @pytest.mark.slow
@@ -354,11 +421,12 @@ def test_the_kernel_is_built_once_for_the_same_sources_compiler_and_jaxlib(tmp_p
     cache = tmp_path / "cache"
     env = dict(os.environ, JACO_CACHE_DIR=str(cache))
 
-    def build(name):
+    def build(name, **extra):
         """``pip wheel`` of the sources (as ``pip install`` builds): its output, kernel and object files."""
         shutil.rmtree(src / "build", ignore_errors=True)  # setuptools would reuse an earlier build's objects
         proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-v", "-w",
-                               str(tmp_path / name), str(src)], env=env, capture_output=True, text=True, timeout=900)
+                               str(tmp_path / name), str(src)], env=dict(env, **extra), capture_output=True, text=True,
+                              timeout=900)
         assert proc.returncode == 0, proc.stderr[-3000:]
         (wheel,) = (tmp_path / name).glob("jaco-*.whl")
         with zipfile.ZipFile(wheel) as z:
@@ -372,11 +440,48 @@ def test_the_kernel_is_built_once_for_the_same_sources_compiler_and_jaxlib(tmp_p
     second, kernels, objects = build("second")
     assert "jaco: reusing the native walk built before" in second
     assert not objects and kernels == [kept.read_bytes()]  # copied: nothing compiled
+    # Built for other instruction sets: another kernel (the key names what the build assumed of the CPU).
+    narrow, kernels, objects = build("narrow", JACO_NATIVE_ISAS="baseline")
+    assert "reusing" not in narrow and objects and len(kernels) == 1 and kernels != [kept.read_bytes()]
+    assert len(list(cache.rglob("_walk*.so"))) == 2
+    for other in cache.rglob("_walk*.so"):  # (the rest of the test counts the entries)
+        if other != kept:
+            shutil.rmtree(other.parent)
     with open(src / "jaco" / "engine" / "walk.cc", "a") as f:
         f.write("\n#error a changed source is compiled again\n")
     third, kernels, objects = build("third")
     assert "reusing" not in third and "a changed source is compiled again" in third
     assert not kernels and list(cache.rglob("_walk*.so")) == [kept]  # the optional kernel failed: no new entry
+
+
+@pytest.mark.slow
+def test_a_build_without_the_wide_instruction_sets_passes_the_walk_tests(tmp_path):
+    """``JACO_NATIVE_ISAS=baseline``: the kernel has no AVX2 or AVX-512 code, says so, and the walk
+    tests of this file (every lane kernel against the JAX walk, planners with both walks) pass on it."""
+    import shutil
+    import zipfile
+
+    src = tmp_path / "src"
+    src.mkdir()
+    for name in ("pyproject.toml", "setup.py", "README.md"):
+        shutil.copy2(ROOT / name, src / name)
+    shutil.copytree(ROOT / "jaco", src / "jaco", ignore=shutil.ignore_patterns("__pycache__", "*.so"))
+    env = dict(os.environ, JACO_CACHE_DIR=str(tmp_path / "cache"), JACO_NATIVE_ISAS="baseline")
+    proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w",
+                           str(tmp_path), str(src)], env=env, capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    (wheel,) = tmp_path.glob("jaco-*.whl")
+    with zipfile.ZipFile(wheel) as z:
+        z.extractall(tmp_path / "site")
+    site = dict(os.environ, PYTHONPATH=str(tmp_path / "site"))
+    states = subprocess.run([sys.executable, "-c", "from jaco.engine import native; print(native.isas())"],
+                            env=site, cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert states.stdout.strip() == "{'baseline': 'active', 'avx2': 'not built', 'avx512': 'not built'}", states.stderr
+    tests = subprocess.run([sys.executable, "-m", "pytest", "-q", "-n", "0", "-p", "no:cacheprovider", "-m", "not slow",
+                            str(ROOT / "tests" / "test_native.py"), "-k", "instruction_set or planner_of_each or info"],
+                           env=site, cwd=tmp_path, capture_output=True, text=True, timeout=900)
+    assert tests.returncode == 0, tests.stdout[-3000:]
+    assert " passed" in tests.stdout and "failed" not in tests.stdout
 
 
 #: One planner of each construct (dying ants with roulette and with the q0 rule, backtracking

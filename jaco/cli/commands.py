@@ -586,4 +586,6 @@ def cmd_info(args: argparse.Namespace) -> int:
         print("walk: jax (chosen with --walk, jaco.set_walk or JACO_WALK; the native walk is built)")
     else:
         print(f"walk: jax ({native.unavailable_reason()}; the JAX walk gives the same results, slower on CPU)")
+    if native.available():  # the lane kernels' instruction sets (JACO_NATIVE_ISA chooses; same moves in each)
+        print("native instruction sets: " + ", ".join(f"{name} ({state})" for name, state in native.isas().items()))
     return 0

@@ -57,18 +57,25 @@ def _load():
             lib, why = None, f"the native walk could not be loaded ({e})"
         _state["lib"], _state["why"] = lib, why
         if lib is not None:
-            _bind_isa(lib)
+            _state["isa_error"] = _bind_isa(lib)
+    if _state.get("isa_error"):  # a JACO_NATIVE_ISA this kernel cannot honour: every use says so
+        raise _state["isa_error"]
     return _state["lib"], _state["why"]
 
 
-def _bind_isa(lib) -> None:
-    """Declare the kernel's instruction-set functions; apply ``JACO_NATIVE_ISA`` if set."""
+def _bind_isa(lib) -> JacoError | None:
+    """Declare the kernel's instruction-set functions and apply ``JACO_NATIVE_ISA`` if set (the
+    error, if it names a set this kernel cannot run)."""
     lib.jaco_isa_name.restype = ctypes.c_char_p
     for name in ("jaco_isa_count", "jaco_isa_built", "jaco_isa_runs", "jaco_isa_get", "jaco_isa_set"):
         getattr(lib, name).restype = ctypes.c_int
     choice = os.environ.get("JACO_NATIVE_ISA")
-    if choice:
-        _set_isa(lib, choice, "JACO_NATIVE_ISA")
+    try:
+        if choice:
+            _set_isa(lib, choice, "JACO_NATIVE_ISA")
+    except JacoError as e:
+        return e
+    return None
 
 
 def isas() -> dict[str, str]:
@@ -96,10 +103,15 @@ def set_isa(choice: str | None) -> None:
     ``"avx512"``; see :func:`isas`), or with ``None`` the widest one this CPU runs (the default).
     Every set takes the same moves bit for bit: this changes speed only, for calls from now on,
     compiled or not. A set that was not built, or that this CPU lacks, is an error."""
-    lib = _load()[0]
+    try:
+        _load()
+    except JacoError:  # JACO_NATIVE_ISA named a set it cannot run: this choice replaces it
+        pass
+    lib = _state["lib"]
     if lib is None:
-        raise JacoError(f"no native kernel to choose an instruction set for: {unavailable_reason()}")
+        raise JacoError(f"no native kernel to choose an instruction set for: {_state['why']}")
     _set_isa(lib, choice or "auto", "set_isa")
+    _state["isa_error"] = None
 
 
 def _set_isa(lib, choice: str, where: str) -> None:
@@ -111,7 +123,8 @@ def _set_isa(lib, choice: str, where: str) -> None:
         raise JacoError(f"{where}: unknown instruction set {choice!r}; the kernel knows {', '.join(names)} (or auto)")
     if lib.jaco_isa_set(names.index(choice)) != 0:
         state = "was not built" if not lib.jaco_isa_built(names.index(choice)) else "is not supported by this CPU"
-        raise JacoError(f"{where}: instruction set {choice!r} {state}; this kernel runs {', '.join(n for n, s in isas().items() if s in ('active', 'runs'))}")
+        runs = ", ".join(n for i, n in enumerate(names) if lib.jaco_isa_runs(i))
+        raise JacoError(f"{where}: instruction set {choice!r} {state}; this kernel runs {runs} (or auto)")
 
 
 def available() -> bool:
