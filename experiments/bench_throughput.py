@@ -579,7 +579,8 @@ def report(R: dict, command: str) -> str:
         + f"; numba compile of the reference: {R['native_compile_s']:.1f} s. Wall s is the best of the repetitions "
         "(all: see `--json`), CPU s the process CPU time of that repetition (above the wall time where more than "
         "one core worked); ant-steps per CPU s is the per-core rate, which other processes on the machine disturb "
-        "least.",
+        "least. It counts a thread of XLA's pool while it spins waiting for work, too; "
+        "`experiments/bench_before_after.py` measures on one pinned core.",
         "",
         "The same tables bit for bit: " + "; ".join(f"{k}: {'yes' if v else '**NO**'}" for k, v in R["equal"].items())
         + ".",
@@ -667,6 +668,10 @@ def main(argv=None):
     R = run_benchmark(args)
     R["date"] = _dt.datetime.now().strftime("%Y-%m-%d %H:%M")
     argv_shown = sys.argv[1:] if argv is None else list(argv)
+    for flag in ("--out", "--json"):  # where the figures went is no part of how they were made
+        while flag in argv_shown[:-1]:
+            i = argv_shown.index(flag)
+            del argv_shown[i : i + 2]
     command = " ".join(["python experiments/bench_throughput.py"] + [shlex.quote(a) for a in argv_shown])
     text = report(R, command)
     print()

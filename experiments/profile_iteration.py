@@ -204,6 +204,22 @@ def report(R, command) -> str:
             f"all {R['B']} configurations ({fmt(nb['steps_per_iteration'])} real steps, "
             f"{1e6 * nb['ms_per_iteration'] / max(nb['steps_per_iteration'], 1):.0f} ns per step including τ^α η^β).",
         ]
+    if "native" in walks:  # where each ns of the native iteration goes
+        nat = R["parts"]["native"]
+        whole = next(v for k, v in nat.items() if k.startswith("whole"))[0]
+        walk_ms = next(v for k, v in nat.items() if k.startswith("walk"))[0]
+        named = sum(v[0] for k, v in nat.items() if not k.startswith(("whole", "walk, baseline")))
+        ns = 1e6 / max(R["real"], 1)
+        lines += [
+            "",
+            f"Where the native iteration's {whole * ns:.0f} ns CPU per real step go: the walk {walk_ms * ns:.0f} "
+            f"({walk_ms / whole:.0%}), the weights, tours and update {(named - walk_ms) * ns:.0f} "
+            f"({(named - walk_ms) / whole:.0%}), and {(whole - named) * ns:.0f} ({(whole - named) / whole:.0%}) the "
+            "rest of the compiled iteration (best-so-far, history, keys, XLA's runtime between its kernels), "
+            "measured as the whole iteration minus its parts. The walk's limit on this CPU: an ant-step is about 16 "
+            "loads and 40 lane operations (the roulette over 8 moves), a few cycles per ant-step at 8 lanes; "
+            "docs/native.md says what the lanes do and what did not pay.",
+        ]
     lines += [
         "",
         "Reading: the native walk advances the ants of a colony in SIMD lanes (docs/native.md) and splits "

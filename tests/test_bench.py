@@ -64,11 +64,14 @@ def test_smoke_writes_the_throughput_table(smoke):
     ):
         row = table_row(md, label)
         vals = numbers(row[1:])
-        assert len(vals) == 7, row  # wall, CPU, configs/s, steps, steps/s, steps per CPU s, x native
-        assert all(math.isfinite(v) and v > 0 for v in vals), row
+        # wall, CPU, configs/s, steps, steps/s, x native, steps per CPU s, x native per core, ns and cycles per step
+        assert len(vals) == 10, row
+        assert all(math.isfinite(v) and v > 0 for v in vals[:9]), row
         assert label in stdout
     for walk in ("native walk", "JAX walk"):
-        assert re.search(rf"\*\*{walk}: [\d.]+× the native loop\*\*", md)
+        assert re.search(rf"\*\*{walk}: [\d.]+× the native loop per core\*\*", md)
+    if jaco.engine.native.isa() != "baseline":  # the portable lanes beside the widest, the same table
+        assert all(math.isfinite(v) for v in numbers(table_row(md, "jaco, native walk, baseline lanes")[1:]))
     # sharded over 2 devices, and the other walk: the same tables
     assert "native, 2 devices: yes; jax, 2 devices: yes; native walk, JAX walk: yes" in md
 
@@ -83,16 +86,18 @@ def test_smoke_reports_solve_scaling_and_targets(smoke):
         vals = numbers(table_row(md, label)[1:])
         assert len(vals) == 13 and all(math.isfinite(v) and v > 0 for v in vals), label
     assert "### Targets (native walk)" in md and "Peak memory" in md
-    assert md.count("**met**") + md.count("**not met**") == 4  # ratio, stretch, latency, compile
+    assert md.count("**met**") + md.count("**not met**") == 4  # per core, its milestone, solve, compile
+    assert numbers(table_row(md, "`solve` speed-up over the numba loop's run")[1:])
 
 
 @pytest.mark.slow  # the benchmark at --smoke size still takes ~15 s
 def test_smoke_json_figures(smoke):
     _, _, R = smoke
     for k, fig in R["throughput"].items():
-        for f in ("wall_s", "configs_per_s", "steps", "steps_per_s", "steps_per_cpu_s", "vs_native"):
+        for f in ("wall_s", "configs_per_s", "steps", "steps_per_s", "steps_per_cpu_s", "vs_native", "vs_native_per_core"):
             assert math.isfinite(fig[f]) and fig[f] > 0, (k, f)
-    assert R["equal"] == {"native, 2 devices": True, "jax, 2 devices": True, "native walk, JAX walk": True}
+    lanes = {"native walk, baseline lanes": True} if jaco.engine.native.isa() != "baseline" else {}
+    assert R["equal"] == {"native, 2 devices": True, "jax, 2 devices": True, "native walk, JAX walk": True, **lanes}
     assert R["machine"]["xla_devices"] == 2 and R["walks"] == ["native", "jax"]
     assert all(R["solve"][w]["median_ms"] > 0 for w in R["walks"]) and R["rss_peak_mib"] > 0
 
@@ -183,10 +188,14 @@ def test_profile_smoke_both_walks_take_the_same_moves(tmp_path):
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     text = md.read_text()
     assert "<!-- profile_iteration:start -->" in text and "The two walks' moves are identical: yes" in text
-    for label in ("weights", "walk", "tours", "pheromone update", "whole iteration"):
+    for label in ("weights", "tours", "pheromone update", "whole iteration"):
         vals = numbers(table_row(text, label)[1:])
-        assert len(vals) == 4 and all(math.isfinite(v) and v > 0 for v in vals), label  # CPU, wall x 2 walks
-    assert re.search(r"native walk \d+ ns CPU per step; jax walk \d+ ns CPU per step", text)
+        # CPU and wall ms of both walks, CPU ns per real step of both, the native walk's cycles per step
+        assert len(vals) == 7 and all(math.isfinite(v) and v > 0 for v in vals), label
+    cells = [[c.strip() for c in line.strip().strip("|").split("|")] for line in text.splitlines() if line.startswith("|")]
+    walk_rows = [numbers(row[1:]) for row in cells if row[0] == "walk" or row[0].startswith("walk (")]
+    assert sum(len(v) for v in walk_rows) == 7  # the native walk (named by its lanes) and the JAX walk
+    assert re.search(r"Where the native iteration's \d+ ns CPU per real step go: the walk \d+", text)
 
 
 @pytest.mark.slow  # compiles two planners
@@ -204,3 +213,21 @@ def test_scale_benchmark_smoke_writes_its_section(tmp_path):
     assert [r[1] for r in rows] == ["mmas", "iaca"]
     for r in rows:
         assert r[4] in ("yes", "no") and (r[5].strip(" |") == "–" or float(r[5].strip(" |")) >= 0)
+
+
+@pytest.mark.slow  # builds a revision's kernel in a worktree and runs both in processes of their own
+def test_before_after_smoke_compares_a_revision_with_itself(tmp_path):
+    md = tmp_path / "BENCHMARKS.md"
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "experiments" / "bench_before_after.py"), "--before", "HEAD", "--smoke",
+         "--out", str(md)],
+        cwd=ROOT, capture_output=True, text=True, timeout=1200,
+    )
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    text = md.read_text()
+    assert "<!-- bench_before_after:start -->" in text and "the two give the same costs" in text
+    for label in ("before (", "after ("):
+        vals = numbers(table_row(text, label)[1:])
+        assert len(vals) == 6 and all(math.isfinite(v) and v > 0 for v in vals), label
+    worktrees = subprocess.run(["git", "worktree", "list"], cwd=ROOT, capture_output=True, text=True).stdout
+    assert "jaco-before-" not in worktrees  # removed again

@@ -9,7 +9,8 @@ Which walk runs: ``JACO_WALK`` in the environment (``auto``, ``native`` or ``jax
 applies to programs compiled after it (it is part of every compiled program's cache key).
 
 This module is the one that loads the kernel library, registers its FFI targets and chooses
-between a kernel and its JAX form (:func:`dispatch`). The wrappers of the engine's kernels (the
+between a kernel and its JAX form (:func:`dispatch`); :func:`isas` and :func:`set_isa` name and
+choose the instruction set of the lane kernels (``JACO_NATIVE_ISA``; docs/native.md). The wrappers of the engine's kernels (the
 walk, the deposit, the shortcut) are here; a planner's own kernel's wrapper lives beside the
 planner and calls it through :func:`ffi_call` (IACA's backtracking walk in
 :mod:`jaco.planners.iaca`, the APF's next-cell table in :mod:`jaco.potential`).
@@ -51,13 +52,13 @@ def _load():
                 why = "the native walk was not built at install time (no C++ compiler?)"
             else:
                 lib = ctypes.CDLL(spec.origin)
+                _state["isa_error"] = _bind_isa(lib)  # before registering: a stale build lacks these
                 for name, symbol in _TARGETS.items():
                     jax.ffi.register_ffi_target(name, jax.ffi.pycapsule(getattr(lib, symbol)), platform="cpu")
         except (OSError, AttributeError) as e:  # a stale or broken build
             lib, why = None, f"the native walk could not be loaded ({e})"
+            _state["isa_error"] = None
         _state["lib"], _state["why"] = lib, why
-        if lib is not None:
-            _state["isa_error"] = _bind_isa(lib)
     if _state.get("isa_error"):  # a JACO_NATIVE_ISA this kernel cannot honour: every use says so
         raise _state["isa_error"]
     return _state["lib"], _state["why"]

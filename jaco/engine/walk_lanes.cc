@@ -2,19 +2,20 @@
 //
 // setup.py compiles this file once per instruction set: JACO_ISA names the set (the function is
 // walk_lanes_<JACO_ISA>), JACO_LANES its lane count, and the compiler flags let it use the set's
-// vector registers (SSE2: 4 floats, AVX2: 8, AVX-512: 16). The lanes are plain loops over
-// `l < L` with no branches, which the compiler turns into vector instructions (gathers where the
-// set has them); the source is the same for every set, so every set takes the same moves.
+// vector registers (SSE2: 4 lanes, AVX2: 8, AVX-512: 16). The lanes are GCC/Clang vector types,
+// with the set's own instructions where they pay (row transposes, permutes, masks; gathers for
+// the uniforms); the arithmetic is the same source for every set, so every set takes the same moves.
 //
 // Every lane does its ant's float operations of the JAX walk in the same order (the running sums
 // added left to right, one multiply for the target, no fused multiply-add: -ffp-contract=off), so
 // the moves are the JAX walk's bit for bit. A lane whose ant stops (goal, dead end, step limit)
 // takes the colony's next ant at once, so the lanes stay busy however long the walks are.
 //
-// Tabu lists are bits: tabu[cell] has bit l set while the ant of lane l has entered the cell;
-// the bits of an ant are cleared along its path when it stops, so nothing is cleared per colony.
-// Uniforms: each lane holds U = 2L uniforms of its ant, L Threefry blocks drawn together (one
-// vector pass) when the ant starts and whenever it has used them all.
+// Tabu lists are bits: tabu[cell] has bit l set once the ant of lane l has left the cell after it
+// (the cell it just left is compared in a register); the bits of an ant are cleared along its path
+// when it stops, so nothing is cleared per colony. Uniforms: each lane holds U = 2L uniforms of its
+// ant, L Threefry blocks drawn together (one vector pass) when the ant starts and whenever it has
+// used them all.
 //
 // Nothing here may be shared with the other objects (see walk_shared.h): everything has internal
 // linkage but the one entry point.
@@ -35,7 +36,7 @@
 #define JACO_ISA baseline
 #endif
 #ifndef JACO_LANES
-#define JACO_LANES 8
+#define JACO_LANES 4
 #endif
 #define JACO_CAT2(a, b) a##b
 #define JACO_CAT(a, b) JACO_CAT2(a, b)
