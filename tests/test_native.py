@@ -409,10 +409,32 @@ def test_without_a_compiler_the_package_builds_and_walks_in_jax(tmp_path):
     assert "walk: jax (the native walk was not built at install time" in run.stdout
 
 
+def _check_baseline_only(tmp_path, wheel):
+    """The package of a ``JACO_NATIVE_ISAS=baseline`` wheel: its kernel has no AVX2 or AVX-512 code
+    and says so, and the walk tests of this file (every lane kernel against the JAX walk, planners
+    with both walks) pass on it."""
+    import zipfile
+
+    site = tmp_path / "narrow-site"
+    with zipfile.ZipFile(wheel) as z:
+        z.extractall(site)
+    env = dict(os.environ, PYTHONPATH=str(site))
+    states = subprocess.run([sys.executable, "-c", "from jaco.engine import native; print(native.isas())"],
+                            env=env, cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert states.stdout.strip() == "{'baseline': 'active', 'avx2': 'not built', 'avx512': 'not built'}", states.stderr
+    tests = subprocess.run([sys.executable, "-m", "pytest", "-q", "-n", "0", "-p", "no:cacheprovider", "-m", "not slow",
+                            str(ROOT / "tests" / "test_native.py"), "-k", "instruction_set or planner_of_each or info"],
+                           env=env, cwd=tmp_path, capture_output=True, text=True, timeout=900)
+    assert tests.returncode == 0, tests.stdout[-3000:]
+    assert " passed" in tests.stdout and "failed" not in tests.stdout
+
+
 @pytest.mark.slow
 def test_the_kernel_is_built_once_for_the_same_sources_compiler_and_jaxlib(tmp_path):
     """setup.py keeps the built kernel in JACO_CACHE_DIR: a second build of the same sources copies
-    it without running the compiler; a changed source runs the compiler again."""
+    it without running the compiler; a build for other instruction sets is another kernel (and a
+    baseline-only one passes the walk tests: :func:`_check_baseline_only`); a changed source runs
+    the compiler again."""
     import shutil
     import zipfile
 
@@ -447,6 +469,7 @@ def test_the_kernel_is_built_once_for_the_same_sources_compiler_and_jaxlib(tmp_p
     narrow, kernels, objects = build("narrow", JACO_NATIVE_ISAS="baseline")
     assert "reusing" not in narrow and objects and len(kernels) == 1 and kernels != [kept.read_bytes()]
     assert len(list(cache.rglob("_walk*.so"))) == 2
+    _check_baseline_only(tmp_path, next((tmp_path / "narrow").glob("jaco-*.whl")))
     for other in list(cache.rglob("_walk*.so")):  # (the rest of the test counts the entries)
         if other != kept:
             shutil.rmtree(other.parent)
@@ -455,36 +478,6 @@ def test_the_kernel_is_built_once_for_the_same_sources_compiler_and_jaxlib(tmp_p
     third, kernels, objects = build("third")
     assert "reusing" not in third and "a changed source is compiled again" in third
     assert not kernels and list(cache.rglob("_walk*.so")) == [kept]  # the optional kernel failed: no new entry
-
-
-@pytest.mark.slow
-def test_a_build_without_the_wide_instruction_sets_passes_the_walk_tests(tmp_path):
-    """``JACO_NATIVE_ISAS=baseline``: the kernel has no AVX2 or AVX-512 code, says so, and the walk
-    tests of this file (every lane kernel against the JAX walk, planners with both walks) pass on it."""
-    import shutil
-    import zipfile
-
-    src = tmp_path / "src"
-    src.mkdir()
-    for name in ("pyproject.toml", "setup.py", "README.md"):
-        shutil.copy2(ROOT / name, src / name)
-    shutil.copytree(ROOT / "jaco", src / "jaco", ignore=shutil.ignore_patterns("__pycache__", "*.so"))
-    env = dict(os.environ, JACO_CACHE_DIR=str(tmp_path / "cache"), JACO_NATIVE_ISAS="baseline")
-    proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w",
-                           str(tmp_path), str(src)], env=env, capture_output=True, text=True, timeout=900)
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    (wheel,) = tmp_path.glob("jaco-*.whl")
-    with zipfile.ZipFile(wheel) as z:
-        z.extractall(tmp_path / "site")
-    site = dict(os.environ, PYTHONPATH=str(tmp_path / "site"))
-    states = subprocess.run([sys.executable, "-c", "from jaco.engine import native; print(native.isas())"],
-                            env=site, cwd=tmp_path, capture_output=True, text=True, timeout=300)
-    assert states.stdout.strip() == "{'baseline': 'active', 'avx2': 'not built', 'avx512': 'not built'}", states.stderr
-    tests = subprocess.run([sys.executable, "-m", "pytest", "-q", "-n", "0", "-p", "no:cacheprovider", "-m", "not slow",
-                            str(ROOT / "tests" / "test_native.py"), "-k", "instruction_set or planner_of_each or info"],
-                           env=site, cwd=tmp_path, capture_output=True, text=True, timeout=900)
-    assert tests.returncode == 0, tests.stdout[-3000:]
-    assert " passed" in tests.stdout and "failed" not in tests.stdout
 
 
 #: One planner of each construct (dying ants with roulette and with the q0 rule, backtracking
