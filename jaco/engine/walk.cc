@@ -125,8 +125,8 @@ LaneWalk lane_walk() {
 }
 
 // The width w of the grid whose 8 moves the offsets are (each r·w + c with (r, c) in {-1, 0, 1}^2,
-// all 8 different and none (0, 0)), when w >= 3; else 0.
-int32_t grid_width(const int32_t* off) {
+// all 8 different and none (0, 0)), when w >= 3, with each move's (r, c) in row_of, col_of; else 0.
+int32_t grid_width(const int32_t* off, int32_t* row_of, int32_t* col_of) {
   const int32_t w = *std::max_element(off, off + 8) - 1;
   if (w < 3) return 0;
   bool seen[9] = {};
@@ -134,6 +134,8 @@ int32_t grid_width(const int32_t* off) {
     const int32_t r = (off[k] + w + 1) / w - 1, c = off[k] - r * w;  // off in [-w-1, w+1]
     if (off[k] < -w - 1 || r < -1 || r > 1 || c < -1 || c > 1 || (r == 0 && c == 0) || seen[3 * r + c + 4]) return 0;
     seen[3 * r + c + 4] = true;
+    row_of[k] = r;
+    col_of[k] = c;
   }
   return w;
 }
@@ -164,14 +166,11 @@ ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Bu
     return [=, tabu = std::vector<uint32_t>()](int64_t b) mutable {
       LaneColony colony{W0 + b * N * 8, off0 + b * 8, st[b], gl[b], int32_t(N), q[b], K[2 * b], K[2 * b + 1],
                         A, S, exploit, mv0 + b * S * A, cl0 + b * S * A, ns0 + b * A, nd0 + b * A, arr0 + b * A,
-                        vis0 + b * N, nullptr, grid_width(off0 + b * 8), {}, {}};
+                        vis0 + b * N, nullptr, 0, {}, {}};
+      colony.width = grid_width(colony.offsets, colony.row_of, colony.col_of);
       const int64_t pad = int64_t(colony.width) + 2;
       if (int64_t(tabu.size()) < N + 2 * pad) tabu.assign(N + 2 * pad, 0u);  // zero between colonies
       colony.tabu = tabu.data() + pad;
-      for (int k = 0; k < 8 && colony.width; ++k) {
-        colony.row_of[k] = (off0[b * 8 + k] + colony.width + 1) / colony.width - 1;
-        colony.col_of[k] = off0[b * 8 + k] - colony.row_of[k] * colony.width;
-      }
       walk(colony);
     };
   });

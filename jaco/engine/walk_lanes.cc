@@ -234,10 +234,10 @@ struct Lanes {
 // are the marked ones and its previous cell, which is marked only when the ant leaves the cell
 // after it (so the gathers of a step never wait for the marks of the step before).
 template <bool Exploit>
-inline void choose_lanes(const Lanes& s, const float* __restrict W, const vi offset[8],
-                         const uint32_t* __restrict tabu, int32_t last, float q0, const LaneColony& c, vi& chosen,
-                         vi& ok) {
-  const vi zero = s.cur - s.cur, top_cell = zero + last, row = s.cur * 8;
+inline void choose_lanes(const Lanes& s, const LaneColony& c, const vi offset[8], vi& chosen, vi& ok) {
+  const uint32_t* tabu = c.tabu;
+  const float q0 = c.q0;
+  const vi zero = s.cur - s.cur, top_cell = zero + (c.n_cells - 1), row = s.cur * 8;
   vi bit, at;
   for (int l = 0; l < L; ++l) {
     bit[l] = int32_t(1u << l);
@@ -245,7 +245,7 @@ inline void choose_lanes(const Lanes& s, const float* __restrict W, const vi off
   }
   vf u = gather(&s.uniform[0][0], at + s.t - s.drawn);
   vf w[8];
-  move_weights(W, row, w);
+  move_weights(c.weights, row, w);
   vi around[9];
 #if JACO_ROWS
   const bool rows = c.width > 0;
@@ -328,7 +328,7 @@ inline vi move_offset(const int32_t* offsets, vi chosen) {
 
 void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
   const int64_t A = c.n_ants, S = c.steplimit;
-  const int32_t last = c.n_cells - 1, start = c.start, goal = c.goal;
+  const int32_t start = c.start, goal = c.goal;
   uint32_t* tabu = c.tabu;
   std::memset(c.moves, -1, S * A);
   std::memset(c.cells, -1, S * A * sizeof(int32_t));
@@ -383,9 +383,9 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
   while (n_live > 0) {
     vi chosen, ok;
     if (c.exploit)
-      choose_lanes<true>(s, c.weights, offset, tabu, last, c.q0, c, chosen, ok);
+      choose_lanes<true>(s, c, offset, chosen, ok);
     else
-      choose_lanes<false>(s, c.weights, offset, tabu, last, c.q0, c, chosen, ok);
+      choose_lanes<false>(s, c, offset, chosen, ok);
     // The step of every walking lane with a move (the others keep their cell).
     const vi step = s.live & ok;
     const vi cell = pick(step, s.cur + move_offset(c.offsets, chosen), s.cur);
