@@ -316,13 +316,13 @@ def test_the_widest_instruction_set_is_the_default_and_others_are_chosen_or_refu
     assert native.isa() == RUNNABLE[-1]  # a refused choice changes nothing
 
 
-def test_the_environment_chooses_the_instruction_set():
+def test_the_environment_chooses_the_instruction_set(tmp_path):  # outside the checkout: the installed jaco
     code = "from jaco.engine import native; print(native.isa())"
     env = dict(os.environ, JACO_NATIVE_ISA="baseline")
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=tmp_path, capture_output=True, text=True, timeout=120)
     assert out.returncode == 0 and out.stdout.split() == ["baseline"], out.stderr[-2000:]
     env["JACO_NATIVE_ISA"] = "sse9"
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=tmp_path, capture_output=True, text=True, timeout=120)
     assert "JACO_NATIVE_ISA: unknown instruction set 'sse9'" in out.stderr
 
 
