@@ -22,6 +22,8 @@ import time
 from collections.abc import Callable
 from typing import Any, TypeVar
 
+import numpy as np
+
 T = TypeVar("T")
 
 REPORTS = 25  # a compiled loop reports at most this often per run (every ceil(n / REPORTS) steps)
@@ -115,6 +117,20 @@ class Interrupted(Exception):
 _STOP = threading.Event()
 
 
+def stop_requested() -> np.bool_:
+    """Host side of :func:`jaco.engine.native.stop_requested` without the kernel: whether the
+    running call was interrupted."""
+    return np.bool_(_STOP.is_set())
+
+
+def _stop(on: bool) -> None:
+    """Ask the compiled loops to end (or let them run): the host's flag and the kernel's."""
+    from .engine import native
+
+    (_STOP.set if on else _STOP.clear)()
+    native.set_stop(on)
+
+
 def report(done: int) -> None:
     """Host side of :func:`jax.debug.callback` in a compiled loop: ``done`` steps are finished.
     After an interrupt it raises :class:`Interrupted`, which ends the computation."""
@@ -142,11 +158,12 @@ def run_interruptibly(fn: Callable[..., T], *args: Any, **kwargs: Any) -> T:
     """``fn(*args, **kwargs)`` (compiling or running a compiled program, fetching its results) in a
     worker thread while the main thread waits in short steps, so that Ctrl-C (SIGINT) or SIGTERM is
     seen at once: only the main thread runs Python's signal handlers, and it would not run them
-    while blocked inside XLA. On an interrupt, every compiled loop that reports its steps (a sweep
-    chunk, a search batch, a tuning loop, a solve with a bar) raises :class:`Interrupted` at its
-    next report, which ends the computation; the interrupt is then re-raised. Work that does not
-    report (a compile, a solve without a bar) finishes in the background, its result unused.
-    Called from any other thread, it just calls ``fn``."""
+    while blocked inside XLA. On an interrupt, every compiled run ends its iteration loop at the
+    next iteration (:func:`jaco.engine.native.stop_requested`: a solve, each run of a sweep chunk,
+    a search batch or a tuning step), a loop that reports its steps ends at its next report, and
+    the interrupt is re-raised once the work has ended (or after a second: an XLA compile cannot
+    be stopped and finishes in the background, then its program ends at once). The next call
+    runs normally. Called from any other thread, it just calls ``fn``."""
     if threading.current_thread() is not threading.main_thread():
         return fn(*args, **kwargs)
     future = _WORKER.submit(fn, *args, **kwargs)
@@ -158,8 +175,8 @@ def run_interruptibly(fn: Callable[..., T], *args: Any, **kwargs: Any) -> T:
                 continue
     except BaseException:  # KeyboardInterrupt, the CLI's SIGTERM exception
         if not future.done():
-            _STOP.set()
-            future.add_done_callback(lambda _: _STOP.clear())  # until the interrupted work has ended
+            _stop(True)
+            future.add_done_callback(lambda _: _stop(False))  # until the interrupted work has ended
             with contextlib.suppress(BaseException):
                 future.result(timeout=1.0)  # a reporting loop ends at its next report
         raise

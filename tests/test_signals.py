@@ -1,5 +1,5 @@
-"""Ctrl-C (SIGINT) and SIGTERM: a sweep, a search or a solve stops at once (a compiled loop ends at
-its next report), exits 130 / 143 with one line, leaves every existing output as it was and no
+"""Ctrl-C (SIGINT) and SIGTERM: a sweep, a search or a solve stops at once (a compiled run ends its
+iteration loop at the next iteration), exits 130 / 143 with one line, leaves every existing output as it was and no
 temporary file, and keeps what was finished (stored chunks, stored trials).
 
 The commands run as real processes; the signal is sent at a known moment: while the program is
@@ -15,6 +15,7 @@ import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 
 import pytest
 
@@ -120,6 +121,118 @@ def test_ctrl_c_in_python_ends_the_chunk_and_the_next_call_runs_normally():
         jaco.sweep(grid, s, g, "acs", chunk=800, **kw)
     assert time.time() - t0 < 15
     assert not jaco.progress._STOP.is_set()  # the interrupted chunk has ended: the next call runs normally
+
+
+# A script that interrupts its own long solve once the run's program is compiled and running, then
+# measures the CPU the process uses afterwards and makes one more call. The iteration loop of a run
+# asks whether to stop (the kernel's flag, or the host every few iterations without it).
+_AFTER_COMPILE = """
+import os, resource, signal, sys, threading, time
+import jax, jaco
+
+def cpu():
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+running = threading.Event()  # the run's program is compiled: it runs from now on
+jax.monitoring.register_event_duration_secs_listener(
+    lambda event, secs, fun_name=None, **kw: fun_name == "jit(run)" and "backend_compile" in event and running.set())
+
+def interrupt():
+    running.wait()
+    time.sleep(2)
+    os.kill(os.getpid(), signal.{sig})
+
+threading.Thread(target=interrupt, daemon=True).start()
+"""
+
+LONG_SOLVE = _AFTER_COMPILE + """
+g = jaco.maps.named("demo")
+try:
+    jaco.solve(g, (17, 2), (2, 27), "mmas", n_ants=2, n_iters=5_000_000, progress=sys.argv[1] == "bar")
+    print("finished")
+except KeyboardInterrupt:
+    c0 = cpu()
+    time.sleep(5)
+    print("cpu after", cpu() - c0)
+    print("next", jaco.solve(g, (17, 2), (2, 27), "mmas", n_ants=8, n_iters=10, progress=False).success)
+"""
+
+
+@pytest.mark.parametrize("walk, bar", [("auto", "bar"), ("jax", "none")])
+def test_ctrl_c_in_python_ends_the_compiled_run_and_the_next_call_runs(walk, bar, tmp_path):
+    """The reproducer of an interrupted ``jaco.solve`` in a script or notebook: the run (minutes long)
+    ends when the interrupt arrives, with or without a bar, with the kernel's stop flag or the
+    host's; the process then uses no CPU for it, and the next call runs."""
+    env = dict(os.environ, JACO_WALK=walk, PYTHONUNBUFFERED="1")
+    proc = subprocess.run([sys.executable, "-c", LONG_SOLVE.format(sig="SIGINT"), bar], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=600)
+    lines = dict(line.rsplit(" ", 1) for line in proc.stdout.splitlines())
+    assert proc.returncode == 0 and "finished" not in proc.stdout, proc.stderr[-2000:]
+    assert float(lines["cpu after"]) < 0.5 and lines["next"] == "True", proc.stdout
+
+
+def test_cli_main_called_from_python_returns_after_sigterm(tmp_path):
+    """``jaco.cli.main()`` called in-process (as a test harness does): SIGTERM ends the command with
+    143 and the compiled run with it; nothing goes on afterwards."""
+    script = _AFTER_COMPILE.format(sig="SIGTERM") + """
+from jaco.cli import main
+t0 = time.time()
+code = main(["solve", "demo", "--variant", "mmas", "--ants", "2", "--iters", "5000000"])
+c0 = cpu()
+time.sleep(5)
+print("code", code)
+print("cpu after", cpu() - c0)
+"""
+    proc = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, env=dict(os.environ, PYTHONUNBUFFERED="1"),
+                          capture_output=True, text=True, timeout=600)
+    lines = dict(line.rsplit(" ", 1) for line in proc.stdout.splitlines() if line.startswith(("code", "cpu")))
+    assert lines["code"] == "143" and "jaco: terminated" in proc.stderr, proc.stdout + proc.stderr[-2000:]
+    assert float(lines["cpu after"]) < 0.5
+
+
+def _cpu_seconds(pid: int) -> float:
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")  # utime + stime
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads a process's CPU time from /proc")
+def test_a_notebook_kernel_interrupted_mid_solve_stops_and_is_used_again(tmp_path):
+    """"Interrupt kernel" in Jupyter during a long solve: the cell ends with KeyboardInterrupt, the
+    kernel uses no CPU afterwards and runs the next cell (no restart)."""
+    from jupyter_client.manager import start_new_kernel
+
+    km, kc = start_new_kernel(kernel_name="python3", cwd=str(tmp_path))
+    try:
+        setup = """
+import pathlib, jax, jaco
+jax.monitoring.register_event_duration_secs_listener(  # marks the moment the run's program is compiled
+    lambda event, secs, fun_name=None, **kw: fun_name == "jit(run)" and "backend_compile" in event
+    and pathlib.Path("running").touch())
+g = jaco.maps.named("demo")
+"""
+        assert kc.execute_interactive(setup, timeout=300)["content"]["status"] == "ok"
+        msg_id = kc.execute('jaco.solve(g, (17, 2), (2, 27), "mmas", n_ants=2, n_iters=5_000_000)')
+        t0 = time.time()
+        while not (tmp_path / "running").exists() and time.time() - t0 < 300:
+            time.sleep(0.1)
+        time.sleep(2)  # well inside a run of minutes
+        km.interrupt_kernel()
+        reply = kc.get_shell_msg(timeout=60)
+        assert reply["parent_header"]["msg_id"] == msg_id
+        assert reply["content"]["status"] == "error" and reply["content"]["ename"] == "KeyboardInterrupt"
+        pid = km.provisioner.process.pid
+        c0 = _cpu_seconds(pid)
+        time.sleep(5)
+        assert _cpu_seconds(pid) - c0 < 0.5
+        out: list = []
+        hook = lambda m: out.append(m["content"].get("text", "")) if m["msg_type"] == "stream" else None  # noqa: E731
+        code = 'print(jaco.solve(g, (17, 2), (2, 27), "mmas", n_ants=8, n_iters=10, progress=False).success)'
+        assert kc.execute_interactive(code, timeout=300, output_hook=hook)["content"]["status"] == "ok"
+        assert "".join(out).split() == ["True"]
+    finally:
+        kc.stop_channels()
+        km.shutdown_kernel(now=True)
 
 
 def test_an_interrupted_write_leaves_the_old_file_and_no_temporary(tmp_path, monkeypatch):

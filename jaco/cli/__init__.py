@@ -133,8 +133,8 @@ def _main(argv, JacoError) -> int:
 
 def entry() -> None:
     """The console script: :func:`main`, then exit. After an interrupt the process ends at once
-    (``os._exit``): work that cannot be stopped from Python (a compile, a run without reports)
-    would otherwise keep it alive until it finished. Output was flushed and files closed first."""
+    (``os._exit``): an XLA compile cannot be stopped and would otherwise keep it alive until it
+    finished (a compiled run ends at its next iteration). Output was flushed and files closed first."""
     import os
 
     code = main()

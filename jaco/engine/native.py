@@ -38,6 +38,7 @@ _TARGETS = {
     "jaco_power": "JacoPower",
     "jaco_apf_next": "JacoApfNext",
     "jaco_shortcut": "JacoShortcut",
+    "jaco_stopped": "JacoStopped",
 }
 _state: dict = {}
 
@@ -70,6 +71,7 @@ def _bind_isa(lib) -> JacoError | None:
     lib.jaco_isa_name.restype = ctypes.c_char_p
     for name in ("jaco_isa_count", "jaco_isa_built", "jaco_isa_runs", "jaco_isa_get", "jaco_isa_set"):
         getattr(lib, name).restype = ctypes.c_int
+    lib.jaco_stop_set.restype, lib.jaco_stop_set.argtypes = None, [ctypes.c_int]
     choice = os.environ.get("JACO_NATIVE_ISA")
     try:
         if choice:
@@ -177,6 +179,43 @@ def dispatch(native_fn: Callable[..., Any], jax_fn: Callable[..., Any], *args: A
     if active_walk() == "native":
         return jax.lax.platform_dependent(*args, cpu=native_fn, default=jax_fn)
     return jax_fn(*args)
+
+
+#: Without the kernel's flag, a run asks the host whether to stop every this many iterations (a
+#: host callback costs tens of microseconds; reading the kernel's flag, well under one).
+STOP_STRIDE = 8
+
+
+def set_stop(on: bool) -> None:
+    """Ask every compiled run's iteration loop to end (``True``: the user interrupted the call)
+    or let them run (``False``). :func:`jaco.progress.run_interruptibly` sets and clears it."""
+    if _state.get("lib") is not None:
+        _state["lib"].jaco_stop_set(int(on))
+
+
+def stop_requested(t: jax.Array) -> jax.Array:
+    """Traced: whether the loop at iteration ``t`` should end because the call was interrupted
+    (:func:`set_stop`): the kernel's flag, every iteration, on CPU with the native walk; else the
+    host's (:func:`jaco.progress.stop_requested`) every :data:`STOP_STRIDE` iterations. It reads
+    no result of the run, so it changes none."""
+    return dispatch(_kernel_stopped, _host_stopped, jnp.asarray(t, jnp.int32))
+
+
+def _kernel_stopped(t: jax.Array) -> jax.Array:
+    # A side effect for XLA: never hoisted out of the loop, never merged with another iteration's.
+    call = jax.ffi.ffi_call("jaco_stopped", jax.ShapeDtypeStruct((), jnp.bool_), has_side_effect=True)
+    return call(t)
+
+
+def _host_stopped(t: jax.Array) -> jax.Array:
+    from ..progress import stop_requested as asked
+
+    # A pure callback (an io_callback cannot sit in a vmapped cond): called with the iteration,
+    # so it is asked again in every iteration that checks, never answered once for all.
+    ask = lambda: jax.pure_callback(
+        lambda _: asked(), jax.ShapeDtypeStruct((), jnp.bool_), t, vmap_method="broadcast_all"
+    )  # noqa: E731
+    return jax.lax.cond(t % STOP_STRIDE == 0, ask, lambda: jnp.bool_(False))
 
 
 def walk(

@@ -1,7 +1,7 @@
 """The colony loop (the fifth of the five concepts): ``make_run(variant, ...) -> run(key, problem,
 params)``.
 
-Iterations are a ``lax.scan``; the ants of an iteration walk together (vectorised over the ant
+Iterations are a loop (``lax.while_loop``, which also ends when the call is interrupted); the ants of an iteration walk together (vectorised over the ant
 axis, see :mod:`jaco.engine.walk`); a sweep is ``jit(vmap(run))``. The key is always the first
 argument and is never stored in state, so the same key gives the same result bit for bit.
 
@@ -27,6 +27,7 @@ import jax.numpy as jnp
 from .. import progress as _progress
 from ..errors import JacoError
 from ..grid import Grid
+from . import native
 from .cache import cached
 from .checks import check_keep_pheromone, check_sizes, params_from, prepare
 from .params import Params
@@ -146,10 +147,22 @@ def make_run(
                 jax.lax.cond((t + 1) % k == 0, lambda: jax.debug.callback(_progress.report, t + 1), lambda: None)
             return (trail, best, seen | col.visited, steps + jnp.sum(col.n_steps)), (hist, snapshot)
 
-        seen = jnp.zeros((n,), bool)
-        xs = (jax.random.split(key, n_iters), jnp.arange(n_iters, dtype=jnp.int32))
-        carry = (trail, best, seen, jnp.int32(0))
-        (trail, best, seen, steps), (history, snapshots) = jax.lax.scan(iteration, carry, xs)
+        keys = jax.random.split(key, n_iters)
+        carry = (trail, best, jnp.zeros((n,), bool), jnp.int32(0))
+        # A while loop, as lax.scan is inside XLA, that also ends when the call is interrupted.
+        history = History(*(jnp.zeros((n_iters,), jnp.float32) for _ in History._fields))
+        outs = (history, jnp.zeros((n_iters, size), jnp.float32) if keep_pheromone == "history" else None)
+
+        def body(state):
+            t, carry, outs = state
+            carry, out = iteration(carry, (keys[t], t))
+            return t + 1, carry, jax.tree.map(lambda buf, o: buf.at[t].set(o), outs, out)
+
+        def more(state):
+            return (state[0] < n_iters) & ~native.stop_requested(state[0])
+
+        _, carry, (history, snapshots) = jax.lax.while_loop(more, body, (jnp.int32(0), carry, outs))
+        trail, best, seen, steps = carry
         return RunOutput(
             best_cells=best.cells,
             best_cost=best.cost,

@@ -740,7 +740,23 @@ ffi::Error PowerImpl(ffi::Buffer<ffi::F32> x, ffi::Buffer<ffi::F32> a, ffi::Buff
   return ffi::Error::Success();
 }
 
+// ---- the stop request: a compiled run's iteration loop ends when it is set -----------------------
+// Set from Python when the user interrupts a call (jaco.progress.run_interruptibly); read once per
+// iteration, so an interrupted run stops within one iteration and uses no CPU after.
+std::atomic<int32_t> stop_requested{0};
+
+ffi::Error StoppedImpl(ffi::Buffer<ffi::S32> /*iteration: keeps the call inside the loop*/,
+                       ffi::ResultBuffer<ffi::PRED> out) {
+  out->typed_data()[0] = stop_requested.load(std::memory_order_relaxed) != 0;
+  return ffi::Error::Success();
+}
+
 }  // namespace
+
+XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoStopped, StoppedImpl,
+                              ffi::Ffi::Bind()
+                                  .Arg<ffi::Buffer<ffi::S32>>()    // the iteration
+                                  .Ret<ffi::Buffer<ffi::PRED>>());  // whether to stop
 
 XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoWalk, WalkImpl,
                               ffi::Ffi::Bind()
@@ -841,6 +857,7 @@ __attribute__((visibility("default"))) int jaco_isa_get() {
   lane_walk();
   return current_isa.load();
 }
+__attribute__((visibility("default"))) void jaco_stop_set(int on) { stop_requested.store(on != 0); }
 // -1: the widest set this CPU runs; another set is taken only where it was built and the CPU runs it.
 __attribute__((visibility("default"))) int jaco_isa_set(int i) {
   if (i == -1) i = widest_isa();
