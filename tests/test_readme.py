@@ -26,7 +26,7 @@ def test_readme_python_example_runs_and_prints(tmp_path, monkeypatch, capsys):
     assert words == 3 + 9 + 3 and out[words - 2] == "True"  # nine configurations; the record reran bit for bit
     assert out[words - 3].startswith("via ((10, 5), (20, 20)): length ")
     assert "'beta':" in out[words - 1]
-    assert any(line.startswith("iaca beats as on 27 of 32 pairs") for line in out[words:])  # as the comment says
+    assert any(line.startswith("iaca is better than as: signed ranks favour iaca 501 to 27") for line in out[words:])
     assert {p.name for p in tmp_path.iterdir()} == {"paths.png", "heatmap.png", "run.json", "cd.png"}
 
 

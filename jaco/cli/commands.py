@@ -436,7 +436,9 @@ def _summary_table(shown, swept, lengths: bool = True) -> str:
 
 def cmd_compare(args: argparse.Namespace) -> int:
     """Paired statistics on a saved results table (jaco.research.compare)."""
-    from ..research.compare import compare
+    import warnings
+
+    from ..research.compare import UnequalPairsWarning, compare
     from ..research.tables import read_table
 
     figures = [f for f in ("--cd", "--profile") if getattr(args, f[2:]) is not None]
@@ -445,16 +447,23 @@ def cmd_compare(args: argparse.Namespace) -> int:
     by = args.by or ["variant"]
     if args.where:
         table = _where(table, args.where)
-    result = compare(
-        table,
-        by=by,
-        value=args.value,
-        blocks=args.blocks,
-        alpha=args.alpha,
-        confidence=args.confidence,
-        n_boot=args.boot,
-        seed=args.seed,
-    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UnequalPairsWarning)
+        result = compare(
+            table,
+            by=by,
+            value=args.value,
+            blocks=args.blocks,
+            alpha=args.alpha,
+            confidence=args.confidence,
+            n_boot=args.boot,
+            seed=args.seed,
+        )
+    for w in caught:  # a jaco warning line, not Python's with a source line (the words repeat it as a note)
+        if issubclass(w.category, UnequalPairsWarning):
+            print(f"jaco: warning: {_one_line(str(w.message))}", file=sys.stderr)
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     print(f"table   {Path(args.table).name}: {len(table)} runs; bootstrap: {args.boot} resamples, seed {args.seed}")
     print()
     print(result.table())
