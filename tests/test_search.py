@@ -5,6 +5,7 @@ import sqlite3
 import subprocess
 import sys
 import textwrap
+import time
 
 import numpy as np
 import pytest
@@ -15,15 +16,17 @@ from jaco.research.space import Categorical, Float, Int, SpaceError, parse_space
 
 optuna = pytest.importorskip("optuna")
 
-GRID = jaco.Grid.from_rows([
-    "..........",
-    "..####....",
-    "......#...",
-    ".##...#.#.",
-    "......#...",
-    "...####...",
-    "..........",
-])
+GRID = jaco.Grid.from_rows(
+    [
+        "..........",
+        "..####....",
+        "......#...",
+        ".##...#.#.",
+        "......#...",
+        "...####...",
+        "..........",
+    ]
+)
 ENDS = ((6, 0), (0, 9))
 SMALL = dict(seeds=2, n_ants=6, n_iters=8, progress=False)
 SPACE = {"beta": (0.5, 12.0, "log"), "rho": (0.05, 0.6)}
@@ -31,6 +34,7 @@ SPACE = {"beta": (0.5, 12.0, "log"), "rho": (0.05, 0.6)}
 
 def _no_compile(monkeypatch):
     """Any attempt to compile a sweep program fails the test (bad input must stop before)."""
+
     def boom(*a, **k):
         raise AssertionError("compiled before the error")
 
@@ -39,8 +43,16 @@ def _no_compile(monkeypatch):
 
 # -- the space ---------------------------------------------------------------------------------
 def test_space_forms_and_conditional_parameters():
-    sp = parse_space({"variant": ["iaca", "acs"], "beta": (1.0, 20.0, "log"), "q0": [0.5, 0.9], "n_ants": [10, 20],
-                      "xi": (0.0, 0.5), "alpha": 1.5})
+    sp = parse_space(
+        {
+            "variant": ["iaca", "acs"],
+            "beta": (1.0, 20.0, "log"),
+            "q0": [0.5, 0.9],
+            "n_ants": [10, 20],
+            "xi": (0.0, 0.5),
+            "alpha": 1.5,
+        }
+    )
     assert list(sp.planners) == ["iaca", "acs"]
     assert sp.dims["beta"] == Float(1.0, 20.0, True) and sp.dims["q0"] == Categorical((0.5, 0.9))
     assert sp.dims["n_ants"] == Categorical((10, 20)) and sp.fixed == {"alpha": 1.5}
@@ -49,20 +61,23 @@ def test_space_forms_and_conditional_parameters():
     assert parse_space({"w": (2, 12, "int")}, "ras").dims["w"] == Int(2, 12)
 
 
-@pytest.mark.parametrize("space, variant, match", [
-    ({"beta": (5.0, 5.0)}, None, "empty range"),
-    ({"beta": (3.0, 1.0)}, None, "empty range"),
-    ({"rho": (0.0, 0.5, "log")}, None, "log range needs low > 0"),
-    ({"bta": (1.0, 2.0)}, None, "unknown parameter 'bta'"),
-    ({"q0": (0.5, 0.9)}, "mmas", "not used by planner 'mmas'"),
-    ({"variant": ["acs", "nope"], "beta": (1.0, 2.0)}, None, "unknown planner 'nope'"),
-    ({"beta": (1.0, 40.0)}, None, "out of range"),
-    ({"n_ants": (1.0, 5.0)}, None, "a size is an integer"),
-    ({"variant": [], "beta": (1.0, 2.0)}, None, "empty list of planners"),
-    ({"alpha": 1.0}, None, "nothing to search"),
-    ({"tau_min": (0.1, 30.0)}, "iaca", "tau_min < tau_max"),
-    ({"beta": (1.0, 2.0, "cubic")}, None, "optional 'log'"),
-])
+@pytest.mark.parametrize(
+    "space, variant, match",
+    [
+        ({"beta": (5.0, 5.0)}, None, "empty range"),
+        ({"beta": (3.0, 1.0)}, None, "empty range"),
+        ({"rho": (0.0, 0.5, "log")}, None, "log range needs low > 0"),
+        ({"bta": (1.0, 2.0)}, None, "unknown parameter 'bta'"),
+        ({"q0": (0.5, 0.9)}, "mmas", "not used by planner 'mmas'"),
+        ({"variant": ["acs", "nope"], "beta": (1.0, 2.0)}, None, "unknown planner 'nope'"),
+        ({"beta": (1.0, 40.0)}, None, "out of range"),
+        ({"n_ants": (1.0, 5.0)}, None, "a size is an integer"),
+        ({"variant": [], "beta": (1.0, 2.0)}, None, "empty list of planners"),
+        ({"alpha": 1.0}, None, "nothing to search"),
+        ({"tau_min": (0.1, 30.0)}, "iaca", "tau_min < tau_max"),
+        ({"beta": (1.0, 2.0, "cubic")}, None, "optional 'log'"),
+    ],
+)
 def test_a_bad_space_is_one_line_before_anything_compiles(monkeypatch, space, variant, match):
     _no_compile(monkeypatch)
     with pytest.raises(jaco.JacoError, match=match) as e:
@@ -70,16 +85,27 @@ def test_a_bad_space_is_one_line_before_anything_compiles(monkeypatch, space, va
     assert "\n" not in str(e.value)
 
 
-@pytest.mark.parametrize("kwargs, match", [
-    (dict(sampler="annealing"), "unknown sampler"),
-    (dict(sampler="evosax:NoSuchES"), "unknown evosax strategy"),
-    (dict(sampler="cmaes", objective=["gap", "turns"]), "one objective"),
-    (dict(objective="speed"), "unknown objective"),
-    (dict(trials=0), "trials must be a positive integer"),
-    (dict(fidelity="halving", objective=["gap", "turns"]), "one objective"),
-    (dict(penalty={"success": 1.0}), "only gap"),
-    (dict(storage=12), "storage must be"),
-])
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(sampler="annealing"), "unknown sampler"),
+        (dict(sampler="evosax:NoSuchES"), "unknown evosax strategy"),
+        (dict(sampler="cmaes", objective=["gap", "turns"]), "one objective"),
+        (dict(objective="speed"), "unknown objective"),
+        (dict(trials=0), "trials must be a positive integer"),
+        (dict(fidelity="halving", objective=["gap", "turns"]), "one objective"),
+        (dict(penalty={"success": 1.0}), "only gap"),
+        (dict(storage=12), "storage must be"),
+        (dict(timeout=0), "timeout must be a positive finite number of seconds, got 0"),
+        (dict(timeout=-5.0), "timeout must be a positive finite number"),
+        (dict(timeout=float("nan")), "timeout must be a positive finite number"),
+        (dict(timeout=math.inf), "timeout must be a positive finite number"),
+        (dict(timeout=True), "timeout must be a positive finite number"),
+        (dict(timeout="60"), "timeout must be a positive finite number"),
+        (dict(trials=None), "give trials, timeout or both"),
+        (dict(trials=None, timeout=5.0, sampler="grid"), "sampler 'grid' sizes its grid from trials"),
+    ],
+)
 def test_bad_search_arguments_are_one_line_before_anything_compiles(monkeypatch, kwargs, match):
     _no_compile(monkeypatch)
     with pytest.raises(jaco.JacoError, match=match):
@@ -96,7 +122,9 @@ def test_evosax_needs_real_ranges_of_one_planner(monkeypatch):
 
 # -- the search ------------------------------------------------------------------------------
 def test_every_trial_equals_solve_with_its_parameters_and_seeds():
-    study = jaco.search(GRID, *ENDS, {"variant": ["acs", "mmas"], **SPACE}, trials=6, batch=3, sampler="random", **SMALL)
+    study = jaco.search(
+        GRID, *ENDS, {"variant": ["acs", "mmas"], **SPACE}, trials=6, batch=3, sampler="random", **SMALL
+    )
     table = study.trials
     assert len(table) == 6 and set(table["state"]) == {"COMPLETE"} and set(table["generation"]) == {0, 1}
     for number in (0, 4):
@@ -134,36 +162,65 @@ def test_tpe_batches_are_not_one_point_repeated():
 
 def test_a_failed_run_counts_as_the_documented_penalty_never_nan():
     # steplimit 3 cannot reach a goal 9 columns away: every run fails
-    study = jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=2, batch=2, steplimit=3, sampler="random",
-                        objective=["gap", "length", "turns", "success"], **SMALL)
+    study = jaco.search(
+        GRID,
+        *ENDS,
+        SPACE,
+        variant="acs",
+        trials=2,
+        batch=2,
+        steplimit=3,
+        sampler="random",
+        objective=["gap", "length", "turns", "success"],
+        **SMALL,
+    )
     t = study.trials
     optimal = jaco.exact.shortest_path(GRID, *ENDS)[0]
     worst = math.sqrt(2) * 3
     assert (t["success"] == 0).all() and (t["success_rate"] == 0).all()
     assert np.allclose(t["length"], worst) and np.allclose(t["gap"], worst / optimal - 1) and np.allclose(t["turns"], 3)
-    given = jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=2, batch=2, steplimit=3, sampler="random",
-                        penalty=2.5, **SMALL)
+    given = jaco.search(
+        GRID, *ENDS, SPACE, variant="acs", trials=2, batch=2, steplimit=3, sampler="random", penalty=2.5, **SMALL
+    )
     assert (given.trials["gap"] == 2.5).all()
 
 
 @pytest.mark.slow  # several objectives: each trial at its own ants and iterations
 def test_sizes_in_the_space_and_a_pareto_front_over_gap_and_budget():
-    study = jaco.search(GRID, *ENDS, {"beta": (1.0, 8.0), "n_ants": [3, 6]}, variant="acs", trials=8, batch=4,
-                        sampler="nsga2", objective=["gap", "budget"], seeds=2, n_iters=8, progress=False)
+    study = jaco.search(
+        GRID,
+        *ENDS,
+        {"beta": (1.0, 8.0), "n_ants": [3, 6]},
+        variant="acs",
+        trials=8,
+        batch=4,
+        sampler="nsga2",
+        objective=["gap", "budget"],
+        seeds=2,
+        n_iters=8,
+        progress=False,
+    )
     t = study.trials
     assert set(t["n_ants"]) <= {3, 6} and (t["budget"] == t["n_ants"] * 8).all()
     front = study.best_trials
     for _, row in front.iterrows():  # no trial is better on both objectives
-        better = (t["gap"] <= row["gap"]) & (t["budget"] <= row["budget"]) & ((t["gap"] < row["gap"]) | (t["budget"] < row["budget"]))
+        better = (
+            (t["gap"] <= row["gap"])
+            & (t["budget"] <= row["budget"])
+            & ((t["gap"] < row["gap"]) | (t["budget"] < row["budget"]))
+        )
         assert not better.any()
 
 
 def test_turns_objective_counts_heading_changes_of_the_best_path():
-    study = jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=2, batch=2, sampler="random", objective="turns",
-                        **SMALL)
+    study = jaco.search(
+        GRID, *ENDS, SPACE, variant="acs", trials=2, batch=2, sampler="random", objective="turns", **SMALL
+    )
     frozen = study.study.trials[0]
-    turns = [jaco.solve(GRID, *ENDS, seed=s, n_ants=6, n_iters=8, progress=False, **study._params(frozen)).metrics()["turns"]
-             for s in (0, 1)]
+    turns = [
+        jaco.solve(GRID, *ENDS, seed=s, n_ants=6, n_iters=8, progress=False, **study._params(frozen)).metrics()["turns"]
+        for s in (0, 1)
+    ]
     assert study.trials.loc[0, "turns"] == np.mean(turns)
 
 
@@ -178,13 +235,99 @@ def test_repeated_generations_and_searches_never_recompile():
     assert third.timings["compiles"] == 0
 
 
+# -- the timeout -------------------------------------------------------------------------------------
+def _fake_clock(monkeypatch, seconds_per_batch):
+    """The timeout's clock advances only while a batch is evaluated, by ``seconds_per_batch``."""
+    now = [0.0]
+    real = S.Evaluator.__call__
+
+    def timed(self, jobs):
+        now[0] += seconds_per_batch
+        return real(self, jobs)
+
+    monkeypatch.setattr(S, "_clock", lambda: now[0])
+    monkeypatch.setattr(S.Evaluator, "__call__", timed)
+
+
+def test_the_running_batch_finishes_no_new_one_starts_and_trials_may_come_first(monkeypatch):
+    _fake_clock(monkeypatch, 10.0)
+    kw = dict(variant="acs", batch=2, sampler="random", **SMALL)
+    study = jaco.search(GRID, *ENDS, SPACE, trials=None, timeout=25, **kw)
+    # batches end at 10, 20 and 30 s: the third started before the 25 s budget passed and finished
+    assert study.timings["generations"] == 3 and len(study.trials) == 6 and set(study.trials["state"]) == {"COMPLETE"}
+    assert study.stopped == "timeout after 25 s: 6 trials finished"
+    first = jaco.search(GRID, *ENDS, SPACE, trials=4, timeout=25, **kw)  # whichever comes first
+    assert len(first.trials) == 4 and first.stopped == "trials reached: 4 trials finished"
+
+
+def test_a_timeout_lets_the_running_bracket_finish(monkeypatch):
+    _fake_clock(monkeypatch, 10.0)
+    study = jaco.search(
+        GRID,
+        *ENDS,
+        SPACE,
+        variant="acs",
+        trials=None,
+        timeout=5,
+        batch=3,
+        sampler="random",
+        fidelity="halving",
+        seeds=2,
+        n_ants=6,
+        n_iters=9,
+        progress=False,
+    )
+    # rungs at 1, 3 and 9 iterations: three batches of one bracket, nothing left RUNNING
+    assert sorted(study.trials["state"]) == ["COMPLETE", "PRUNED", "PRUNED"]
+    assert study.stopped == "timeout after 5 s: 3 trials finished"
+
+
+def test_a_search_with_only_a_timeout_stops_and_stores_every_batch(tmp_path):
+    db = str(tmp_path / "t.db")
+    t0 = time.monotonic()
+    study = jaco.search(
+        GRID, *ENDS, SPACE, variant="acs", trials=None, timeout=2.0, batch=4, sampler="random", storage=db, **SMALL
+    )
+    assert time.monotonic() - t0 >= 2.0  # with trials=None only the timeout stops it
+    stored = jaco.load_study(db)
+    states = stored.trials["state"]
+    assert len(states) >= 4 and len(states) % 4 == 0 and set(states) == {"COMPLETE"}  # whole batches, none RUNNING
+    assert stored.stopped == study.stopped == f"timeout after 2 s: {len(states)} trials finished"
+
+
+def test_a_tiny_timeout_runs_one_batch_and_a_resumed_study_gets_it_afresh(tmp_path):
+    db = str(tmp_path / "t.db")
+    kw = dict(variant="acs", trials=None, timeout=1e-3, batch=4, sampler="random", storage=db, **SMALL)
+    first = jaco.search(GRID, *ENDS, SPACE, **kw)  # the first batch always runs
+    assert first.timings["generations"] == 1 and len(first.trials) == 4
+    assert first.stopped == "timeout after 0.001 s: 4 trials finished"
+    before = {t.number: t.values for t in first.study.trials}
+    again = jaco.search(GRID, *ENDS, SPACE, **kw)  # the budget counts from this call: one more batch
+    t = again.trials
+    assert len(t) == 8 and set(t["state"]) == {"COMPLETE"} and list(t["generation"]) == [0] * 4 + [1] * 4
+    assert {n: again.study.trials[n].values for n in before} == before  # the stored trials stay as they were
+    assert jaco.load_study(db).stopped == "timeout after 0.001 s: 8 trials finished"
+
+
 # -- multi-fidelity ------------------------------------------------------------------------------
 def test_halving_rungs_promote_the_best_third_and_rerun_at_the_larger_budget():
     assert S.Halving(eta=3).rungs(27) == [3, 9, 27]
     assert S.Halving(min_iters=2, eta=2).rungs(8) == [2, 4, 8]
     assert S.Halving(eta=3, hyperband=True).brackets(9) == [[1, 3, 9], [3, 9], [9]]
-    study = jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=9, batch=9, sampler="random", fidelity="halving",
-                        seeds=2, n_ants=6, n_iters=9, progress=False)
+    study = jaco.search(
+        GRID,
+        *ENDS,
+        SPACE,
+        variant="acs",
+        trials=9,
+        batch=9,
+        sampler="random",
+        fidelity="halving",
+        seeds=2,
+        n_ants=6,
+        n_iters=9,
+        progress=False,
+    )
     t = study.trials
     assert list(t["state"].value_counts().sort_index()) == [1, 8]  # COMPLETE 1, PRUNED 8
     at1 = {tr.number: tr.intermediate_values[1] for tr in study.study.trials}
@@ -266,7 +409,9 @@ def test_interrupted_batch_resumes_without_loss_or_double_evaluation(tmp_path, m
     assert sorted(s for s, _, _ in before.values()) == ["COMPLETE"] * 4 + ["RUNNING"] * 4
     monkeypatch.setattr(S.Evaluator, "__call__", real)
     seen = []
-    monkeypatch.setattr(S.Evaluator, "__call__", lambda self, jobs: (seen.extend(j["trial"].number for j in jobs), real(self, jobs))[1])
+    monkeypatch.setattr(
+        S.Evaluator, "__call__", lambda self, jobs: (seen.extend(j["trial"].number for j in jobs), real(self, jobs))[1]
+    )
     study = jaco.search(GRID, *ENDS, SPACE, **kw)
     assert sorted(seen) == [n for n, (s, _, _) in before.items() if s == "RUNNING"]  # the stale ones, once
     after = {t.number: (t.state.name, t.values, t.datetime_complete) for t in study.study.trials}
@@ -280,8 +425,9 @@ def test_a_resumed_study_must_be_the_same_search(tmp_path):
     db = str(tmp_path / "s.db")
     jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=2, batch=2, sampler="random", storage=db, **SMALL)
     with pytest.raises(S.SearchError, match="differs in: space"):
-        jaco.search(GRID, *ENDS, {"beta": (1.0, 3.0)}, variant="acs", trials=2, batch=2, sampler="random", storage=db,
-                    **SMALL)
+        jaco.search(
+            GRID, *ENDS, {"beta": (1.0, 3.0)}, variant="acs", trials=2, batch=2, sampler="random", storage=db, **SMALL
+        )
     more = jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=4, batch=2, sampler="random", storage=db, **SMALL)
     assert len(more.trials) == 4  # more trials extend the study
 
@@ -289,7 +435,9 @@ def test_a_resumed_study_must_be_the_same_search(tmp_path):
 @pytest.mark.slow  # the CLI test reruns a stored trial in the normal run
 def test_a_stored_trial_reruns_to_its_stored_value(tmp_path):
     db = str(tmp_path / "s.journal")
-    jaco.search(GRID, *ENDS, {"variant": ["acs", "iaca"], **SPACE}, trials=4, batch=4, sampler="random", storage=db, **SMALL)
+    jaco.search(
+        GRID, *ENDS, {"variant": ["acs", "iaca"], **SPACE}, trials=4, batch=4, sampler="random", storage=db, **SMALL
+    )
     study = jaco.load_study(db)
     for number in range(4):
         rec = study.rerun(number)
@@ -340,13 +488,27 @@ def test_resume_after_sigkill_loses_nothing_and_duplicates_nothing(tmp_path, kil
     kill_after(proc, complete, 8, "search")
     killed = {t.number: (t.state.name, t.values) for t in jaco.load_study(str(db)).study.trials}
     assert 8 <= sum(s == "COMPLETE" for s, _ in killed.values()) < 60
-    study = jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=60, batch=4, seeds=2, n_ants=6, n_iters=40,
-                        sampler="tpe", storage=str(db), progress=False)
+    study = jaco.search(
+        GRID,
+        *ENDS,
+        SPACE,
+        variant="acs",
+        trials=60,
+        batch=4,
+        seeds=2,
+        n_ants=6,
+        n_iters=40,
+        sampler="tpe",
+        storage=str(db),
+        progress=False,
+    )
     trials = study.study.trials
     assert [t.number for t in trials] == list(range(len(trials)))
     assert sum(t.state.name == "COMPLETE" for t in trials) == 60
     # nothing stays RUNNING; a trial killed before its parameters were stored is FAIL (never evaluated)
-    assert all(t.state.name == "COMPLETE" or (t.state.name == "FAIL" and "jaco_trial" not in t.user_attrs) for t in trials)
+    assert all(
+        t.state.name == "COMPLETE" or (t.state.name == "FAIL" and "jaco_trial" not in t.user_attrs) for t in trials
+    )
     for n, (s, v) in killed.items():
         if s == "COMPLETE":
             assert trials[n].values == v  # kept, not evaluated again
@@ -358,27 +520,103 @@ def test_cli_search_resumes_prints_the_best_and_reruns_a_trial(tmp_path, capsys)
     from jaco.cli import main
 
     db = str(tmp_path / "cli.db")
-    args = ["search", "demo", "--variant", "acs", "--param", "beta=1:10:log", "--param", "rho=0.05:0.5", "--trials", "4",
-            "--batch", "2", "--seeds", "2", "--ants", "6", "--iters", "8", "--sampler", "random", "--storage", db,
-            "--csv", str(tmp_path / "t.csv"), "--plot", str(tmp_path / "h.png")]
+    args = [
+        "search",
+        "demo",
+        "--variant",
+        "acs",
+        "--param",
+        "beta=1:10:log",
+        "--param",
+        "rho=0.05:0.5",
+        "--trials",
+        "4",
+        "--batch",
+        "2",
+        "--seeds",
+        "2",
+        "--ants",
+        "6",
+        "--iters",
+        "8",
+        "--sampler",
+        "random",
+        "--storage",
+        db,
+        "--csv",
+        str(tmp_path / "t.csv"),
+        "--plot",
+        str(tmp_path / "h.png"),
+    ]
     assert main(args) == 0
     out = capsys.readouterr().out
     assert "best: trial" in out and "optuna-dashboard sqlite:///" in out and (tmp_path / "h.png").stat().st_size > 0
     table = __import__("pandas").read_csv(tmp_path / "t.csv")
     assert len(table) == 4 and table["gap"].notna().all()
-    assert main(args[:args.index("--trials") + 1] + ["6"] + args[args.index("--trials") + 2:]) == 0
+    assert main(args[: args.index("--trials") + 1] + ["6"] + args[args.index("--trials") + 2 :]) == 0
     assert "6 trials in the study" in capsys.readouterr().out
     assert main(["rerun", db, "--trial", "5"]) == 0
     assert "matched the stored trial bit for bit" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("param, match", [
-    ("beta=1:20:5", "sweep's form"),
-    ("beta=3:3", "empty range"),
-    ("rho=0:0.5:log", "log range needs low > 0"),
-    ("q0=0.5:0.9", "not used by planner 'mmas'"),
-    ("bogus=1:2", "unknown parameter 'bogus'"),
-])
+def test_cli_search_timeout_stops_says_why_and_resumes(tmp_path, capsys):
+    from jaco.cli import main
+
+    db = str(tmp_path / "cli.db")
+    args = [
+        "search",
+        "demo",
+        "--variant",
+        "acs",
+        "--param",
+        "beta=1:10:log",
+        "--param",
+        "rho=0.05:0.5",
+        "--timeout",
+        "0.001",
+        "--batch",
+        "2",
+        "--seeds",
+        "2",
+        "--ants",
+        "6",
+        "--iters",
+        "8",
+        "--sampler",
+        "random",
+        "--storage",
+        db,
+    ]
+    assert main(args) == 0  # --timeout alone: until it, and the first batch always runs
+    out = capsys.readouterr().out
+    assert ": 0.001 s in batches of 2" in out and "stopped: timeout after 0.001 s: 2 trials finished" in out
+    assert main(args + ["--trials", "3"]) == 0  # resumed: 3 trials is reached first
+    out = capsys.readouterr().out
+    assert "3 trials or 0.001 s, whichever comes first" in out and "stopped: trials reached: 3 trials finished" in out
+    assert jaco.load_study(db).stopped == "trials reached: 3 trials finished"
+
+
+@pytest.mark.parametrize("value", ["0", "-5", "nan", "inf", "soon"])
+def test_cli_bad_timeout_is_one_line_and_exit_2(value, capsys, monkeypatch):
+    from jaco.cli import main
+
+    _no_compile(monkeypatch)
+    assert main(["search", "demo", "--param", "beta=1:10", "--timeout", value]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("jaco: error:") and "--timeout" in err and "positive finite number of seconds" in err
+    assert "\n" not in err
+
+
+@pytest.mark.parametrize(
+    "param, match",
+    [
+        ("beta=1:20:5", "sweep's form"),
+        ("beta=3:3", "empty range"),
+        ("rho=0:0.5:log", "log range needs low > 0"),
+        ("q0=0.5:0.9", "not used by planner 'mmas'"),
+        ("bogus=1:2", "unknown parameter 'bogus'"),
+    ],
+)
 def test_cli_bad_space_is_one_line_and_exit_2(param, match, capsys, monkeypatch):
     from jaco.cli import main
 

@@ -7,7 +7,7 @@ import sys
 
 from .args import _bucket, _cell, _indices, _int_at_least, _length, _nonneg_int, _Parser, _pos_int, _seed, _xy
 from .commands import cmd_compare, cmd_demo, cmd_info, cmd_maps, cmd_planners, cmd_solve, cmd_sweep
-from .search import cmd_rerun, cmd_search
+from .search import _seconds, cmd_rerun, cmd_search
 
 DEMO_PLANNER = "mmas"  # on the demo map MMAS comes closer to the optimum than ACS (see --help)
 DEFAULT_ANTS = 50
@@ -263,7 +263,19 @@ def build_parser() -> argparse.ArgumentParser:
         help="a search dimension (repeatable): NAME=LOW:HIGH[:log][:int], NAME=a,b,c or NAME=x; "
         "n_ants and n_iters may be searched too",
     )
-    p.add_argument("--trials", type=_pos_int, default=128, metavar="N", help="finished trials to reach (default 128)")
+    p.add_argument(
+        "--trials",
+        type=_pos_int,
+        metavar="N",
+        help="finished trials to reach (default 128; with --timeout and no --trials: until the timeout)",
+    )
+    p.add_argument(
+        "--timeout",
+        type=_seconds,
+        metavar="SECONDS",
+        help="wall-time budget of this command: no new batch starts after it, the running one finishes and is "
+        "stored (the first batch always runs); with --trials, whichever comes first",
+    )
     p.add_argument(
         "--batch",
         type=_pos_int,

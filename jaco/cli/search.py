@@ -13,6 +13,17 @@ from .args import UsageError, _float, _split_params
 NO_PATH = 4  # as solve: no trial reached the goal
 
 
+def _seconds(text: str) -> float:
+    """``--timeout``: a positive finite number of seconds."""
+    try:
+        v = float(text)
+    except ValueError:
+        v = math.nan
+    if not 0 < v < math.inf:
+        raise argparse.ArgumentTypeError(f"expected a positive finite number of seconds, got {text!r}")
+    return v
+
+
 def parse_dimension(name: str, value: str) -> Any:
     """``--param`` of a search: ``lo:hi`` (a real range), ``lo:hi:log``, ``lo:hi:int`` (also
     ``lo:hi:int:log``), ``a,b,c`` (a categorical) or one number (fixed)."""
@@ -81,8 +92,12 @@ def cmd_search(args: argparse.Namespace) -> int:
     elif args.min_iters is not None or args.eta != 3:
         raise UsageError("--min-iters and --eta belong to --halving or --hyperband")
     objectives = args.objective or ["gap"]
+    trials = 128 if args.trials is None and args.timeout is None else args.trials  # --timeout alone: until it
+    budget = " or ".join(([f"{trials} trials"] if trials else []) + ([f"{args.timeout:g} s"] if args.timeout else []))
+    if trials and args.timeout:
+        budget += ", whichever comes first"
     print(
-        f"search {', '.join(variants)} on {grid.name} ({grid.height}x{grid.width}), {where}: {args.trials} trials in batches of {args.batch}, {args.seeds} seeds, sampler {args.sampler}"
+        f"search {', '.join(variants)} on {grid.name} ({grid.height}x{grid.width}), {where}: {budget} in batches of {args.batch}, {args.seeds} seeds, sampler {args.sampler}"
         + (f", {'hyperband' if args.hyperband else 'successive halving'} over iterations" if fidelity else "")
         + (f", storage {args.storage}" if args.storage else ""),
         flush=True,
@@ -92,7 +107,8 @@ def cmd_search(args: argparse.Namespace) -> int:
         start,
         goal,
         space,
-        trials=args.trials,
+        trials=trials,
+        timeout=args.timeout,
         batch=args.batch,
         seeds=args.seeds,
         n_ants=args.ants,
@@ -113,6 +129,7 @@ def cmd_search(args: argparse.Namespace) -> int:
         f"{seconds:.2f} s (sampler {t.get('sampler_s', 0):.2f} s, evaluation {t.get('evaluate_s', 0):.2f} s, "
         f"{t.get('compiles', 0)} compiled programs)"
     )
+    print(f"stopped: {study.stopped}")
     for sc in scenarios or ():
         print(f"scenario #{sc.index}: optimal length {sc.optimal:.4f} (from the .scen file)")
     table = study.trials

@@ -43,7 +43,8 @@ journal file), any other SQLAlchemy URL, or a storage object. Every trial is wri
 asked (RUNNING) and again when its batch finishes (COMPLETE or PRUNED, with its seeds, per-run
 lengths and success and what reruns it). Killed at any moment, the same call again resumes: a
 trial left RUNNING is evaluated again with its stored parameters (it never finished, so nothing
-is counted twice) and the search goes on until ``trials`` trials are finished. While a search
+is counted twice) and the search goes on until ``trials`` trials are finished (or its ``timeout``
+passes: no new batch starts after it, the running one is stored). While a search
 runs, its SQLite or journal file is locked (an exclusive flock): a second process on the same
 study gets a one-line error naming the lock. ``optuna-dashboard sqlite:///study.db`` shows it.
 """
@@ -77,6 +78,8 @@ OBJECTIVES: dict[str, Literal["minimize", "maximize"]] = {
 }
 PENALIZED = ("gap", "length", "turns")
 ATTR = "jaco"  # the study's user attribute with everything jaco needs to rerun and resume it
+STOPPED = "jaco_stopped"  # the study's user attribute: why the last search call stopped (None: it did not end)
+_clock = time.monotonic  # the timeout's clock (a module name, so tests can replace it)
 
 
 class SearchError(JacoError):
@@ -143,6 +146,12 @@ def _positive_int(name, v, limit=2**31 - 1) -> int:
     if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 1 <= v <= limit:
         raise SearchError(f"{name} must be a positive integer, got {v!r}")
     return int(v)
+
+
+def _positive_seconds(name, v) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not 0 < v < math.inf:
+        raise SearchError(f"{name} must be a positive finite number of seconds, got {v!r}")
+    return float(v)
 
 
 def _penalties(penalty, objectives) -> dict:
@@ -426,7 +435,8 @@ def search(
     space: dict | Space,
     *,
     planner: Any = None,
-    trials: int = 128,
+    trials: int | None = 128,
+    timeout: float | None = None,
     batch: int = 32,
     seeds: Any = 4,
     n_ants: int = 50,
@@ -449,7 +459,13 @@ def search(
     configuration on the queries ``start`` → ``goal`` (one pair or lists, as in :func:`jaco.sweep`;
     the objective is over all queries and ``seeds``).
 
-    ``trials`` finished trials in generations of ``batch`` (each one compiled call); ``sampler``:
+    ``trials`` finished trials in generations of ``batch`` (each one compiled call); ``timeout``:
+    a wall-time budget in seconds, counted from this call (a resumed study gets it afresh): no new
+    batch starts once it has passed, the running one finishes and is stored, and the first batch
+    always runs (with a fidelity schedule the running bracket finishes). With both the search stops
+    at whichever comes first (``trials`` counts the study's finished trials, earlier calls
+    included); ``trials=None`` runs until the timeout. ``study.stopped`` says why it stopped.
+    ``sampler``:
     ``"tpe"``, ``"cmaes"``, ``"random"``, ``"qmc"``, ``"grid"``, ``"gp"``, ``"nsga2"``, an
     ``"evosax:NAME"`` strategy or an Optuna sampler (:mod:`jaco.research.samplers`),
     ``sampler_options`` passed to an evosax strategy; ``seed`` seeds the sampler; ``objective``,
@@ -465,10 +481,14 @@ def search(
     from ..engine.checks import check_seed, check_seeds
     from .sweeps import check_budget, prepare_queries
 
+    started = _clock()  # the timeout counts from the call
     require("optuna", "jaco.search")
     space = parse_space(space, planner)
     objectives = _objectives(objective)
-    trials = _positive_int("trials", trials)
+    trials = None if trials is None else _positive_int("trials", trials)
+    timeout = None if timeout is None else _positive_seconds("timeout", timeout)
+    if trials is None and timeout is None:
+        raise SearchError("trials=None runs until the timeout: give trials, timeout or both")
     batch = _positive_int("batch", batch)
     seed = check_seed(seed)
     halving = _fidelity(fidelity)
@@ -477,6 +497,8 @@ def search(
     if sampler_name == "grid":  # every combination once
         from .samplers import grid_of
 
+        if trials is None:
+            raise SearchError("sampler 'grid' sizes its grid from trials: give trials (a timeout may stop it sooner)")
         trials = min(trials, math.prod(len(v) for v in grid_of(space, trials).values()))
     if halving is not None:
         if "n_iters" in space.dims or "n_iters" in space.fixed:
@@ -566,7 +588,7 @@ def search(
             proposer = EvosaxProposer(sampler_name, space, seed=seed, batch=batch, options=sampler_options)
             optuna_s = EvosaxProposer.queue()
         elif isinstance(sampler, str):
-            optuna_s = optuna_sampler(sampler_name, space, seed=seed, batch=batch, trials=trials)
+            optuna_s = optuna_sampler(sampler_name, space, seed=seed, batch=batch, trials=trials or 0)  # grid: given
         else:
             optuna_s = sampler
         try:
@@ -580,12 +602,18 @@ def search(
         except ValueError as e:  # e.g. an existing study with other directions
             raise SearchError(f"study {study_name or 'jaco'!r} in {storage_text}: {e}") from None
         _attach(study, info, storage_text)
-        run = _Run(study, space, evaluator, info, halving, sizes, batch, bar, proposer)
-        bar.start(trials, f"search {sampler_name}")
+        study.set_user_attr(STOPPED, None)  # until this call ends: a killed call leaves no stale reason
+        deadline = None if timeout is None else started + timeout
+        run = _Run(study, space, evaluator, info, halving, sizes, batch, bar, proposer, deadline)
+        bar.start(trials, f"search {sampler_name}")  # type: ignore[arg-type]  # None: no total
         try:
             run.until(trials)
         finally:
             bar.close()
+        finished = f"{run._finished()} trials finished"
+        study.set_user_attr(
+            STOPPED, f"timeout after {timeout:g} s: {finished}" if run.timed_out else f"trials reached: {finished}"
+        )
         timings = dict(run.timings, wall_s=time.perf_counter() - t0, compiles=evaluator.compiles)
     if (
         isinstance(storage_obj, str) and storage_obj != "journal"
@@ -679,9 +707,10 @@ def _attach(study, info: dict, where: str) -> None:
 class _Run:
     """One call's progress through a study: finish stale trials, then generations or brackets."""
 
-    def __init__(self, study, space, evaluator, info, halving, sizes, batch, bar, proposer):
+    def __init__(self, study, space, evaluator, info, halving, sizes, batch, bar, proposer, deadline=None):
         self.study, self.space, self.evaluate, self.info = study, space, evaluator, info
         self.halving, self.sizes, self.batch, self.bar, self.proposer = halving, sizes, batch, bar, proposer
+        self.deadline, self.ran, self.timed_out = deadline, False, False
         self.timings = {"sampler_s": 0.0, "evaluate_s": 0.0, "generations": 0}
         stored = [trial_info(t).get("generation") for t in study.get_trials(deepcopy=False)]
         self.generation = 1 + max([g for g in stored if g is not None], default=-1)
@@ -694,6 +723,11 @@ class _Run:
         from optuna.trial import TrialState
 
         return len(self._trials((TrialState.COMPLETE, TrialState.PRUNED)))
+
+    def _out_of_time(self) -> bool:
+        """The timeout has passed (checked before a new batch; this call's first batch always runs)."""
+        self.timed_out = self.ran and self.deadline is not None and _clock() >= self.deadline
+        return self.timed_out
 
     def _progress(self) -> None:
         done = self._finished()
@@ -763,6 +797,7 @@ class _Run:
         t0 = time.perf_counter()
         self.evaluate(jobs)
         self.timings["evaluate_s"] += time.perf_counter() - t0
+        self.ran = self.ran or bool(jobs)
         for j in jobs:
             j["stored"][str(j["n_iters"])] = _plain_runs(j["runs"])
             j["trial"].set_user_attr("jaco_runs", j["stored"])  # by iterations: a promoted trial has one per rung
@@ -779,14 +814,14 @@ class _Run:
         self.timings["sampler_s"] += time.perf_counter() - t0
 
     # the loop
-    def until(self, trials: int) -> None:
+    def until(self, trials: int | None) -> None:
         self._resume_stale()
         self._progress()
         if self.proposer is not None:
             return self._evosax(trials)
         bracket = len({trial_info(t).get("bracket") for t in self._trials()} - {None})
-        while self._finished() < trials:
-            n = min(self.batch, trials - self._finished())
+        while (done := self._finished()) < (math.inf if trials is None else trials) and not self._out_of_time():
+            n = self.batch if trials is None else min(self.batch, trials - done)
             if self.halving is None:
                 jobs = self._ask(n)
                 self._evaluate(jobs)
@@ -852,7 +887,7 @@ class _Run:
             self._tell(dropped, TrialState.PRUNED)
             alive = ranked[:keep]
 
-    def _evosax(self, trials: int) -> None:
+    def _evosax(self, trials: int | None) -> None:
         """Generations of an evosax strategy, replaying the finished ones of a resumed study."""
         from optuna.trial import TrialState
 
@@ -863,7 +898,7 @@ class _Run:
             if "member" in a:
                 by_gen.setdefault(a["generation"], {})[a["member"]] = t
         generation = 0
-        while generation * self.batch < trials:
+        while trials is None or generation * self.batch < trials:
             self.generation = generation
             z = self.proposer.ask(generation)
             members = by_gen.get(generation, {})
@@ -880,6 +915,8 @@ class _Run:
                 else:  # left RUNNING by a killed process: evaluate it now
                     jobs.append(Job(self._stale(t), member=m))
             missing = [m for m in range(len(z)) if m not in members]
+            if (missing or jobs) and self._out_of_time():  # a stored generation replays at no cost
+                break
             proposals = self.proposer.values(z)
             self.study.sampler.pending = [proposals[m] for m in missing]
             new = self._ask(
@@ -908,6 +945,9 @@ class Study:
         if self.info is None or self.info.get("format") != FORMAT:
             raise SearchError(f"study {study.study_name!r} was not made by jaco.search")
         self.timings = dict(timings or {})
+        #: why the last search call stopped: ``"trials reached: 128 trials finished"`` or ``"timeout after 60 s: 192
+        #: trials finished"``; None when it did not end (killed, interrupted or still running).
+        self.stopped: str | None = study.user_attrs.get(STOPPED)
 
     def __repr__(self) -> str:
         return (
