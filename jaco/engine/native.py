@@ -212,9 +212,9 @@ def _host_stopped(t: jax.Array) -> jax.Array:
 
     # A pure callback (an io_callback cannot sit in a vmapped cond): called with the iteration,
     # so it is asked again in every iteration that checks, never answered once for all.
-    ask = lambda: jax.pure_callback(
-        lambda _: asked(), jax.ShapeDtypeStruct((), jnp.bool_), t, vmap_method="broadcast_all"
-    )  # noqa: E731
+    def ask():
+        return jax.pure_callback(lambda _: asked(), jax.ShapeDtypeStruct((), jnp.bool_), t, vmap_method="broadcast_all")
+
     return jax.lax.cond(t % STOP_STRIDE == 0, ask, lambda: jnp.bool_(False))
 
 
