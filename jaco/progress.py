@@ -22,7 +22,7 @@ import time
 from collections.abc import Callable
 from typing import Any, TypeVar
 
-import numpy as np
+from .engine import native
 
 T = TypeVar("T")
 
@@ -114,27 +114,10 @@ class Interrupted(Exception):
     the computation at once (:func:`run_interruptibly`)."""
 
 
-_STOP = threading.Event()
-
-
-def stop_requested() -> np.bool_:
-    """Host side of :func:`jaco.engine.native.stop_requested` without the kernel: whether the
-    running call was interrupted."""
-    return np.bool_(_STOP.is_set())
-
-
-def _stop(on: bool) -> None:
-    """Ask the compiled loops to end (or let them run): the host's flag and the kernel's."""
-    from .engine import native
-
-    (_STOP.set if on else _STOP.clear)()
-    native.set_stop(on)
-
-
 def report(done: int) -> None:
     """Host side of :func:`jax.debug.callback` in a compiled loop: ``done`` steps are finished.
     After an interrupt it raises :class:`Interrupted`, which ends the computation."""
-    if _STOP.is_set():
+    if native.stop_is_set():
         raise Interrupted("interrupted")
     bar = _LISTENER[0]
     if bar is not None:
@@ -175,8 +158,8 @@ def run_interruptibly(fn: Callable[..., T], *args: Any, **kwargs: Any) -> T:
                 continue
     except BaseException:  # KeyboardInterrupt, the CLI's SIGTERM exception
         if not future.done():
-            _stop(True)
-            future.add_done_callback(lambda _: _stop(False))  # until the interrupted work has ended
+            native.set_stop(True)
+            future.add_done_callback(lambda _: native.set_stop(False))  # until the interrupted work has ended
             with contextlib.suppress(BaseException):
                 future.result(timeout=1.0)  # a reporting loop ends at its next report
         raise

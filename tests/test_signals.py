@@ -120,7 +120,7 @@ def test_ctrl_c_in_python_ends_the_chunk_and_the_next_call_runs_normally():
     with pytest.raises(KeyboardInterrupt):
         jaco.sweep(grid, s, g, "acs", chunk=800, **kw)
     assert time.time() - t0 < 15
-    assert not jaco.progress._STOP.is_set()  # the interrupted chunk has ended: the next call runs normally
+    assert not jaco.engine.native.stop_is_set()  # the interrupted chunk has ended: the next call runs normally
 
 
 # A script that interrupts its own long solve once the run's program is compiled and running, then

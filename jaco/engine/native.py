@@ -21,6 +21,7 @@ from __future__ import annotations
 import ctypes
 import importlib.util
 import os
+import threading
 from typing import Any, Callable
 
 import jax
@@ -186,17 +187,26 @@ def dispatch(native_fn: Callable[..., Any], jax_fn: Callable[..., Any], *args: A
 STOP_STRIDE = 8
 
 
+_STOP = threading.Event()  # the host's copy of the flag: read by the JAX walk's runs and by progress reports
+
+
 def set_stop(on: bool) -> None:
     """Ask every compiled run's iteration loop to end (``True``: the user interrupted the call)
     or let them run (``False``). :func:`jaco.progress.run_interruptibly` sets and clears it."""
+    (_STOP.set if on else _STOP.clear)()
     if _state.get("lib") is not None:
         _state["lib"].jaco_stop_set(int(on))
+
+
+def stop_is_set() -> bool:
+    """Whether :func:`set_stop` asked the runs to end."""
+    return _STOP.is_set()
 
 
 def stop_requested(t: jax.Array) -> jax.Array:
     """Traced: whether the loop at iteration ``t`` should end because the call was interrupted
     (:func:`set_stop`): the kernel's flag, every iteration, on CPU with the native walk; else the
-    host's (:func:`jaco.progress.stop_requested`) every :data:`STOP_STRIDE` iterations. It reads
+    host's every :data:`STOP_STRIDE` iterations. It reads
     no result of the run, so it changes none."""
     return dispatch(_kernel_stopped, _host_stopped, jnp.asarray(t, jnp.int32))
 
@@ -208,7 +218,8 @@ def _kernel_stopped(t: jax.Array) -> jax.Array:
 
 
 def _host_stopped(t: jax.Array) -> jax.Array:
-    from ..progress import stop_requested as asked
+    def asked():
+        return np.bool_(_STOP.is_set())
 
     # A pure callback (an io_callback cannot sit in a vmapped cond): called with the iteration,
     # so it is asked again in every iteration that checks, never answered once for all.
