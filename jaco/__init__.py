@@ -7,7 +7,7 @@
 True
 
 Submodules and the heavy parts (jax, pandas, matplotlib) load on first use, so that
-``import jaco`` and ``jaco --help`` stay fast. The layout (README, "Layout"): :mod:`jaco.engine`
+``import jaco`` and ``jaco --help`` stay fast. The layout (docs/architecture.md, "Layout"): :mod:`jaco.engine`
 (problem, params, pheromone rules, variants, walk, colony, run, result), :mod:`jaco.planners`
 (one module per source, and the registry), :mod:`jaco.maps`, :mod:`jaco.research` (sweeps,
 designs, tuning, records, result tables and their statistics), and :mod:`jaco.api` (``solve``), :mod:`jaco.waypoints`,

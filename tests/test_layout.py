@@ -17,7 +17,7 @@ import jaco
 # The checkout's source tree, not the installed copy: CI installs jaco into site-packages, where
 # neither the README nor (for a wheel) the same file list is found.
 ROOT = Path(__file__).resolve().parents[1] / "jaco"
-README = ROOT.parent / "README.md"
+README = ROOT.parent / "docs" / "architecture.md"  # the layout and the architecture
 
 
 def _module_name(path: Path) -> str:

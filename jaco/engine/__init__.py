@@ -1,6 +1,6 @@
 """The engine: what every planner is made of and the loop that runs it.
 
-The five concepts (README, "Architecture"): the grid as a :class:`~.problem.Problem`
+The five concepts (docs/architecture.md, "Architecture"): the grid as a :class:`~.problem.Problem`
 (:mod:`.problem`), hyperparameters as :class:`~.params.Params` (:mod:`.params`), pheromone rules
 as ``(init, update)`` pairs (:mod:`.pheromone`), a planner as a :class:`~.variant.Planner`
 (:mod:`.variant`, with :mod:`.heuristics`, :mod:`.schedules`, :mod:`.cost` and the construction
