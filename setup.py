@@ -146,8 +146,11 @@ setup(
     ext_modules=[
         Extension(
             "jaco.engine._walk",
-            ["jaco/engine/walk.cc"],
-            depends=[_LANES, "jaco/engine/walk_lanes.h", "jaco/engine/walk_shared.h"],
+            # One kernel per file, next to the code it serves; one library.
+            ["jaco/engine/walk.cc", "jaco/planners/iaca.cc", "jaco/engine/pheromone.cc", "jaco/engine/local_search.cc",
+             "jaco/potential.cc"],
+            depends=[_LANES, "jaco/engine/walk_lanes.h", "jaco/engine/walk_shared.h", "jaco/engine/kernel_threads.h"],
+            include_dirs=["jaco/engine"],
             language="c++",
             extra_compile_args=["-std=c++17", "-O3", "-ffp-contract=off"],
             optional=True,

@@ -325,7 +325,7 @@ _WALKERS = 256
 
 def native_apf_next(free: jax.Array, nbr: jax.Array, goal: Any, offsets: Any) -> jax.Array:
     """The C++ kernel's table of the improved APF's next cells (``jaco_apf_next`` of
-    ``jaco/engine/walk.cc``, through :func:`jaco.engine.native.ffi_call`); same result as
+    ``jaco/potential.cc``, through :func:`jaco.engine.native.ffi_call`); same result as
     :func:`jax_apf_next` (``free (N,)``, ``nbr (N, 8)``, -1 where not allowed)."""
     from .engine import native
 

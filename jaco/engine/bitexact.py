@@ -1,4 +1,4 @@
-"""Float arithmetic that JAX and the native kernel (``jaco/engine/walk.cc``) round identically.
+"""Float arithmetic that JAX and the native kernels (``jaco/engine/walk.cc``, ``jaco/planners/iaca.cc``) round identically.
 
 XLA:CPU and libm round ``pow``, ``exp`` and ``log`` differently in the last bit, and XLA fuses
 a multiply and an add into one FMA where C++ rounds twice. A walk that raises the pheromone to a

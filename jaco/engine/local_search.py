@@ -30,7 +30,7 @@ passes a cell twice. It is still a valid, strictly shorter path, and the next pa
 a loop when it fits in a window (a segment of zero steps replaces it).
 
 On CPU with the native walk active the passes run in the kernel ``JacoShortcut``
-(``jaco/engine/walk.cc``, :func:`jaco.engine.native.shortcut`); the JAX code here is the
+(``jaco/engine/local_search.cc``, :func:`jaco.engine.native.shortcut`); the JAX code here is the
 definition, used everywhere else.
 """
 

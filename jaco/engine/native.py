@@ -1,4 +1,5 @@
-"""The native walks: the C++ kernels of ``jaco/engine/walk.cc``, called through ``jax.ffi``.
+"""The native walks: the C++ kernels (``jaco/engine/walk.cc`` and one file beside each module a
+kernel serves), called through ``jax.ffi``.
 
 The kernel is compiled when jaco is installed (``setup.py``; the XLA FFI headers come from
 jaxlib). Where that failed (no C++ compiler), jaco runs the JAX walk, which defines the walk
@@ -166,7 +167,7 @@ def active_walk() -> str:
 
 
 def ffi_call(target: str, result_shapes: Any, **kwargs: Any) -> Callable[..., Any]:
-    """``jax.ffi.ffi_call`` of one of the kernels (``target``, a name of walk.cc's FFI targets),
+    """``jax.ffi.ffi_call`` of one of the kernels (``target``, a name of :data:`_TARGETS`),
     the library loaded and its targets registered first; the planners' own kernel wrappers
     (:func:`jaco.planners.iaca.native_backtrack_walk`, :func:`jaco.potential.native_apf_next`)
     call their kernels through it."""

@@ -1,4 +1,4 @@
-// Pieces shared by the kernels of walk.cc and walk_lanes.cc: the counter-based uniforms, the
+// Pieces shared by the kernels of walk.cc, walk_lanes.cc and jaco/planners/iaca.cc: the counter-based uniforms, the
 // roulette and the table powers, each doing exactly the float operations of its JAX definition.
 //
 // Include it *inside* a namespace of internal linkage (an anonymous one): walk_lanes.cc is compiled

@@ -172,7 +172,7 @@ def native_backtrack_walk(
     exploit: bool,
     table: bool,
 ) -> tuple:
-    """The C++ kernel's backtracking walk (``jaco_backtrack`` of ``jaco/engine/walk.cc``, called
+    """The C++ kernel's backtracking walk (``jaco_backtrack`` of ``jaco/planners/iaca.cc``, called
     through :func:`jaco.engine.native.ffi_call`); same arguments and results as
     :func:`jax_backtrack_walk`."""
     from ..engine.bitexact import TABLES

@@ -1,0 +1,76 @@
+// The pheromone deposit as an XLA FFI kernel for the CPU (jaco.engine.native.deposit): the scatter-add
+// of jaco.engine.pheromone.deposit, adding in XLA's order, over the steps the ants walked.
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <condition_variable>
+#include <cstdint>
+#include <cstring>
+#include <memory>
+#include <mutex>
+#include <vector>
+
+#include "xla/ffi/api/ffi.h"
+
+namespace ffi = xla::ffi;
+
+namespace {
+
+#include "kernel_threads.h"
+
+// ---- pheromone deposits (jaco.engine.pheromone.deposit) ------------------------------------
+// tau[targets[r, c]] += amounts[(r * C + c) % K] in row-major order, a target in [-M, 0) counting
+// from the end and one outside [-M, M) dropped: jax's .at[].add(mode="drop"), XLA's scatter-add,
+// which adds in the same order. The columns are walks: every column's targets in range come
+// first, so a column is left once it has a target out of range (its later ones all are).
+ffi::Error DepositImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> tau, ffi::Buffer<ffi::S32> targets,
+                       ffi::Buffer<ffi::F32> amounts, ffi::ResultBuffer<ffi::F32> out) {
+  const auto td = tau.dimensions(), gd = targets.dimensions();
+  const int64_t M = td[td.size() - 1], B = leading(td, 1);
+  const int64_t R = gd[gd.size() - 2], C = gd[gd.size() - 1];
+  const int64_t K = B ? int64_t(amounts.element_count()) / B : 0;
+  const float* T0 = tau.typed_data();
+  const int32_t* G0 = targets.typed_data();
+  const float* A0 = amounts.typed_data();
+  float* D0 = out->typed_data();
+  for_each_colony(pool, B, [=]() {
+    return [=, live = std::vector<int32_t>(C)](int64_t b) mutable {
+      const float* src = T0 + b * M;
+      float* dst = D0 + b * M;
+      if (dst != src) std::memcpy(dst, src, M * sizeof(float));
+      const int32_t* tg = G0 + b * R * C;
+      const float* am = A0 + b * K;
+      int64_t n_live = C;
+      for (int64_t c = 0; c < C; ++c) live[c] = int32_t(c);
+      for (int64_t r = 0; r < R && n_live; ++r) {
+        int64_t kept = 0;
+        for (int64_t i = 0; i < n_live; ++i) {
+          const int64_t c = live[i], idx = r * C + c;
+          const int64_t e = tg[idx] < 0 ? int64_t(tg[idx]) + M : int64_t(tg[idx]);
+          if (e < 0 || e >= M) continue;  // the column's walk has ended
+          dst[e] = dst[e] + am[K == 1 ? 0 : (K == C ? c : idx)];
+          live[kept++] = int32_t(c);
+        }
+        n_live = kept;
+      }
+    };
+  });
+  return ffi::Error::Success();
+}
+
+}  // namespace
+
+XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoDeposit, DepositImpl,
+                              ffi::Ffi::Bind()
+                                  .Ctx<ffi::ThreadPool>()
+                                  .Arg<ffi::Buffer<ffi::F32>>()   // tau (..., M)
+                                  .Arg<ffi::Buffer<ffi::S32>>()   // targets (..., R, C)
+                                  .Arg<ffi::Buffer<ffi::F32>>()   // amounts (..., K): K = 1, C or R·C
+                                  .Ret<ffi::Buffer<ffi::F32>>()); // tau (..., M), aliasing the input
+
+XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoUniforms, UniformsImpl,
+                              ffi::Ffi::Bind()
+                                  .Arg<ffi::Buffer<ffi::U32>>()
+                                  .Arg<ffi::Buffer<ffi::U32>>()
+                                  .Arg<ffi::Buffer<ffi::U32>>()
+                                  .Ret<ffi::Buffer<ffi::F32>>());
