@@ -6,6 +6,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <cstring>
+#include <math.h>
 #include <memory>
 #include <mutex>
 #include <vector>
@@ -17,6 +18,7 @@ namespace ffi = xla::ffi;
 namespace {
 
 #include "kernel_threads.h"
+#include "walk_shared.h"  // kSqrt2
 
 // ---- the improved APF's next cell of every cell (jaco.potential.apf_next) -------------------------
 // Dong & Zhao 2021, 3.1–3.2: from cell p, the target t starts at the goal; while the segment p→t
@@ -247,16 +249,3 @@ XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoApfNext, ApfNextImpl,
                                   .Arg<ffi::Buffer<ffi::S32>>()   // move offsets (..., 8)
                                   .Arg<ffi::Buffer<ffi::S32>>()   // moves (..., 8, 2) (row, col)
                                   .Ret<ffi::Buffer<ffi::S32>>()); // next (..., N)
-
-XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoShortcut, ShortcutImpl,
-                              ffi::Ffi::Bind()
-                                  .Ctx<ffi::ThreadPool>()
-                                  .Arg<ffi::Buffer<ffi::S32>>()   // paths (..., S, C), -1 padded
-                                  .Arg<ffi::Buffer<ffi::U8>>()    // allowed moves, one bit each (..., N)
-                                  .Arg<ffi::Buffer<ffi::S32>>()   // start (...)
-                                  .Arg<ffi::Buffer<ffi::S32>>()   // move offsets (..., 8)
-                                  .Arg<ffi::Buffer<ffi::PRED>>()  // any diagonal move allowed (...)
-                                  .Arg<ffi::Buffer<ffi::S32>>()   // move index of (dr, dc) (..., 9)
-                                  .Ret<ffi::Buffer<ffi::S32>>()   // shortened paths (..., S, C)
-                                  .Attr<int64_t>("window")
-                                  .Attr<int64_t>("passes"));

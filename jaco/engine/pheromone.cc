@@ -67,10 +67,3 @@ XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoDeposit, DepositImpl,
                                   .Arg<ffi::Buffer<ffi::S32>>()   // targets (..., R, C)
                                   .Arg<ffi::Buffer<ffi::F32>>()   // amounts (..., K): K = 1, C or R·C
                                   .Ret<ffi::Buffer<ffi::F32>>()); // tau (..., M), aliasing the input
-
-XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoUniforms, UniformsImpl,
-                              ffi::Ffi::Bind()
-                                  .Arg<ffi::Buffer<ffi::U32>>()
-                                  .Arg<ffi::Buffer<ffi::U32>>()
-                                  .Arg<ffi::Buffer<ffi::U32>>()
-                                  .Ret<ffi::Buffer<ffi::F32>>());

@@ -5,6 +5,9 @@
 // once per instruction set (baseline, AVX2, AVX-512), and an inline function shared between those
 // objects could be emitted once with AVX-512 instructions and then called by the baseline code,
 // which must run on every CPU. Needs <cstdint>, <cstring> and <math.h> included before.
+
+constexpr float kSqrt2 = static_cast<float>(1.4142135623730951);  // float32(hypot(1, 1)): a diagonal step
+
 // std::min and std::max as the standard defines them (NaN: the first argument), of internal
 // linkage here: a template instance of std:: is shared between the objects (see above).
 template <typename T>

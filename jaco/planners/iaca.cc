@@ -22,7 +22,6 @@ namespace {
 #include "walk_shared.h"
 
 // ---- IACA's backtracking walk (jaco.planners.iaca.jax_backtrack_walk) -------------------------------
-constexpr float kSqrt2 = static_cast<float>(1.4142135623730951);  // float32(hypot(1, 1))
 
 inline float int_power(float x, int32_t k) {
   float out = 1.0f, base = x;
