@@ -126,4 +126,5 @@ def walk_colony(
         pheromone_on=variant.pheromone_on,
     )
     cost = jnp.where(tours.arrived, variant.cost(tours, problem, params), jnp.inf)
+    assert tours.targets is not None  # the walk gives them
     return Colony(tours.cells, tours.targets, tours.step_len, cost, tours.length, tours.n_steps, tours.visited)
