@@ -61,7 +61,7 @@ def measure(cfg) -> dict:
     import jaco.engine.checks as jc
     import jaco.engine.run as jr
     from jaco.engine import native
-    from jaco.engine.colony import move_weights
+    from jaco.engine.colony import move_weights, step_targets
     from jaco.engine.pheromone import Trail, Walks
     from jaco.engine.problem import make_problem, to_device
     from jaco.engine.walk import _tours, jax_walk, key_words
@@ -78,6 +78,7 @@ def measure(cfg) -> dict:
     trail = jax.vmap(lambda p: var.rule.init(empty, prob, p))(P)
     keys = jax.random.split(jax.random.key(0), B)
     words = jax.vmap(key_words)(keys)
+    n = prob.nbr.shape[0]
 
     walk_fns = {"native": native.walk, "jax": jax_walk}
     parts, moves, real = {}, {}, None
@@ -89,15 +90,14 @@ def measure(cfg) -> dict:
             weights = jax.jit(jax.vmap(lambda tr, p: move_weights(var, tr, prob, p, 0, 100)))
             W = weights(trail, P)
             walk_only = jax.jit(jax.vmap(lambda w, k: walk_fns[walk](
-                w, k, prob.start, prob.goal, jnp.float32(0), prob.offsets, n_ants=A, steplimit=steplimit, exploit=False,
-                pheromone_on="moves")))
+                w, k, prob.start, prob.goal, jnp.float32(0), prob.offsets, n_ants=A, steplimit=steplimit, exploit=False)))
             out = walk_only(W, words)
             moves[walk] = np.asarray(out[0])
             real = int(np.sum(np.asarray(out[2])))
 
             def tours_of(walks):
                 t = _tours(*walks)
-                return t, t.targets
+                return t, step_targets("moves", t.cells, t.moves, prob.start, n)
 
             tours = jax.jit(jax.vmap(tours_of))
             t, targets = tours(out)
@@ -126,7 +126,7 @@ def measure(cfg) -> dict:
             parts[walk] = {
                 "weights (τ^α η^β of every move)": timed_ms(weights, trail, P, reps=reps),
                 **walk_rows,
-                "tours (path lengths; the steps' elements and lengths from the walk)": timed_ms(tours, out, reps=reps),
+                "tours (lengths, pheromone elements of every step)": timed_ms(tours, out, reps=reps),
                 "pheromone update (evaporation, deposit)": timed_ms(update, trail, targets, t.step_len, cost, P, reps=reps),
                 f"whole iteration (mean over a {iters}-iteration run)": (c / iters, w / iters),
             }

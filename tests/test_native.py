@@ -118,16 +118,9 @@ def _arrays(case, colonies=3):
 
 
 @functools.lru_cache(maxsize=None)
-def _dying(kind, n_ants, steplimit, exploit, pheromone_on):
+def _dying(kind, n_ants, steplimit, exploit):
     fn = jax_walk if kind == "jax" else native.walk
-    kw = dict(n_ants=n_ants, steplimit=steplimit, exploit=exploit, pheromone_on=pheromone_on)
-    return jax.jit(jax.vmap(functools.partial(fn, **kw)))
-
-
-def _dying_key(case):
-    """The walk's static choices; pheromone on cells or on moves by the case's seed (each walk
-    also gives every step's pheromone element and length)."""
-    return case["n_ants"], case["steplimit"], case["exploit"], ("cells" if case["seed"] % 2 else "moves")
+    return jax.jit(jax.vmap(functools.partial(fn, n_ants=n_ants, steplimit=steplimit, exploit=exploit)))
 
 
 @functools.lru_cache(maxsize=None)
@@ -155,7 +148,7 @@ _EDGES = [dict(h=1, w=1, shape=(1, 1), density=0.0, seed=0, n_ants=4, steplimit=
 def test_native_dying_walk_takes_the_jax_walks_moves(case):
     """Every instruction set this CPU runs (the lane kernels' widths differ: 4, 8, 16 ants at once)."""
     args = _arrays(case)
-    key = _dying_key(case)
+    key = (case["n_ants"], case["steplimit"], case["exploit"])
     expected = _dying("jax", *key)(*args)
     try:
         for isa in RUNNABLE:
@@ -297,7 +290,7 @@ def test_each_instruction_set_this_cpu_runs_takes_the_jax_walks_moves(case, isa_
     """The lane kernels of every set built and supported here (baseline always), forced one by one,
     against the JAX walk; the same compiled program serves all (the set is chosen at run time)."""
     args = _arrays(case, colonies=4)
-    key = _dying_key(case)
+    key = (case["n_ants"], case["steplimit"], case["exploit"])
     expected = _dying("jax", *key)(*args)
     assert RUNNABLE[0] == "baseline" and (np.asarray(expected[2]).sum() > 0 or case["h"] * case["w"] <= 2)
     for isa in RUNNABLE:

@@ -90,6 +90,15 @@ def move_weights(variant: Any, trail: Trail, problem: Any, params: Params, t: An
     return scaled(log_w, problem.nbr >= 0)
 
 
+def step_targets(pheromone_on: str, cells: jax.Array, moves: jax.Array, start: Any, n_cells: int) -> jax.Array:
+    """Pheromone element of every step: the entered cell (cells) or ``from·8 + move`` (moves);
+    out of range (``N`` or ``8N``) where no step was taken."""
+    if pheromone_on == "cells":
+        return jnp.where(cells >= 0, cells, n_cells)
+    prev = jnp.concatenate([jnp.broadcast_to(start, cells[:1].shape), cells[:-1]], axis=0)
+    return jnp.where(moves >= 0, prev * 8 + moves, 8 * n_cells)
+
+
 def single_colony(
     variant: Any,
     problem: Any,
@@ -114,17 +123,9 @@ def walk_colony(
     (``(N, 8)``, 0 exactly on forbidden moves), with the variant's transition rule and cost."""
     exploit = variant.transition == "pseudo-random"
     # q0 is read only by the q0 rule (a roulette planner has no q0; the walk ignores the value then)
-    q0 = params.q0 if exploit else 0.0
     tours = walk(
-        problem,
-        weights,
-        key,
-        q0,
-        n_ants=n_ants,
-        steplimit=steplimit,
-        exploit=exploit,
-        pheromone_on=variant.pheromone_on,
+        problem, weights, key, params.q0 if exploit else 0.0, n_ants=n_ants, steplimit=steplimit, exploit=exploit
     )
     cost = jnp.where(tours.arrived, variant.cost(tours, problem, params), jnp.inf)
-    assert tours.targets is not None  # the walk gives them
-    return Colony(tours.cells, tours.targets, tours.step_len, cost, tours.length, tours.n_steps, tours.visited)
+    targets = step_targets(variant.pheromone_on, tours.cells, tours.moves, problem.start, problem.nbr.shape[0])
+    return Colony(tours.cells, targets, tours.step_len, cost, tours.length, tours.n_steps, tours.visited)

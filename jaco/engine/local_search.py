@@ -45,8 +45,8 @@ import numpy as np
 
 from ..moves import MOVES
 from . import native
-from .colony import Colony
-from .walk import Tours, step_targets
+from .colony import Colony, step_targets
+from .walk import Tours
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike

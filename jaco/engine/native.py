@@ -241,35 +241,20 @@ def walk(
     n_ants: int,
     steplimit: int,
     exploit: bool,
-    pheromone_on: str,
 ) -> Any:
-    """The kernel's walk; same arguments and results as :func:`jaco.engine.walk.jax_walk` (the
-    kernel writes each step's pheromone element and length as it takes the step)."""
+    """The kernel's walk; same arguments and results as :func:`jaco.engine.walk.jax_walk`."""
     _load()
     n = weights.shape[-2]
-    steps = (steplimit, n_ants)
     out = (
-        jax.ShapeDtypeStruct(steps, jnp.int8),
-        jax.ShapeDtypeStruct(steps, jnp.int32),
+        jax.ShapeDtypeStruct((steplimit, n_ants), jnp.int8),
+        jax.ShapeDtypeStruct((steplimit, n_ants), jnp.int32),
         jax.ShapeDtypeStruct((n_ants,), jnp.int32),
         jax.ShapeDtypeStruct((n_ants,), jnp.int32),
         jax.ShapeDtypeStruct((n_ants,), jnp.bool_),
         jax.ShapeDtypeStruct((n,), jnp.bool_),
-        jax.ShapeDtypeStruct(steps, jnp.int32),
-        jax.ShapeDtypeStruct(steps, jnp.float32),
     )
     call = jax.ffi.ffi_call("jaco_walk", out, vmap_method="broadcast_all")
-    return call(
-        weights,
-        words,
-        start,
-        goal,
-        q0,
-        offsets,
-        steplimit=np.int64(steplimit),
-        exploit=bool(exploit),
-        targets_of_moves=pheromone_on == "moves",
-    )
+    return call(weights, words, start, goal, q0, offsets, steplimit=np.int64(steplimit), exploit=bool(exploit))
 
 
 def deposit(tau: jax.Array, targets: jax.Array, amounts: jax.Array) -> jax.Array:

@@ -155,8 +155,13 @@ def make_run(
 
         def body(state):
             t, carry, outs = state
-            carry, out = iteration(carry, (keys[t], t))
-            return t + 1, carry, jax.tree.map(lambda buf, o: buf.at[t].set(o), outs, out)
+            carry, out = iteration(carry, (jax.lax.dynamic_index_in_dim(keys, t, keepdims=False), t))
+            # Row t of each buffer, as lax.scan stacks its outputs (a dynamic-update-slice, also under vmap).
+            return (
+                t + 1,
+                carry,
+                jax.tree.map(lambda buf, o: jax.lax.dynamic_update_index_in_dim(buf, o, t, 0), outs, out),
+            )
 
         def more(state):
             return (state[0] < n_iters) & ~native.stop_requested(state[0])

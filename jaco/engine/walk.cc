@@ -109,8 +109,7 @@ ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Bu
                     ffi::Buffer<ffi::S32> offsets, ffi::ResultBuffer<ffi::S8> moves,
                     ffi::ResultBuffer<ffi::S32> cells, ffi::ResultBuffer<ffi::S32> n_steps,
                     ffi::ResultBuffer<ffi::S32> n_diagonal, ffi::ResultBuffer<ffi::PRED> arrived,
-                    ffi::ResultBuffer<ffi::PRED> visited, ffi::ResultBuffer<ffi::S32> targets,
-                    ffi::ResultBuffer<ffi::F32> step_len, int64_t steplimit, bool exploit, bool targets_of_moves) {
+                    ffi::ResultBuffer<ffi::PRED> visited, int64_t steplimit, bool exploit) {
   const auto wd = weights.dimensions();
   const auto md = moves->dimensions();
   const int64_t N = wd[wd.size() - 2], S = md[md.size() - 2], A = md[md.size() - 1];
@@ -123,8 +122,6 @@ ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Bu
   int32_t* cl0 = cells->typed_data();
   int32_t *ns0 = n_steps->typed_data(), *nd0 = n_diagonal->typed_data();
   bool *arr0 = arrived->typed_data(), *vis0 = visited->typed_data();
-  int32_t* tg0 = targets->typed_data();
-  float* len0 = step_len->typed_data();
   const LaneWalk walk = lane_walk();
   (void)steplimit;  // S, the step buffer's length
 
@@ -132,7 +129,7 @@ ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Bu
     return [=, tabu = std::vector<uint32_t>()](int64_t b) mutable {
       LaneColony colony{W0 + b * N * 8, off0 + b * 8, st[b], gl[b], int32_t(N), q[b], K[2 * b], K[2 * b + 1],
                         A, S, exploit, mv0 + b * S * A, cl0 + b * S * A, ns0 + b * A, nd0 + b * A, arr0 + b * A,
-                        vis0 + b * N, tg0 + b * S * A, len0 + b * S * A, targets_of_moves, nullptr, 0, {}, {}};
+                        vis0 + b * N, nullptr, 0, {}, {}};
       colony.width = grid_width(colony.offsets, colony.row_of, colony.col_of);
       const int64_t pad = int64_t(colony.width) + 2;
       if (int64_t(tabu.size()) < N + 2 * pad) tabu.assign(N + 2 * pad, 0u);  // zero between colonies
@@ -194,11 +191,8 @@ XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoWalk, WalkImpl,
                                   .Ret<ffi::Buffer<ffi::S32>>()   // diagonal steps (..., A)
                                   .Ret<ffi::Buffer<ffi::PRED>>()  // arrived (..., A)
                                   .Ret<ffi::Buffer<ffi::PRED>>()  // visited (..., N)
-                                  .Ret<ffi::Buffer<ffi::S32>>()   // pheromone element of each step (..., S, A)
-                                  .Ret<ffi::Buffer<ffi::F32>>()   // length of each step (..., S, A)
                                   .Attr<int64_t>("steplimit")
-                                  .Attr<bool>("exploit")
-                                  .Attr<bool>("targets_of_moves"));
+                                  .Attr<bool>("exploit"));
 
 XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoUniforms, UniformsImpl,
                               ffi::Ffi::Bind()

@@ -38,8 +38,7 @@ class Tours(NamedTuple):
     ``cells[t, a]``: the cell ant a entered at step t, or -1 when it took no step;
     ``moves[t, a]``: the move index (0..7) of that step, or -1; ``step_len`` its length.
     ``arrived[a]``: reached the goal; ``n_steps[a]``: steps taken; ``length[a]``: path length.
-    ``visited``: cells visited by any ant (coverage). ``targets[t, a]``: the pheromone element of
-    that step (:func:`step_targets`), where the walk gives it (None for tours made otherwise).
+    ``visited``: cells visited by any ant (coverage).
     """
 
     cells: jax.Array
@@ -49,23 +48,6 @@ class Tours(NamedTuple):
     n_steps: jax.Array
     length: jax.Array
     visited: jax.Array
-    targets: jax.Array | None = None
-
-
-def step_targets(pheromone_on: str, cells: jax.Array, moves: jax.Array, start: Any, n_cells: int) -> jax.Array:
-    """Pheromone element of every step: the entered cell (cells) or ``from·8 + move`` (moves);
-    out of range (``N`` or ``8N``) where no step was taken."""
-    if pheromone_on == "cells":
-        return jnp.where(cells >= 0, cells, n_cells)
-    prev = jnp.concatenate([jnp.broadcast_to(start, cells[:1].shape), cells[:-1]], axis=0)
-    return jnp.where(moves >= 0, prev * 8 + moves, 8 * n_cells)
-
-
-def step_lengths(moves: jax.Array) -> jax.Array:
-    """The length of every step from its move index (-1: no step, length 0)."""
-    # Moves 0-3 are straight, 4-7 diagonal (jaco.moves.MOVES): two selects, not a gather per step.
-    straight, diagonal = (np.float32(MOVE_LENGTHS[k]) for k in (0, 4))
-    return jnp.where(moves >= 4, diagonal, jnp.where(moves >= 0, straight, np.float32(0)))
 
 
 def key_words(key: jax.Array) -> jax.Array:
@@ -119,18 +101,16 @@ def walk(
     n_ants: int,
     steplimit: int,
     exploit: bool,
-    pheromone_on: str = "moves",
 ) -> Tours:
     """Walk ``n_ants`` ants from ``problem.start`` with move weights ``weights (N, 8)``.
 
     ``weights`` must be 0 exactly on the moves the map forbids and > 0 elsewhere; ``key`` is the
     iteration's key. An ant stops on the goal, on a dead end (it dies: no allowed move), or at
     ``steplimit``. The native kernel walks when it is active (:func:`jaco.engine.native.active_walk`)
-    and the program runs on CPU; the JAX walk everywhere else. The tours' ``targets`` are the
-    pheromone elements of ``pheromone_on`` (``"cells"`` or ``"moves"``: :func:`step_targets`).
+    and the program runs on CPU; the JAX walk everywhere else.
     """
     args = (weights, key_words(key), problem.start, problem.goal, jnp.asarray(q0, jnp.float32), problem.offsets)
-    kw: dict[str, Any] = dict(n_ants=n_ants, steplimit=steplimit, exploit=bool(exploit), pheromone_on=pheromone_on)
+    kw: dict[str, Any] = dict(n_ants=n_ants, steplimit=steplimit, exploit=bool(exploit))
     return _tours(*native.dispatch(functools.partial(native.walk, **kw), functools.partial(jax_walk, **kw), *args))
 
 
@@ -145,14 +125,12 @@ def jax_walk(
     n_ants: int,
     steplimit: int,
     exploit: bool,
-    pheromone_on: str,
 ) -> tuple[jax.Array, ...]:
     """The walk in JAX, every ant on its own lane until the last one stops.
 
     Returns ``moves (steplimit, A) int8`` and ``cells (steplimit, A) int32`` of every step (-1
-    where no step), ``n_steps (A,)``, ``n_diagonal (A,)`` (its diagonal steps), ``arrived (A,)``,
-    ``visited (N,)``, and the ``targets (steplimit, A) int32`` (:func:`step_targets`) and lengths
-    ``(steplimit, A) float32`` (:func:`step_lengths`) of the steps. Steps run in chunks of :data:`CHUNK` inside a while loop that ends when
+    where no step), ``n_steps (A,)``, ``n_diagonal (A,)`` (its diagonal steps), ``arrived (A,)``
+    and ``visited (N,)``. Steps run in chunks of :data:`CHUNK` inside a while loop that ends when
     every ant has stopped."""
     s_pad = pad_steps(steplimit)
     n_cells = weights.shape[0]
@@ -188,24 +166,23 @@ def jax_walk(
     _, (cur, visited, _, n_steps, n_diagonal), moves, cells = jax.lax.while_loop(
         more, chunk, (jnp.int32(0), carry, moves, cells)
     )
-    moves, cells = moves[:steplimit], cells[:steplimit]
-    index = moves.astype(jnp.int32)
-    targets = step_targets(pheromone_on, cells, index, start, n_cells)
-    return moves, cells, n_steps, n_diagonal, cur == goal, jnp.any(visited, axis=0), targets, step_lengths(index)
+    return moves[:steplimit], cells[:steplimit], n_steps, n_diagonal, cur == goal, jnp.any(visited, axis=0)
 
 
-def _tours(moves, cells, n_steps, n_diagonal, arrived, visited, targets, step_len) -> Tours:
-    """The walks as :class:`Tours`, the path lengths from the counts."""
+def _tours(moves, cells, n_steps, n_diagonal, arrived, visited) -> Tours:
+    """The walks as :class:`Tours`: the step lengths from the moves, the path lengths from the counts."""
+    moves = moves.astype(jnp.int32)
+    # Moves 0-3 are straight, 4-7 diagonal (jaco.moves.MOVES): two selects, not a gather per step.
+    straight, diagonal = (np.float32(MOVE_LENGTHS[k]) for k in (0, 4))
     return Tours(
         cells=cells,
-        moves=moves.astype(jnp.int32),
-        step_len=step_len,
+        moves=moves,
+        step_len=jnp.where(moves >= 4, diagonal, jnp.where(moves >= 0, straight, np.float32(0))),
         arrived=arrived,
         n_steps=n_steps,
         # Integer counts, so a length is bit-identical however the runs are batched.
         length=(n_steps - n_diagonal) + jnp.sqrt(jnp.float32(2)) * n_diagonal,
         visited=visited,
-        targets=targets,
     )
 
 

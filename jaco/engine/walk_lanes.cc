@@ -20,7 +20,6 @@
 // Nothing here may be shared with the other objects (see walk_shared.h): everything has internal
 // linkage but the one entry point.
 
-#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <math.h>
@@ -333,8 +332,6 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
   uint32_t* tabu = c.tabu;
   std::memset(c.moves, -1, S * A);
   std::memset(c.cells, -1, S * A * sizeof(int32_t));
-  std::fill_n(c.targets, S * A, c.targets_of_moves ? 8 * c.n_cells : c.n_cells);
-  std::memset(c.step_len, 0, S * A * sizeof(float));
   std::memset(c.visited, 0, c.n_cells);
   c.visited[start] = true;
   vi offset[8];
@@ -393,8 +390,7 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
     const vi step = s.live & ok;
     const vi cell = pick(step, s.cur + move_offset(c.offsets, chosen), s.cur);
     const vi slot = s.t * int32_t(A) + s.ant;
-    int32_t marked[L], entered[L], at[L], move[L], from[L];
-    std::memcpy(from, &s.cur, sizeof from);
+    int32_t marked[L], entered[L], at[L], move[L];
     std::memcpy(marked, &s.prev, sizeof marked);
     std::memcpy(entered, &cell, sizeof entered);
     std::memcpy(at, &slot, sizeof at);
@@ -403,8 +399,6 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
       const int l = __builtin_ctz(m);
       c.moves[at[l]] = int8_t(move[l]);
       c.cells[at[l]] = entered[l];
-      c.targets[at[l]] = c.targets_of_moves ? from[l] * 8 + move[l] : entered[l];
-      c.step_len[at[l]] = move[l] >= 4 ? kSqrt2 : 1.0f;
       c.visited[entered[l]] = true;
       if (marked[l] >= 0) tabu[marked[l]] |= 1u << l;
     }

@@ -20,10 +20,6 @@ struct LaneColony {
   int32_t* n_diagonal;    // (A,)
   bool* arrived;          // (A,)
   bool* visited;          // (N,)
-  int32_t* targets;       // (S, A) pheromone element of each step: the cell entered, or with
-                          // targets_of_moves from * 8 + move; N (8N) where no step
-  float* step_len;        // (S, A) length of each step, 0 where no step
-  bool targets_of_moves;
   uint32_t* tabu;         // (N,) scratch of the thread, all zero on entry and on return; valid
                           // from tabu[-pad] to tabu[N - 1 + pad], pad = width + 2 (the rows above
                           // the first and below the last, always zero)

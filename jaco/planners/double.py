@@ -19,8 +19,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..engine import pheromone as ph
-from ..engine.colony import ALPHA, Colony, move_weights
-from ..engine.walk import Tours, step_targets, walk
+from ..engine.colony import ALPHA, Colony, move_weights, step_targets
+from ..engine.walk import Tours, walk
 from ..moves import MOVES
 from .compose import component, compose
 
