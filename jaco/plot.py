@@ -67,6 +67,8 @@ _OBSTACLE_COLOR = "#2b2b2b"
 _START_STYLE = dict(marker="o", s=90, c="#2ca02c", edgecolors="black", linewidths=0.8, zorder=5)
 _GOAL_STYLE = dict(marker="*", s=220, c="#d62728", edgecolors="black", linewidths=0.8, zorder=5)
 _GRIDLINES_UP_TO = 60  # draw cell borders only while cells are still big enough to see
+#: A table's planner column: ``planner``, or ``variant`` in tables written before it was renamed.
+_PLANNER_COLUMNS = ("planner", "variant")
 
 
 # -- helpers -----------------------------------------------------------------------------------
@@ -425,7 +427,7 @@ def _tick(name, v) -> str:
     """A tick label: a planner's short name, a text value as it is, a number without float noise."""
     from .research.tables import number, short_name
 
-    if name == "variant":
+    if name in _PLANNER_COLUMNS:
         return short_name(v)
     return v if isinstance(v, str) else number(v)
 
@@ -450,7 +452,7 @@ def sweep_grid(table: pd.DataFrame, x: str, y: str, value: str = "gap") -> tuple
     """``(xs, ys, Z)``: the mean of ``value`` over every other column (seeds, other parameters)
     for each pair of ``x`` and ``y`` values, ``Z[i, j]`` at ``ys[i], xs[j]``; inf where a run
     failed, NaN where the sweep has no such pair. ``x`` and ``y`` may be columns of numbers
-    (sorted) or of text, e.g. the ``variant`` of a sweep over planners (in order of appearance);
+    (sorted) or of text, e.g. the ``planner`` of a sweep over planners (in order of appearance);
     ``value`` must hold numbers."""
     _sweep_column(table, x, "x")
     _sweep_column(table, y, "y")
@@ -478,8 +480,8 @@ def plot_sweep_heatmap(
     """Heatmap of a sweep table (:func:`jaco.sweep`): the mean ``value`` over seeds (and over any
     other swept parameter) for every ``(x, y)`` pair, each cell annotated with its number.
 
-    ``x`` and ``y`` may be parameters or text columns such as the planner (``"variant"``, shown by
-    its short name); ``value`` must be a column of numbers. Cells where at least one run failed
+    ``x`` and ``y`` may be parameters or text columns such as the planner (``"planner"``, or
+    ``"variant"`` in older tables, shown by its short name); ``value`` must be a column of numbers. Cells where at least one run failed
     (inf) are hatched grey and marked "fail"; ``percent`` (default: True for ``gap``, a fraction in
     the table) shows the value ×100 with a % sign; a value of integers reads as integers.
     """
@@ -525,7 +527,9 @@ def plot_sweep_heatmap(
 
 
 def _box_label(by, key, fails) -> str:
-    parts = [(_tick(n, k) if n == "variant" or isinstance(k, str) else f"{n}={_tick(n, k)}") for n, k in zip(by, key)]
+    parts = [
+        (_tick(n, k) if n in _PLANNER_COLUMNS or isinstance(k, str) else f"{n}={_tick(n, k)}") for n, k in zip(by, key)
+    ]
     return ", ".join(parts) + (f"\n({fails} failed)" if fails else "")
 
 
@@ -539,8 +543,8 @@ def plot_sweep_box(
     optimal: float | None = None,
 ) -> Figure:
     """Box plots of ``value`` across seeds, one box per configuration (the distinct values of the
-    column(s) ``by``: parameters, or text such as the planner, ``"variant"``, shown by its short
-    name). Failed runs (inf) are left out of the boxes and counted in the labels. Numbers are
+    column(s) ``by``: parameters, or text such as the planner, ``"planner"`` (``"variant"`` in
+    older tables), shown by its short name). Failed runs (inf) are left out of the boxes and counted in the labels. Numbers are
     sorted, text keeps its order of appearance. ``optimal`` (default: the table's ``optimal``
     column when it holds one value) is a dashed line named in a legend beside the axes. A gap (a
     fraction in the table) is drawn in %."""
@@ -613,6 +617,25 @@ def _objective_axis(ax, name: str, axis: str = "y") -> bool:
     return percent
 
 
+def _log_axis(ax, values) -> None:
+    """A log y axis for ``values`` (objective values as drawn): log where all are > 0; symlog,
+    linear below the smallest positive value's power of ten, where some are 0 (a gap of 0, the
+    optimum: a log axis would drop it); linear where none is > 0. The axis label says which."""
+    v = np.asarray(values, float)
+    v = v[np.isfinite(v)]
+    positive = v[v > 0]
+    if not positive.size:
+        note = " (no value > 0: linear scale)"
+    elif (v <= 0).any():
+        linthresh = 10.0 ** np.floor(np.log10(positive.min()))
+        ax.set_yscale("symlog", linthresh=linthresh, linscale=0.5)
+        note = f" (log scale, linear below {linthresh:g})"
+    else:
+        ax.set_yscale("log")
+        note = " (log scale)"
+    ax.set_ylabel(ax.get_ylabel() + note)
+
+
 def plot_search_history(
     studies: Studies, *, x: str = "trials", ax: Axes | None = None, title: str | None = None, log: bool = False
 ) -> Figure:
@@ -620,7 +643,8 @@ def plot_search_history(
     finished ``trials``, ant-``iterations`` spent (fair across multi-fidelity searches) or wall
     ``time`` (seconds since the first trial started); one line per study (e.g. per sampler), with a
     single study's trial values as points behind it. ``studies``: a Study, a list, or a dict label ->
-    Study. The y axis of a gap or success rate is in %."""
+    Study. The y axis of a gap or success rate is in %. ``log``: a log y axis (symlog, linear near
+    0, when a value is 0, e.g. a gap that reached the optimum; the axis label says which)."""
     studies = _studies(studies)
     columns = {"trials": None, "iterations": "iterations", "time": "end_s"}
     if x not in columns:
@@ -631,22 +655,18 @@ def plot_search_history(
         raise ParamError("plot_search_history: the studies must share one objective (several: plot_pareto)")
     name = next(iter(names))[0]
     scale = 100.0 if _objective_axis(ax, name) else 1.0
+    shown = []  # every value drawn (for a log axis)
     for label, study in studies.items():
         h = study.history()
         xs = np.arange(1, len(h) + 1) if columns[x] is None else h[columns[x]].to_numpy(float)
-        (line,) = ax.step(xs, scale * h["best"].to_numpy(float), where="post", label=label, linewidth=1.8)
+        shown.append(scale * h["best"].to_numpy(float))
+        (line,) = ax.step(xs, shown[-1], where="post", label=label, linewidth=1.8)
         if len(studies) == 1:
             done = h["state"].eq("COMPLETE").to_numpy()
-            ax.scatter(
-                xs[done],
-                scale * h["value"].to_numpy(float)[done],
-                s=10,
-                alpha=0.35,
-                color=line.get_color(),
-                label="trials",
-            )
+            shown.append(scale * h["value"].to_numpy(float)[done])
+            ax.scatter(xs[done], shown[-1], s=10, alpha=0.35, color=line.get_color(), label="trials")
     if log:
-        ax.set_yscale("log")
+        _log_axis(ax, np.concatenate(shown))
     ax.set_xlabel({"trials": "finished trials", "iterations": "ant-iterations spent", "time": "wall time (s)"}[x])
     ax.set_title(title if title is not None else f"best {name} so far")
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small", borderaxespad=0.0)
@@ -654,83 +674,320 @@ def plot_search_history(
     return fig
 
 
-def plot_param_importance(study: Studies, *, ax: Axes | None = None, title: str | None = None) -> Figure:
-    """How much each searched parameter matters to the objective (Optuna's PED-ANOVA, Watanabe et al.
-    2023: how differently a parameter is distributed in the best trials than in all, over the finished
-    trials; parameters that only some planners use are left
-    out when the planner is searched)."""
+def _planner_column(table: pd.DataFrame) -> str | None:
+    """The table's planner column: ``planner``, else ``variant`` (older tables), else None."""
+    return next((c for c in _PLANNER_COLUMNS if c in table.columns), None)
+
+
+def _planner_groups(study: Study, table: pd.DataFrame, planner: Any, what: str) -> list[tuple[Any, pd.DataFrame]]:
+    """``[(planner, its rows)]`` of a table of finished trials: one entry per planner the trials
+    span (in the order of the study's space, then of appearance), or only ``planner`` (its name or
+    short name) when given; ``[(None, table)]`` for a table without a planner column."""
+    from .research.tables import short_name
+
+    column = _planner_column(table)
+    if column is None:
+        if planner is not None:
+            raise ParamError(f"{what}: planner={planner!r}, but the study's trials name no planner")
+        return [(None, table)]
+    present = list(table[column].dropna().drop_duplicates())
+    space = next((study.info["space"].get(c) for c in _PLANNER_COLUMNS if c in study.info["space"]), None)
+    order = [p for p in (space if isinstance(space, list) else [space]) if p in present]
+    names = order + [p for p in present if p not in order]
+    if planner is not None:
+        chosen = [p for p in names if p == planner or short_name(str(p)) == planner]
+        if not chosen:
+            raise ParamError(
+                f"{what}: no finished trial of planner {planner!r} (its trials' planners: "
+                f"{', '.join(map(str, names)) or 'none'})"
+            )
+        names = chosen[:1]
+    return [(p, table[table[column] == p]) for p in names] or [(None, table)]
+
+
+def _finished(study: Study, what: str) -> tuple[str, pd.DataFrame]:
+    """The study's one objective and its finished trials (:attr:`Study.trials` rows, the objective's
+    column under the objective's name)."""
+    if len(study.objectives) > 1:
+        raise ParamError(f"{what}: one objective only")
+    table = _by_objective(study, study.trials)
+    return study.objectives[0], table[table["state"] == "COMPLETE"]
+
+
+def _by_objective(study: Study, table: pd.DataFrame) -> pd.DataFrame:
+    """Trials with each objective's column (``gap_penalised_mean``, ...:
+    :func:`jaco.research.search.objective_column`) named by its objective (``gap``)."""
+    from .research.search import objective_column
+
+    return table.rename(columns={objective_column(n): n for n in study.objectives})
+
+
+def _planner_effect(values: ArrayLike, planners: ArrayLike) -> float:
+    """The share of the variance of ``values`` explained by the planner, η² (eta squared): the
+    between-planner sum of squares over the total, ``Σ_p n_p (mean_p − mean)² / Σ_i (v_i − mean)²``
+    over the finite values, 0 (the planners' means are equal) to 1 (every planner's values are all
+    equal: the planner decides everything); NaN when the values do not vary."""
+    v = np.asarray(values, float)
+    groups = np.asarray(planners, dtype=object)
+    if v.shape != groups.shape:
+        raise ParamError(f"planner effect: {v.size} values for {groups.size} planners")
+    keep = np.isfinite(v)
+    v, groups = v[keep], groups[keep]
+    total = float(((v - v.mean()) ** 2).sum()) if v.size else 0.0
+    if total <= 0.0:
+        return float("nan")
+    between = sum(
+        float((groups == g).sum()) * (float(v[groups == g].mean()) - float(v.mean())) ** 2 for g in set(groups)
+    )
+    return between / total
+
+
+def _importance_within(study: Study, numbers: Iterable[int]) -> dict[str, float] | None:
+    """PED-ANOVA importance of the parameters of the trials ``numbers`` (one planner's finished
+    trials), on those trials alone, as shares that sum to 1; all 0 when no parameter's
+    distribution among the best trials differs from all (e.g. equal values); None with fewer than
+    two trials."""
+    import warnings
+
     import optuna
 
-    study = next(iter(_studies(study).values()))
-    if len(study.objectives) > 1:
-        raise ParamError("plot_param_importance: one objective only")
     from .research.search import _quiet
 
-    finished = [t for t in study.study.trials if t.state.name == "COMPLETE"]
-    if len(finished) < 2:
-        raise ParamError("plot_param_importance needs at least two finished trials")
-    with _quiet():
-        imp = optuna.importance.get_param_importances(
-            study.study, evaluator=optuna.importance.PedAnovaImportanceEvaluator()
+    numbers = set(numbers)
+    trials = [t for t in study.study.get_trials(deepcopy=False) if t.number in numbers and t.value is not None]
+    if len(trials) < 2:
+        return None
+    if not {k for t in trials for k in t.params if k not in _PLANNER_COLUMNS}:
+        return {}
+    with _quiet(), warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # "too few trials", "target and region select the same trials": handled here
+        alone = optuna.create_study(direction=study.study.direction)  # the planner's trials alone
+        for t in trials:
+            params = {k: v for k, v in t.params.items() if k not in _PLANNER_COLUMNS}
+            alone.add_trial(
+                optuna.trial.create_trial(
+                    params=params, distributions={k: t.distributions[k] for k in params}, value=t.value
+                )
+            )
+        raw = optuna.importance.get_param_importances(
+            alone, evaluator=optuna.importance.PedAnovaImportanceEvaluator(), normalize=False
         )
-    fig, ax = _figure_axes(ax, figsize=(6.0, 0.5 * len(imp) + 1.5))
-    names = list(imp)[::-1]
-    ax.barh(names, [imp[n] for n in names], color="#4c72b0")
-    for i, n in enumerate(names):
-        ax.text(imp[n], i, f" {imp[n]:.2f}", va="center", fontsize="small")
-    ax.set_xlim(0, 1.1 * max(imp.values()) if imp else 1)
-    ax.set_xlabel(f"importance for {study.objectives[0]} (PED-ANOVA)")
-    ax.set_title(title if title is not None else "parameter importance")
-    fig.tight_layout()
+    total = sum(raw.values())
+    return {k: (v / total if total > 0 else 0.0) for k, v in raw.items()}
+
+
+def plot_param_importance(
+    study: Studies, *, planner: Any = None, ax: Axes | None = None, title: str | None = None
+) -> Figure:
+    """How much the planner and each searched parameter matter to the objective, over the
+    finished trials (their objective values: failed runs counted with the study's penalty).
+
+    * **The planner's effect** (when the trials span several planners): η², the share of the
+      variance of the objective values between planners (between-planner sum of squares / total,
+      ``Σ_p n_p (mean_p − mean)² / Σ_i (v_i − mean)²``); 0: the planners' means are equal, 1: all
+      of a planner's trials have the same value (the planner decides everything).
+      Drawn in a panel of its own, on its own scale.
+    * **Parameter importance within each planner**: Optuna's PED-ANOVA (Watanabe et al. 2023) over
+      that planner's own finished trials only: how differently a parameter is distributed among the
+      planner's best 10% of trials than among all its trials (a Pearson divergence of Parzen
+      estimates), as shares that sum to 1 per planner; one bar per planner and parameter (a
+      parameter the planner does not use has none: "not used"). All 0 ("nothing separates its best
+      trials") when no parameter's distribution differs, e.g. when every trial of the planner has
+      the same value (Optuna's normalisation would show equal shares). The legend gives each
+      planner's trials: PED-ANOVA wants at least 5 in the best 10%, about 50 per planner. The
+      shares rank parameters within a planner; they are not comparable to η².
+
+    ``planner``: draw one planner's importances only (its name or short name), in one axes (or in
+    ``ax``); a study over several planners otherwise needs a figure of its own (``ax`` refused).
+    """
+    from .research.tables import short_name
+
+    study = next(iter(_studies(study).values()))
+    name, table = _finished(study, "plot_param_importance")
+    if len(table) < 2:
+        raise ParamError("plot_param_importance needs at least two finished trials")
+    groups = _planner_groups(study, table, planner, "plot_param_importance")
+    several = len(groups) > 1
+    if several and ax is not None:
+        raise ParamError(
+            f"plot_param_importance: the trials span {len(groups)} planners "
+            f"({', '.join(short_name(p) for p, _ in groups)}), drawn in two panels of a figure of their own; "
+            "leave ax out, or pass planner= to draw one planner's importances into ax"
+        )
+    shares = {p: _importance_within(study, part["number"]) for p, part in groups}
+    params = sorted(
+        {k for s in shares.values() if s for k in s}, key=lambda k: max((s or {}).get(k, 0.0) for s in shares.values())
+    )
+    if not params:
+        raise ParamError("plot_param_importance: no searched parameter with at least two finished trials")
+    rows = len(params) * (len(groups) if several else 1)
+    if several:
+        fig = Figure(figsize=(7.5, 0.32 * rows + 3.2), layout="constrained")
+        effect_ax, ax = fig.subplots(2, 1, height_ratios=[1.0, max(2.0, 0.32 * rows)])
+        column = _planner_column(table)
+        eta = _planner_effect(table[name], table[column])
+        effect_ax.barh(
+            ["planner"], [0.0 if np.isnan(eta) else eta], color="#c44e52", height=0.5, label="planner effect"
+        )
+        inside = not np.isnan(eta) and eta > 0.75  # the value's text inside the bar's end
+        effect_ax.text(
+            0.0 if np.isnan(eta) else eta,
+            0,
+            " η² = n/a (the values do not vary)"
+            if np.isnan(eta)
+            else f" η² = {eta:.2f} "
+            if inside
+            else f" η² = {eta:.2f}",
+            va="center",
+            ha="right" if inside else "left",
+            color="white" if inside else "black",
+            fontsize="small",
+        )
+        effect_ax.set_xlim(0.0, 1.0)
+        effect_ax.set_xlabel(
+            f"share of the variance of {name} between planners (η², over {len(table)} finished trials)"
+        )
+        effect_ax.set_title(f"the planner's effect ({len(groups)} planners)")
+    else:
+        fig, ax = _figure_axes(ax, figsize=(6.0, 0.5 * rows + 1.5))
+    height = 0.8 / len(groups)
+    notes = []
+    for g, (p, part) in enumerate(groups):
+        s = shares[p]
+        note = f"{len(part)} trials"
+        if s is None:
+            note += ": too few"
+        elif s and not any(s.values()):
+            note += ": nothing separates its best trials"
+        notes.append(note)
+        label = f"{'all trials' if p is None else short_name(p)} ({note})"
+        ys = np.arange(len(params)) + (0.4 - height * (g + 0.5) if several else 0.0)
+        widths = [(s or {}).get(k, np.nan) for k in params]
+        ax.barh(ys, np.nan_to_num(widths), height=height if several else 0.8, color=f"C{g % 10}", label=label)
+        for y, w in zip(ys, widths):
+            ax.text(
+                0.0 if np.isnan(w) else w,
+                y,
+                " not used" if np.isnan(w) else f" {w:.2f}",
+                va="center",
+                fontsize="x-small" if several else "small",
+                color="#7f7f7f" if np.isnan(w) else "black",
+            )
+    ax.set_yticks(range(len(params)), params)
+    ax.set_xlim(0, 1.15)
+    first = groups[0][0]
+    within = " within each planner" if several else "" if first is None else f" within {short_name(first)}"
+    ax.set_xlabel(f"importance{within} for {name} (PED-ANOVA shares, sum 1 per planner)")
+    if title is not None:
+        (fig.suptitle if several else ax.set_title)(title)
+    else:
+        ax.set_title("parameter importance" + within + ("" if several else f" ({notes[0]})"))
+    if several:
+        _legend_outside(ax, title="planner")
+    else:
+        fig.tight_layout()
     return fig
 
 
-def plot_search_contour(study: Studies, x: str, y: str, *, ax: Axes | None = None, title: str | None = None) -> Figure:
-    """The objective over two searched parameters: every finished trial as a point coloured by
-    its value, over a contour interpolated between them (log axes for log ranges); the best trial
-    is starred."""
+def _contour_panel(ax, part, x, y, name, logs, norm, scale, best_label):
+    """One contour panel: the trials of ``part`` as points over a contour between them, the best
+    starred (none when all are equal); returns the points' collection."""
     import matplotlib.tri as mtri
 
-    study = next(iter(_studies(study).values()))
-    if len(study.objectives) > 1:
-        raise ParamError("plot_search_contour: one objective only")
-    name = study.objectives[0]
-    table = study.trials
-    table = table[table["state"] == "COMPLETE"]
-    for c in (x, y):
-        if c not in table.columns or c == "variant":
-            raise ParamError(
-                f"{c!r} is not a searched number of this study (columns: {', '.join(map(str, table.columns))})"
-            )
-    table = table.dropna(subset=[x, y, name])
-    if len(table) < 2:
-        raise ParamError("plot_search_contour needs at least two finished trials with both parameters")
-    fig, ax = _figure_axes(ax, figsize=(6.2, 4.8))
-    scale = 100.0 if name in ("gap", "success") else 1.0
-    logs = [str(study.info["space"].get(c, "")).endswith(":log") for c in (x, y)]
-    px, py = (np.log10(table[c].to_numpy(float)) if lg else table[c].to_numpy(float) for c, lg in zip((x, y), logs))
-    v = scale * table[name].to_numpy(float)
-    norm = Normalize(np.nanmin(v), np.nanmax(v) if np.nanmax(v) > np.nanmin(v) else np.nanmin(v) + 1)
+    px, py = (np.log10(part[c].to_numpy(float)) if lg else part[c].to_numpy(float) for c, lg in zip((x, y), logs))
+    v = scale * part[name].to_numpy(float)
     try:
         tri = mtri.Triangulation(10**px if logs[0] else px, 10**py if logs[1] else py)
         ax.tricontourf(tri, v, levels=12, cmap="viridis_r", norm=norm, alpha=0.55)
     except (ValueError, RuntimeError):  # fewer than three distinct points: the points alone
         pass
-    sc = ax.scatter(table[x], table[y], c=v, cmap="viridis_r", norm=norm, s=22, edgecolors="black", linewidths=0.4)
-    best = table.loc[table[name].idxmin() if OBJECTIVE_MAX.get(name) is None else table[name].idxmax()]
-    ax.scatter([best[x]], [best[y]], marker="*", s=220, c="#d62728", edgecolors="black", zorder=5, label="best")
+    sc = ax.scatter(
+        part[x], part[y], c=v, cmap="viridis_r", norm=norm, s=22, edgecolors="black", linewidths=0.4, label="trials"
+    )
+    if part[name].nunique() > 1 or len(part) == 1:  # all trials equal: none is the best
+        best = part.loc[part[name].idxmin() if OBJECTIVE_MAX.get(name) is None else part[name].idxmax()]
+        ax.scatter([best[x]], [best[y]], marker="*", s=220, c="#d62728", edgecolors="black", zorder=5, label=best_label)
+    return sc
+
+
+def plot_search_contour(
+    study: Studies, x: str, y: str, *, planner: Any = None, ax: Axes | None = None, title: str | None = None
+) -> Figure:
+    """The objective over two searched parameters: every finished trial as a point coloured by
+    its value, over a contour interpolated between them (log axes for log ranges); the best trial
+    is starred (none when all have the same value).
+
+    A contour is interpolated between the trials of one planner only: when the trials span several
+    planners, one panel per planner holds that planner's own trials (its best starred), on shared
+    axes and one colour scale; a planner whose trials lack ``x`` or ``y`` has an empty panel that
+    says so. ``planner`` (a name or short name) draws that planner's trials alone, in one axes (or
+    in ``ax``, which a study over several planners needs ``planner`` for)."""
     from matplotlib.ticker import NullFormatter, ScalarFormatter
 
-    for lg, axis, setter in zip(logs, (ax.xaxis, ax.yaxis), (ax.set_xscale, ax.set_yscale)):
-        if lg:
-            setter("log")
-            axis.set_major_formatter(ScalarFormatter())
-            axis.set_minor_formatter(NullFormatter())
-    fig.colorbar(sc, ax=ax, label=name + (" (%)" if scale == 100.0 else ""))
-    ax.set_xlabel(x)
-    ax.set_ylabel(y)
-    ax.set_title(title if title is not None else f"{name} over {x} and {y} (★ best trial)")
-    fig.tight_layout()
+    from .research.tables import short_name
+
+    study = next(iter(_studies(study).values()))
+    name, table = _finished(study, "plot_search_contour")
+    for c in (x, y):
+        if c not in table.columns or c in _PLANNER_COLUMNS:
+            raise ParamError(
+                f"{c!r} is not a searched number of this study (columns: {', '.join(map(str, table.columns))})"
+            )
+    groups = [
+        (p, part.dropna(subset=[x, y, name]))
+        for p, part in _planner_groups(study, table, planner, "plot_search_contour")
+    ]
+    if sum(len(part) for _, part in groups) < 2:
+        raise ParamError("plot_search_contour needs at least two finished trials with both parameters")
+    several = len(groups) > 1
+    if several and ax is not None:
+        raise ParamError(
+            f"plot_search_contour: the trials span {len(groups)} planners "
+            f"({', '.join(short_name(p) for p, _ in groups)}), one panel each; leave ax out, or pass planner= "
+            "to draw one planner's trials into ax"
+        )
+    scale = 100.0 if name in ("gap", "success") else 1.0
+    logs = [str(study.info["space"].get(c, "")).endswith(":log") for c in (x, y)]
+    values = scale * np.concatenate([part[name].to_numpy(float) for _, part in groups])
+    low, high = np.nanmin(values), np.nanmax(values)
+    norm = Normalize(low, high if high > low else low + 1)
+    if several:
+        cols = min(len(groups), 3)
+        rows = -(-len(groups) // cols)
+        fig = Figure(figsize=(4.6 * cols + 1.2, 4.0 * rows + 0.6), layout="constrained")
+        grid = fig.subplots(rows, cols, sharex=True, sharey=True, squeeze=False).ravel()
+        for extra in grid[len(groups) :]:
+            fig.delaxes(extra)
+        axes = list(grid[: len(groups)])
+    else:
+        fig, ax = _figure_axes(ax, figsize=(6.2, 4.8))
+        axes = [ax]
+    for a, (p, part) in zip(axes, groups):
+        sc = _contour_panel(a, part, x, y, name, logs, norm, scale, "best" if p is None else f"best of {short_name(p)}")
+        if several:
+            equal = ", all equal" if len(part) > 1 and part[name].nunique() == 1 else ""
+            a.set_title(f"{short_name(p)} ({len(part)} trials{equal})", fontsize="medium")
+            if not len(part):
+                a.text(
+                    0.5, 0.5, f"no finished trial\nwith {x} and {y}", transform=a.transAxes, ha="center", va="center"
+                )
+        for lg, axis, setter in zip(logs, (a.xaxis, a.yaxis), (a.set_xscale, a.set_yscale)):
+            if lg:
+                setter("log")
+                axis.set_major_formatter(ScalarFormatter())
+                axis.set_minor_formatter(NullFormatter())
+        a.set_xlabel(x)
+        a.set_ylabel(y)
+    fig.colorbar(sc, ax=axes if several else axes[0], label=name + (" (%)" if scale == 100.0 else ""))
+    if several:
+        fig.suptitle(
+            title if title is not None else f"{name} over {x} and {y}, one panel per planner (★ its best trial)"
+        )
+    else:
+        p = groups[0][0]
+        of = "" if p is None or planner is None else f" of {short_name(p)}"
+        axes[0].set_title(title if title is not None else f"{name} over {x} and {y}{of} (★ best trial)")
+        fig.tight_layout()
     return fig
 
 
@@ -744,9 +1001,9 @@ def plot_pareto(study: Studies, a: str, b: str, *, ax: Axes | None = None, title
     for n in (a, b):
         if n not in study.objectives:
             raise ParamError(f"{n!r} is not an objective of this study ({', '.join(study.objectives)})")
-    table = study.trials
+    table = _by_objective(study, study.trials)
     table = table[table["state"] == "COMPLETE"]
-    front = study.best_trials.sort_values(a)
+    front = _by_objective(study, study.best_trials).sort_values(a)
     fig, ax = _figure_axes(ax, figsize=(6.0, 4.5))
     sa, sb = (100.0 if n in ("gap", "success") else 1.0 for n in (a, b))
     ax.scatter(sa * table[a], sb * table[b], s=16, alpha=0.45, color="#7f7f7f", label="trials")
@@ -890,6 +1147,24 @@ def plot_critical_difference(comparison: Comparison, *, ax: Axes | None = None, 
     return fig
 
 
+#: Line styles, markers and widths of the performance profile's curves: their periods (4, 7, 3) are
+#: coprime, so the (colour, line style, marker, width) of any two of the first 84 curves differ in
+#: more than colour.
+_PROFILE_STYLES = ("-", "--", ":", "-.")
+_PROFILE_MARKERS = ("o", "s", "^", "D", "v", "P", "X")
+_PROFILE_WIDTHS = (3.4, 2.2, 1.3)
+
+
+def _qualitative_colors(n: int) -> list:
+    """``n`` colours of qualitative colormaps, all distinct up to 60: tab10 (up to 10), tab20 (up
+    to 20), else tab20, tab20b and tab20c (then they repeat)."""
+    from matplotlib import colormaps
+
+    names = ["tab10"] if n <= 10 else ["tab20"] if n <= 20 else ["tab20", "tab20b", "tab20c"]
+    colors = [colormaps[name](i) for name in names for i in range(colormaps[name].N)]
+    return [colors[i % len(colors)] for i in range(n)]
+
+
 def plot_performance_profile(
     comparison: Comparison, *, ax: Axes | None = None, title: str | None = None, log2: bool = True
 ) -> Figure:
@@ -897,25 +1172,46 @@ def plot_performance_profile(
     configuration the share ρ(τ) of pairs on which its path length is within a factor τ of the
     best length any configuration reached there (a step function; τ on a log₂ axis by default).
     The value at τ = 1 is the share of pairs it won (ties included); where a line levels off below
-    1 are the pairs it failed. The legend sits beside the axes."""
+    1 are the pairs it failed. The legend sits beside the axes.
+
+    Every curve is told apart by its colour (a qualitative colormap: tab10, tab20 or more, one
+    colour per configuration) and by a line style, a hollow marker and a line width that cycle
+    independently (periods 4, 7 and 3). Markers sit where the curve steps up (τ, ρ(τ)), the values
+    drawn exactly (nothing is offset); wider lines are drawn below narrower ones, with some
+    transparency, so curves that coincide stay visible, and the legend names a curve equal to an
+    earlier one ("same curve as A")."""
     c = _comparison(comparison, "plot_performance_profile")
     profile = c.profile()
     taus = profile.index.to_numpy(float)
     top = taus.max() if taus.size else 1.0
     right = top * 1.1 if top > 1 else 1.1
     fig, ax = _figure_axes(ax, figsize=(7.0, 4.5))
-    styles = ["-", "--", "-.", ":"]
+    colors = _qualitative_colors(len(profile.columns))
+    drawn: list[tuple[str, np.ndarray]] = []
     for n, name in enumerate(profile.columns):
         rho = profile[name].to_numpy(float)
         never = not np.isfinite(c.ratios[name].to_numpy(float)).any()
+        same = next((other for other, r in drawn if np.array_equal(r, rho)), None)
+        drawn.append((name, rho))
+        steps = np.flatnonzero(np.diff(np.concatenate([[0.0], rho])) != 0)  # where ρ steps up
+        width = _PROFILE_WIDTHS[n % len(_PROFILE_WIDTHS)]
         ax.step(
             np.append(taus, right),
             np.append(rho, rho[-1]),
             where="post",
-            linewidth=1.8,
-            color=f"C{n % 10}",
-            linestyle=styles[(n // 10) % len(styles)],
-            label=name + (" (no path: on the τ axis)" if never else ""),
+            linewidth=width,
+            color=colors[n],
+            linestyle=_PROFILE_STYLES[n % len(_PROFILE_STYLES)],
+            marker=_PROFILE_MARKERS[n % len(_PROFILE_MARKERS)],
+            markevery=list(steps),
+            markersize=3.0 + 1.6 * width,
+            markerfacecolor="none",
+            markeredgewidth=1.3,
+            alpha=0.85,
+            zorder=2.0 + 0.1 * (n % len(_PROFILE_WIDTHS)),  # the widths decrease: wider below
+            label=name
+            + (" (no path: on the τ axis)" if never else "")
+            + (f" (same curve as {same})" if same is not None else ""),
             clip_on=False,
         )
     if log2:

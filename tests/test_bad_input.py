@@ -614,6 +614,22 @@ def test_a_misspelt_keyword_is_answered_with_the_closest_names(call, suggestion,
     assert f"(did you mean {suggestion}" in text and listed in text and "\n" not in text
 
 
+def test_a_parameter_some_planners_lack_names_the_planners_that_have_it():
+    """A sweep over several planners: q0 is acs's, not a misspelt q of mmas; a search says the
+    same in the same words (jaco.engine.params.owners)."""
+    with pytest.raises(jaco.JacoError) as e:
+        jaco.sweep(GRID, (0, 0), (3, 5), ["mmas", "acs"], {"q0": [0.5, 0.9]}, 1)
+    text = str(e.value)
+    assert text.startswith("parameter 'q0' belongs to acs only, not to mmas: ") and "did you mean" not in text
+    assert "sweep acs on its own" in text and "\n" not in text
+    with pytest.raises(jaco.JacoError) as e:
+        jaco.sweep(GRID, (0, 0), (3, 5), ["mmas", "acs", "iaca"], {"q0": [0.5]}, 1)
+    assert str(e.value).startswith("parameter 'q0' belongs to acs and iaca only, not to mmas: ")
+    assert "sweep acs and iaca on their own" in str(e.value)
+    with pytest.raises(jaco.JacoError, match=r"^parameter 'q0' is not used by planner 'mmas'; it uses: alpha"):
+        jaco.research.space.parse_space({"q0": (0.5, 0.9)}, "mmas")
+
+
 def test_keyword_checks_keep_the_signature():
     import inspect
 
@@ -628,7 +644,7 @@ def test_the_former_keyword_variant_is_the_planner_keyword():
     b = jaco.solve(GRID, (0, 0), (3, 5), variant="as", seed=2, **SMALL)
     assert a.path.tolist() == b.path.tolist() and a.variant == b.variant == "as"
     t = jaco.sweep(GRID, (0, 0), (3, 5), variant=["as", "acs"], seeds=1, **SMALL)
-    assert list(t["variant"]) == ["as", "acs"]
+    assert list(t["planner"]) == ["as", "acs"]  # the table's column is "planner" (docs/records.md)
     with pytest.raises(jaco.JacoError, match="variant= and planner= are the same argument"):
         jaco.sweep(GRID, (0, 0), (3, 5), variant="as", planner="acs", seeds=1, **SMALL)
     with pytest.raises(jaco.JacoError, match="variant= and planner= are the same argument"):
@@ -638,7 +654,7 @@ def test_the_former_keyword_variant_is_the_planner_keyword():
 
 def test_a_list_of_variants_is_still_a_sweep_axis():
     table = jaco.sweep(GRID, (0, 0), (3, 5), ["as", "acs"], None, 1, **SMALL)
-    assert list(table["variant"]) == ["as", "acs"]
+    assert list(table["planner"]) == ["as", "acs"]
 
 
 def test_huge_png_is_a_clear_error(tmp_path):

@@ -55,7 +55,7 @@ def test_demo_writes_png_and_reports_length_vs_optimum(tmp_path, capsys):
     assert optimum == pytest.approx(exact, abs=1e-3)
     assert length >= optimum - 1e-6
     assert "demo (20x30" in out
-    assert re.search(r"^variant\s+mmas ", out, re.M)
+    assert re.search(r"^planner\s+mmas ", out, re.M)  # one word on screen, as in tables and --by
     assert re.search(r"^success\s+yes", out, re.M)
     assert re.search(r"^best at\s+iteration \d+", out, re.M)
     assert re.search(r"^cells\s+\d+", out, re.M)
@@ -91,6 +91,8 @@ def test_solve_scenario_prints_optimum_and_writes_valid_json(tmp_path, capsys):
     assert doc["seed"] == 3 and doc["n_ants"] == 10 and doc["n_iters"] == 10
     assert doc["metrics"]["valid"] is True
     assert doc["metrics"]["length"] == pytest.approx(doc["length"], abs=1e-4)
+    assert doc["planner"] == "mmas" and "variant" not in doc
+    assert doc["metrics"]["gap"] == doc["gap"]  # one gap per result, jaco.metrics.gap of its length
     assert doc["scenario"]["optimal"] == pytest.approx(sc.optimal)
     assert out_png.read_bytes()[:8] == PNG_MAGIC
 
@@ -191,6 +193,7 @@ def test_sweep_writes_tidy_csv_and_prints_best(tmp_path, capsys):
     assert expected <= set(rows[0])
     assert sorted({float(r["alpha"]) for r in rows}) == [0.5, 2.0]
     assert sorted({int(r["seed"]) for r in rows}) == [0, 1]
+    assert list(rows[0])[0] == "planner" and {r["planner"] for r in rows} == {"mmas"}  # one planner, named
     assert all(float(r["length"]) >= float(r["optimal"]) - 1e-4 for r in rows if r["success"] == "True")
     assert "best: mmas alpha=" in out
     assert "top 2 of 2 configurations" in out
@@ -208,11 +211,11 @@ def test_sweep_over_several_planners_and_a_composition(tmp_path, capsys):
     with out_csv.open() as f:
         rows = list(csv.DictReader(f))
     full = jaco.planners.registry.get_planner(comp).name
-    assert sorted({r["variant"] for r in rows}) == sorted(["acs", full]) and len(rows) == 8
+    assert sorted({r["planner"] for r in rows}) == sorted(["acs", full]) and len(rows) == 8
     demo = jaco.maps.named("demo")
     alone = jaco.sweep(demo, demo.meta["start"], demo.meta["goal"], "acs", {"beta": [2.0, 6.0]}, 2,
                        n_ants=10, n_iters=10)
-    acs = sorted(float(r["length"]) for r in rows if r["variant"] == "acs")
+    acs = sorted(float(r["length"]) for r in rows if r["planner"] == "acs")
     assert acs == pytest.approx(sorted(alone["length"]), rel=1e-6)
     assert "top 4 of 4 configurations" in out and "best: " in out
 
@@ -239,6 +242,81 @@ def test_maps_lists_named_and_bundled(capsys):
     assert code == 0
     for name in list(jaco.maps.NAMED) + list(jaco.maps.BUNDLED):
         assert name in out
+
+
+def test_maps_names_the_folders_that_hold_the_bundled_files(capsys):
+    """Each folder printed exists and holds the files listed under it (data/movingai, data/ros),
+    and every bundled file is listed once."""
+    from pathlib import Path
+
+    code, out, _ = run(capsys, "maps")
+    assert code == 0
+    listed, folder = [], None
+    for line in out.splitlines():
+        if line.startswith("bundled files"):
+            folder = Path(re.fullmatch(r"bundled files in (.+):", line).group(1))
+            assert folder.is_dir(), folder
+        elif folder is not None and line.startswith("  "):
+            assert (folder / line.strip()).is_file(), (folder, line)
+            listed.append(line.strip())
+        else:
+            folder = None
+    assert sorted(listed) == sorted(jaco.maps.BUNDLED)
+    assert {"movingai", "ros"} <= {Path(p).name for p in re.findall(r"bundled files in (.+):", out)}
+
+
+@pytest.mark.parametrize("command", [
+    ["solve"], ["sweep", "--seeds", "1"], ["search", "--param", "beta=1:3"],
+])
+@pytest.mark.parametrize("missing, bare", [
+    ("/nonexistent/den312d.map", "den312d.map"),
+    ("movingai/den312d.map", "den312d.map"),  # the bundled folder's layout is no path either
+    ("/nonexistent/arena", "arena.map"),
+])
+def test_a_path_that_does_not_exist_is_an_error_not_the_bundled_copy(capsys, command, missing, bare):
+    """Every command that takes a map resolves it the same way: a path that does not exist is an
+    error naming the bundled copy's bare name, the only way to reach it."""
+    code, out, err = run(capsys, command[0], missing, *command[1:], *SMALL)
+    assert_user_error(code, err, repr(missing), "not found", f"use its bare name {bare}")
+    assert out == ""
+
+
+def test_a_scenario_path_that_does_not_exist_is_an_error_not_the_bundled_copy(capsys):
+    scen = "/nonexistent/random-32-32-10-even-10.scen"
+    code, _, err = run(capsys, "solve", MAP, "--scen", scen, *SMALL)
+    assert_user_error(code, err, repr(scen), "not found", "use its bare name random-32-32-10-even-10.scen")
+
+
+def test_bare_bundled_names_reach_the_bundled_files(capsys):
+    code, out, err = run(capsys, "solve", "random-32-32-10.map", "--scen", "random-32-32-10-even-10.scen",
+                         "--index", "0", *SMALL)
+    assert code == 0, err
+    assert "random-32-32-10-even-10.scen #0" in out
+
+
+def test_planner_names_are_case_insensitive_and_a_typo_gets_the_closest(capsys):
+    code, out, err = run(capsys, "solve", "demo", "--planner", "IACA", *SMALL)
+    assert code in (0, 4), err
+    assert re.search(r"^(planner|variant)\s+iaca ", out, re.M)
+    code, _, err = run(capsys, "solve", "demo", "--planner", "iacaa", *SMALL)
+    assert_user_error(code, err, "unknown planner 'iacaa'", "did you mean 'iaca'")
+    assert err.index("did you mean") < err.index("registered: acs")
+    code, _, err = run(capsys, "sweep", "demo", "--planner", "mmas", "--planner", "ACSS", "--seeds", "1", *SMALL)
+    assert_user_error(code, err, "unknown planner 'ACSS'", "did you mean 'acs'")
+
+
+def test_a_sweep_parameter_that_some_planners_lack_names_the_planners_that_have_it(capsys):
+    """q0 belongs to acs: the message says so, as a search's does, and suggests no other name."""
+    code, _, err = run(capsys, "sweep", "demo", "--planner", "mmas", "--planner", "acs", "--param", "q0=0.5,0.9",
+                       "--seeds", "1", *SMALL)
+    assert_user_error(code, err, "parameter 'q0' belongs to acs only, not to mmas", "sweep acs on its own")
+    assert "did you mean" not in err
+    code, _, err = run(capsys, "search", "demo", "--planner", "mmas", "--planner", "acs", "--param", "q0=0.5:0.9",
+                       "--sampler", "grid", *SMALL)
+    assert_user_error(code, err, "parameter 'q0' belongs to acs only, not to mmas")
+    code, _, err = run(capsys, "search", "demo", "--planner", "mmas", "--planner", "as", "--param", "q0=0.5:0.9",
+                       *SMALL)
+    assert_user_error(code, err, "parameter 'q0' is not used by any of the planners mmas, as; they use: alpha")
 
 
 def test_help_returns_zero(capsys):
@@ -319,7 +397,7 @@ def test_den312d_query_fails_with_a_hint_and_exit_4_and_iaca_solves_it(capsys):
     assert code == 4, err
     assert re.search(r"^length\s+none: no ant reached the goal", out, re.M)
     hint = out[out.index("\nhint"):]
-    assert "--variant iaca" in hint and "--ants 40" in hint and "--param beta=16" in hint
+    assert "--planner iaca" in hint and "--ants 40" in hint and "--param beta=16" in hint
     assert re.search(r"^time\s+[\d.]+ s \(since the command started", out, re.M)
     code, out, err = run(capsys, *query, "--variant", "iaca")
     assert code == 0, err
@@ -394,8 +472,8 @@ def test_sweep_over_a_bucket_of_scenarios_in_one_command(tmp_path, capsys):
     assert starts == sorted({s.start for s in chosen}) and table.start_row.dtype.kind == "i"
     assert sorted(set(table.optimal.round(3))) == sorted(round(s.optimal, 3) for s in chosen)
     head = out[out.index("top 4 of 4"):].splitlines()[1]
-    assert head.split() == ["variant", "beta", "success_%", "gap_median_%", "gap_q1_%", "gap_q3_%", "gap_mean_%", "runs"]
-    assert "backtrack/chaos/iaca" in out and f"jaco compare {out_csv}" in out
+    assert head.split() == ["planner", "beta", "success_%", "gap_median_%", "gap_q1_%", "gap_q3_%", "gap_mean_%", "runs"]
+    assert "backtrack/chaos/iaca" in out and f"jaco compare {out_csv} --by planner --by beta" in out
     rows = out[out.index("top 4 of 4"):].splitlines()[2:6]
     assert all(r.split()[-1] == "6" for r in rows)  # 2 seeds x 3 queries per configuration
     assert rows[0].startswith(("mmas ", "backtrack/chaos/iaca ")), rows  # names left-aligned
@@ -439,6 +517,88 @@ def test_selection_mistakes_are_one_line(capsys, args, needle):
     assert_user_error(code, err, "--bucket needs --scen")
 
 
+def _interrupted_after(monkeypatch, module, name, exc=KeyboardInterrupt):
+    """``module.name`` runs as it is, then raises ``exc``: a stop after its work was done (and stored)."""
+    real = getattr(module, name)
+
+    def stopped(*a, **k):
+        stopped.result = real(*a, **k)
+        raise exc()
+
+    monkeypatch.setattr(module, name, stopped)
+    return stopped
+
+
+def test_an_interrupted_sweep_says_what_it_kept_and_how_to_resume(tmp_path, capsys, monkeypatch):
+    from jaco.cli import Terminated
+    from jaco.research import sweeps
+
+    sweep = ["sweep", "demo", "--planner", "acs", "--param", "beta=1,2", "--seeds", "3", *SMALL]
+    stopped = _interrupted_after(monkeypatch, sweeps, "sweep")
+    code, _, err = run(capsys, *sweep)
+    assert code == 130
+    assert err.strip().splitlines()[-1] == "jaco: interrupted: nothing was kept (add --store FILE to keep finished chunks)"
+    db = str(tmp_path / "s.db")
+    code, _, err = run(capsys, *sweep, "--store", db, "--chunk", "2")
+    assert code == 130 and len(stopped.result) == 6
+    assert err.strip().splitlines()[-1] == f"jaco: interrupted: 6 runs stored in {db}; the same command resumes"
+    monkeypatch.undo()
+    _interrupted_after(monkeypatch, sweeps, "sweep", Terminated)  # runs again, all 6 found in the store
+    code, _, err = run(capsys, *sweep, "--store", db)
+    assert code == 143
+    assert err.strip().splitlines()[-1] == f"jaco: terminated: 6 runs stored in {db}; the same command resumes"
+
+
+def test_a_sweep_interrupted_before_a_chunk_finished_says_so(tmp_path, capsys, monkeypatch):
+    from jaco.research import sweeps
+
+    def stopped(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(sweeps, "sweep", stopped)
+    db = str(tmp_path / "s.db")
+    code, _, err = run(capsys, "sweep", "demo", "--seeds", "1", "--store", db, *SMALL)
+    assert code == 130
+    assert err.strip().splitlines()[-1] == (
+        f"jaco: interrupted: no chunk had finished, nothing new stored in {db}; the same command resumes"
+    )
+
+
+def test_an_interrupted_search_says_what_it_kept_and_how_to_resume(tmp_path, capsys, monkeypatch):
+    pytest.importorskip("optuna")
+    from jaco.research import search
+
+    args = ["search", "demo", "--planner", "acs", "--param", "beta=1:10:log", "--trials", "3", "--batch", "3",
+            "--seeds", "1", "--sampler", "random", *SMALL]
+    _interrupted_after(monkeypatch, search, "search")
+    code, _, err = run(capsys, *args)
+    assert code == 130
+    assert err.strip().splitlines()[-1] == (
+        "jaco: interrupted: nothing was kept (add --storage FILE.db to keep finished trials)"
+    )
+    db = str(tmp_path / "study.db")
+    code, _, err = run(capsys, *args, "--storage", db)
+    assert code == 130
+    assert err.strip().splitlines()[-1] == f"jaco: interrupted: 3 trials stored in {db}; the same command resumes"
+
+
+def test_the_search_history_plot_has_a_log_axis_unless_linear(tmp_path, capsys, monkeypatch):
+    """The failures' penalties (over 1000 %) would flatten the successful trials' gaps on a linear
+    axis: --plot draws the history on a log axis (symlog where a gap is 0), --linear on a linear one."""
+    pytest.importorskip("optuna")
+    scales = []
+    real = jaco.plot.save
+    monkeypatch.setattr(jaco.plot, "save", lambda fig, *a, **k: scales.append(fig.axes[0].get_yscale()) or real(fig, *a, **k))
+    args = ["search", "demo", "--planner", "acs", "--param", "beta=1:10:log", "--trials", "3", "--batch", "3",
+            "--seeds", "1", "--sampler", "random", *SMALL]
+    for extra in ([], ["--linear"]):
+        code, _, err = run(capsys, *args, "--plot", str(tmp_path / "h.png"), *extra)
+        assert code in (0, 4), err
+    assert scales[0] in ("log", "symlog") and scales[1] == "linear"
+    code, _, err = run(capsys, *args, "--linear")
+    assert_user_error(code, err, "--linear", "--plot")
+
+
 def test_a_reader_that_leaves_early_ends_the_command_quietly():
     """``jaco planners | head -1``: when the reader closes the pipe, jaco stops without an error
     message, with the shell's status for a writer whose reader left (128 + SIGPIPE)."""
@@ -448,3 +608,42 @@ def test_a_reader_that_leaves_early_ends_the_command_quietly():
     proc.stdout.close()  # the reader is gone before jaco writes its first line
     err = proc.stderr.read()
     assert proc.wait(timeout=120) == 141 and err == "", err
+
+
+# -- one word for the planner; a sweep's compare hint runs as printed ---------------------------------
+def test_a_sweep_over_beta_and_rho_suggests_a_compare_command_that_runs_as_printed(tmp_path, capsys):
+    """One planner over beta x rho: the CSV names its planner, the suggested command carries every
+    swept column, and run as printed it compares; without them the error names them all, as options."""
+    import shlex
+
+    out_csv = tmp_path / "den sweep.csv"  # a space: the printed path is quoted for the shell
+    code, out, err = run(capsys, "sweep", "demo", "--planner", "acs", "--param", "beta=2,6", "--param", "rho=0.1,0.3",
+                         "--seeds", "3", *SMALL, "--csv", str(out_csv))
+    assert code == 0, err
+    line = next(x for x in out.splitlines() if "jaco compare" in x)
+    command = line[line.index("jaco compare"):]
+    assert command.endswith("--by planner --by beta --by rho"), command
+    argv = shlex.split(command)
+    assert argv[2] == str(out_csv)
+    code, out, err = run(capsys, *argv[1:], "--boot", "50")
+    assert code == 0, err
+    assert "4 configurations (planner, beta, rho) compared on gap" in out and "acs, beta=2, rho=0.1" in out
+    code, _, err = run(capsys, "compare", str(out_csv), "--boot", "50")  # by planner alone: the hint, as options
+    assert_user_error(code, err, "columns 'beta', 'rho' vary", "--by planner --by beta --by rho")
+    assert "by=[" not in err
+    code, out, err = run(capsys, "compare", str(out_csv), "--by", "variant", "--by", "beta", "--by", "rho", "--boot", "50")
+    assert code == 0, err  # --by variant: the planner column's former name
+
+
+def test_solve_json_loads_as_one_flat_row(tmp_path, capsys):
+    """The JSON of jaco solve is nested (a path, a history, metrics): pd.read_json does not read
+    it, json.load + pd.json_normalize gives one flat row (docs/results.md)."""
+    import pandas as pd
+
+    out_json = tmp_path / "r.json"
+    code, _, err = run(capsys, "solve", "demo", *SMALL, "--json", str(out_json))
+    assert code == 0, err
+    with out_json.open() as f:
+        row = pd.json_normalize(json.load(f))
+    assert len(row) == 1 and row.loc[0, "planner"] == "mmas"
+    assert row.loc[0, "gap"] == row.loc[0, "metrics.gap"]

@@ -35,7 +35,7 @@ def table_of(columns: dict, optimal=100.0) -> pd.DataFrame:
         for seed, g in enumerate(gaps):
             rows.append(
                 dict(
-                    variant=name, seed=seed, success=math.isfinite(g), gap=g, optimal=optimal, length=optimal * (1 + g)
+                    planner=name, seed=seed, success=math.isfinite(g), gap=g, optimal=optimal, length=optimal * (1 + g)
                 )
             )
     return pd.DataFrame(rows)
@@ -161,7 +161,7 @@ def test_blocks_by_query_take_the_median_over_seeds():
             for seed in range(3):
                 rows.append(
                     dict(
-                        variant=name,
+                        planner=name,
                         map="m",
                         start_row=q,
                         start_col=0,
@@ -192,9 +192,9 @@ def test_performance_profile_by_hand():
 def test_configurations_of_several_columns_and_short_names():
     t = table_of({"iaca": A, COMPOSED: B})
     t = pd.concat([t.assign(beta=8.0), t.assign(beta=16.0, gap=t.gap + 0.01)], ignore_index=True)
-    with pytest.raises(jaco.JacoError, match=r"column 'beta' varies .*by=\['variant', 'beta'\]"):
+    with pytest.raises(jaco.JacoError, match=r"column 'beta' varies .*by=\['planner', 'beta'\]"):
         cmp.compare(t)
-    c = cmp.compare(t, by=["variant", "beta"], n_boot=20)
+    c = cmp.compare(t, by=["planner", "beta"], n_boot=20)
     assert set(c.summary["configuration"]) == {
         "iaca, beta=8",
         "iaca, beta=16",
@@ -206,13 +206,13 @@ def test_configurations_of_several_columns_and_short_names():
 @pytest.mark.parametrize(
     "kw, match",
     [
-        (dict(value="variant"), "must be a column of numbers"),
+        (dict(value="planner"), "must be a column of numbers"),
         (dict(by="nope"), "no column 'nope'"),
         (dict(blocks="map"), "blocks must be"),
         (dict(alpha=1.5), "alpha must be"),
         (dict(n_boot=0), "n_boot"),
         (dict(pairing=["query"]), "pairing column 'query'"),
-        (dict(pairing="variant"), "pairing column 'variant'"),
+        (dict(pairing="planner"), "pairing column 'planner'"),
     ],
 )
 def test_bad_calls_are_one_line(kw, match):
@@ -270,10 +270,11 @@ def test_cli_compare_on_a_saved_table_old_and_new_layout(tmp_path, capsys):
     t = table_of({"A": A, "B": B, "C": C}).assign(map="m", start_row=1, start_col=2, goal_row=3, goal_col=4)
     new = tmp_path / "new.csv"
     new.write_text(csv_text(t))
-    old = tmp_path / "old.csv"  # the layout of older jaco: start and goal as "(row, col)" text
-    t.drop(columns=["start_row", "start_col", "goal_row", "goal_col"]).assign(start="(1, 2)", goal="(3, 4)").to_csv(
-        old, index=False
-    )
+    old = tmp_path / "old.csv"  # the layout of older jaco: "variant", start and goal as "(row, col)" text
+    t.drop(columns=["start_row", "start_col", "goal_row", "goal_col"]).assign(start="(1, 2)", goal="(3, 4)").rename(
+        columns={"planner": "variant"}
+    ).to_csv(old, index=False)
+    assert old.read_text().startswith("variant,")
     outputs = []
     for path in (new, old):
         code = main(
@@ -295,10 +296,68 @@ def test_cli_compare_on_a_saved_table_old_and_new_layout(tmp_path, capsys):
     assert "A is better than B: signed ranks favour A 36 to 0; A better on 8 of 8 pairs" in outputs[0]
     assert "Wilcoxon" in outputs[0]
     assert (tmp_path / "cd.png").read_bytes()[:4] == b"\x89PNG" and (tmp_path / "p.svg").read_text().startswith("<?xml")
-    code = main(["compare", str(new), "--where", "variant=A", "--boot", "10"])
+    code = main(["compare", str(new), "--where", "planner=A", "--boot", "10"])
     assert code == 2 and "one configuration" in capsys.readouterr().err
+    # the former word still works on either table: --by variant and --where variant=... are the planner
+    for path in (new, old):
+        assert main(["compare", str(path), "--by", "variant", "--where", "variant=A", "--boot", "10"]) == 2
+        assert "one configuration of ['planner']" in capsys.readouterr().err
+        assert main(["compare", str(path), "--by", "variant", "--boot", "300"]) == 0
+        assert outputs[0].startswith(capsys.readouterr().out.split("\n", 1)[1])  # the same, less the figures
     code = main(["compare", str(tmp_path / "missing.csv")])
     assert code == 2 and "not found" in capsys.readouterr().err
+
+
+def test_an_old_table_with_a_variant_column_still_compares():
+    """Tables written before planners had one name call the planner column ``variant``: it is read as
+    ``planner``; ``by="variant"`` is ``by="planner"`` (a DeprecationWarning), on either table."""
+    new = table_of({"A": A, "B": B, "C": C})
+    old = new.rename(columns={"planner": "variant"})
+    expected = cmp.compare(new, n_boot=50)
+    for table in (old, new):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", DeprecationWarning)
+            if table is old:
+                c = cmp.compare(table, n_boot=50)  # the default: the planner column, by its new name
+                assert c.by == ["planner"] and c.text == expected.text
+        with pytest.warns(DeprecationWarning, match="'variant' is the former name of the planner column"):
+            c = cmp.compare(table, by="variant", n_boot=50)
+        assert c.by == ["planner"] and c.text == expected.text
+    assert expected.text.startswith("3 configurations (planner) compared on gap")
+    with pytest.warns(DeprecationWarning):
+        s = jaco.summarize(new.assign(length=new.length, cost=new.length, best_iteration=1, coverage=0.5), by="variant")
+    assert list(s["planner"]) == ["A", "B", "C"]
+
+
+def test_every_varying_column_is_named_at_once():
+    """A table over β and ρ compared by planner names both columns in one hint, and the hint's
+    by runs as given."""
+    base = table_of({"A": A, "B": B})
+    t = pd.concat(
+        [base.assign(beta=b, rho=r, config=i, gap=base.gap + 0.01 * i) for i, (b, r) in
+         enumerate([(2.0, 0.1), (2.0, 0.3), (6.0, 0.1), (6.0, 0.3)])],
+        ignore_index=True,
+    )
+    with pytest.raises(cmp.ByError, match=r"columns 'beta', 'rho' vary .*by=\['planner', 'beta', 'rho'\]") as e:
+        cmp.compare(t)
+    assert e.value.by == ["planner", "beta", "rho"] and "\n" not in str(e.value)
+    c = cmp.compare(t, by=e.value.by, n_boot=20)
+    assert len(c.summary) == 8 and "A, beta=2, rho=0.1" in set(c.summary["configuration"])
+    # a setting changing inside a configuration (not a pair): every such column in one hint too
+    t = table_of({"A": A, "B": B}).assign(beta=8.0, rho=0.1)
+    t.loc[(t.planner == "A") & (t.seed == 0), ["beta", "rho"]] = [16.0, 0.5]
+    with pytest.raises(cmp.ByError, match=r"column 'beta' changes .*; so do 'rho': add them to by") as e:
+        cmp.compare(t)
+    assert e.value.by == ["planner", "beta", "rho"]
+
+
+def test_a_table_without_seed_says_that_seed_is_missing():
+    t = table_of({"A": A, "B": B}).drop(columns="seed").assign(map="m", start_row=0, start_col=0, goal_row=1, goal_col=1)
+    with pytest.raises(jaco.JacoError, match=r"the table has no 'seed' column, so the repeated runs") as e:
+        cmp.compare(t)
+    assert "repeats runs" not in str(e.value) and "\n" not in str(e.value)
+    with pytest.raises(jaco.JacoError, match=r"the table repeats runs"):  # a seed column, the same run twice
+        cmp.compare(pd.concat([table_of({"A": A, "B": B})] * 2, ignore_index=True))
 
 
 def test_short_names_and_percent():
@@ -335,13 +394,13 @@ def test_short_names_and_percent():
 HAIR_A = np.full(40, 0.10)
 FAR_B = np.r_[0.101 + 0.0001 * np.arange(21), 0.05 - 0.001 * np.arange(19)]
 HAIR_AND_FAR = pd.DataFrame(
-    {"variant": ["A"] * 40 + ["B"] * 40, "seed": list(range(40)) * 2, "gap": np.r_[HAIR_A, FAR_B]}
+    {"planner": ["A"] * 40 + ["B"] * 40, "seed": list(range(40)) * 2, "gap": np.r_[HAIR_A, FAR_B]}
 )
 
 
 def test_winner_is_the_side_the_signed_ranks_favour_not_the_pair_count():
     a, b = HAIR_A, FAR_B
-    c = jaco.compare(HAIR_AND_FAR, by="variant", n_boot=100)
+    c = jaco.compare(HAIR_AND_FAR, by="planner", n_boot=100)
     row = c.pairwise.iloc[0]
     # by hand: A's 21 differences (0.001 ... 0.003) are the 21 smallest magnitudes, ranks 1..21
     assert (row.a_rank_sum, row.b_rank_sum) == (sum(range(1, 22)), sum(range(22, 41))) == (231, 589)
@@ -413,7 +472,7 @@ def test_every_claimed_winner_has_the_larger_rank_sum_and_a_significant_p(table,
 # -- unequal pairs, NaN pairs, settings that change ------------------------------------------
 def test_a_configuration_missing_pairs_warns_and_says_over_how_many_runs(tmp_path, capsys):
     t = table_of({"A": A, "B": B, "C": C})
-    t = t[~((t.variant == "C") & t.seed.isin([6, 7]))]  # C lacks seeds 6 and 7
+    t = t[~((t.planner == "C") & t.seed.isin([6, 7]))]  # C lacks seeds 6 and 7
     with pytest.warns(cmp.UnequalPairsWarning, match=r"of 8 pairs: A on 8; B on 8; C on 6\)") as w:
         c = cmp.compare(t, n_boot=50)
     assert len(w) == 1 and "\n" not in str(w[0].message)
@@ -446,18 +505,18 @@ def test_a_nan_seed_is_one_line():
     t = table_of({"A": A, "B": B})
     t["seed"] = t["seed"].astype(float)
     t.loc[3, "seed"] = np.nan
-    with pytest.raises(jaco.JacoError, match=r"pairing column 'seed' is empty \(NaN\) on 1 run \(variant=A\)") as e:
+    with pytest.raises(jaco.JacoError, match=r"pairing column 'seed' is empty \(NaN\) on 1 run \(planner=A\)") as e:
         cmp.compare(t)
     assert "\n" not in str(e.value)
 
 
 def test_a_setting_that_changes_within_a_configuration_is_named():
     t = table_of({"A": A, "B": B}).assign(beta=8.0)
-    t.loc[(t.variant == "A") & (t.seed == 0), "beta"] = 16.0
+    t.loc[(t.planner == "A") & (t.seed == 0), "beta"] = 16.0
     with pytest.raises(
         jaco.JacoError,
         match=r"column 'beta' changes within configuration A \(8 on 7 runs, 16 on "
-        r"1 run\): add it to by \(by=\['variant', 'beta'\]\)",
+        r"1 run\): add it to by \(by=\['planner', 'beta'\]\)",
     ) as e:
         cmp.compare(t)
     assert "\n" not in str(e.value)
@@ -475,7 +534,7 @@ def test_empty_tables_have_no_rows(tmp_path, capsys):
         with pytest.raises(jaco.JacoError, match=r"^compare: the table has no rows$"):
             cmp.compare(t)
     path = tmp_path / "header.csv"
-    path.write_text("variant,seed,success,gap,optimal,length\n")
+    path.write_text("planner,seed,success,gap,optimal,length\n")
     with pytest.raises(jaco.JacoError, match=r"^compare: the table has no rows$"):
         cmp.compare(jaco.research.tables.read_table(path))
     assert main(["compare", str(path)]) == 2
@@ -487,16 +546,16 @@ def test_nan_length_and_negative_infinite_gap_are_refused():
     t.loc[3, "length"] = np.nan  # its gap is finite: the profile would count the run unsolved
     with pytest.raises(
         jaco.JacoError,
-        match=r"column 'length' is empty \(NaN\) on 1 run \(variant=A, seed=3\); "
+        match=r"column 'length' is empty \(NaN\) on 1 run \(planner=A, seed=3\); "
         r"a failed run is \+inf",
     ):
         cmp.compare(t)
     t = table_of({"A": A, "B": B})
     t.loc[10, "gap"] = -INF
-    with pytest.raises(jaco.JacoError, match=r"column 'gap' is -inf on 1 run \(variant=B, seed=2\)"):
+    with pytest.raises(jaco.JacoError, match=r"column 'gap' is -inf on 1 run \(planner=B, seed=2\)"):
         cmp.compare(t)
     t.loc[10, "gap"], t.loc[11, "length"] = 0.2, -INF
-    with pytest.raises(jaco.JacoError, match=r"column 'length' is -inf on 1 run \(variant=B, seed=3\)"):
+    with pytest.raises(jaco.JacoError, match=r"column 'length' is -inf on 1 run \(planner=B, seed=3\)"):
         cmp.compare(t)
 
 
@@ -519,9 +578,9 @@ def test_a_bootstrap_interval_depends_only_on_its_configuration_and_the_seed():
     assert (one.loc[["A", "B"], "gap_median_low"] < one.loc[["A", "B"], "gap_median_high"]).all()  # not degenerate
     shuffled = cmp.compare(t.sample(frac=1.0, random_state=2), n_boot=300, seed=5).summary.set_index("configuration")
     pd.testing.assert_frame_equal(shuffled.loc[["A", "B", "C"], cols], one.loc[["A", "B", "C"], cols])
-    without_c = cmp.compare(t[t.variant != "C"], n_boot=300, seed=5).summary.set_index("configuration")
+    without_c = cmp.compare(t[t.planner != "C"], n_boot=300, seed=5).summary.set_index("configuration")
     pd.testing.assert_frame_equal(without_c.loc[["A", "B"], cols], one.loc[["A", "B"], cols])
-    renamed = cmp.compare(t.replace({"variant": {"C": "Z"}}), n_boot=300, seed=5).summary.set_index("configuration")
+    renamed = cmp.compare(t.replace({"planner": {"C": "Z"}}), n_boot=300, seed=5).summary.set_index("configuration")
     pd.testing.assert_frame_equal(renamed.loc[["A", "B"], cols], one.loc[["A", "B"], cols])
 
 
@@ -534,7 +593,7 @@ def test_blocks_by_query_with_missing_seeds_use_each_configurations_own_runs():
             for seed in seeds:
                 rows.append(
                     dict(
-                        variant=name,
+                        planner=name,
                         map="m",
                         start_row=q,
                         start_col=0,

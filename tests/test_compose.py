@@ -190,17 +190,17 @@ def test_a_sweep_over_planners_is_a_categorical_axis(tmp_path):
     planners = ["mmas", compose(construct="backtrack", rule="mmas"), "compose(heuristic=iaaco, rule=acs)"]
     table = jaco.sweep(GRID, *ENDS, planners, params={"beta": [2.0, 6.0]}, seeds=2, **TINY)
     names = [jaco.planners.registry.get_planner(p).name for p in planners]
-    assert list(table.columns[:1]) == ["variant"] and table["variant"].unique().tolist() == names
+    assert list(table.columns[:1]) == ["planner"] and table["planner"].unique().tolist() == names
     assert len(table) == 3 * 2 * 2 and set(table.attrs["sweep"]) == set(names)
     for p, name in zip(planners, names):  # each planner's rows are its own sweep's
         alone = jaco.sweep(GRID, *ENDS, p, params={"beta": [2.0, 6.0]}, seeds=2, **TINY)
-        mine = table[table["variant"] == name].drop(columns="variant").dropna(axis=1, how="all").reset_index(drop=True)
+        mine = table[table["planner"] == name].dropna(axis=1, how="all").reset_index(drop=True)
         pd.testing.assert_frame_equal(mine, alone[mine.columns], check_exact=True)
     summary = jaco.summarize(table)
-    assert len(summary) == 3 * 2 and summary["variant"].nunique() == 3  # planners' own parameters stay apart
+    assert len(summary) == 3 * 2 and summary["planner"].nunique() == 3  # planners' own parameters stay apart
     jaco.research.records.save_sweep(table, tmp_path / "s.csv", GRID, *ENDS, planners, {"beta": [2.0, 6.0]}, 2, **TINY)
     assert jaco.load_run(tmp_path / "s.csv").rerun().matched
-    with pytest.raises(jaco.ParamError, match="unknown parameter 'p_best'"):
+    with pytest.raises(jaco.ParamError, match="parameter 'p_best' belongs to mmas only"):
         jaco.sweep(GRID, *ENDS, ["mmas", "acs"], params={"p_best": [0.05]}, seeds=1, **TINY)
     with pytest.raises(jaco.JacoError, match="listed twice"):
         jaco.sweep(GRID, *ENDS, ["mmas", "mmas"], seeds=1, **TINY)

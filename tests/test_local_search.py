@@ -266,8 +266,8 @@ def test_a_sweep_takes_local_search_as_a_categorical_axis_and_its_record_reruns(
     ends = grid.meta["start"], grid.meta["goal"]
     names = ["iaca", "iaca+shortcut"]
     table = jaco.sweep(grid, *ends, names, params={"beta": [4.0, 8.0]}, seeds=2, **SMALL)
-    assert list(table.variant.unique()) == names and len(table) == 8
-    for _, row in table[table.variant == "iaca+shortcut"].iterrows():
+    assert list(table.planner.unique()) == names and len(table) == 8
+    for _, row in table[table.planner == "iaca+shortcut"].iterrows():
         r = jaco.solve(grid, *ends, "iaca+shortcut", seed=int(row.seed), beta=row.beta, **SMALL)
         assert row.length == r.length and row.best_iteration == r.best_iteration
     save_sweep(table, tmp_path / "s.csv", grid, *ends, names, {"beta": [4.0, 8.0]}, 2, **SMALL)

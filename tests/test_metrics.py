@@ -266,6 +266,22 @@ def test_path_metrics_dict():
 
 
 # -- performance indices -----------------------------------------------------------------------
+def test_a_result_has_one_gap():
+    """``Result.metrics()["gap"]`` (``metrics.gap`` of ``jaco solve --json``) is the result's own gap,
+    :func:`gap` of its length: 0 exactly on an optimal path, never a second value from the path's
+    float64 length (which would read -2.6e-08 or 2.3e-08 beside 0)."""
+    import jaco
+
+    g = jaco.maps.named("demo")
+    r = jaco.solve(g, g.meta["start"], g.meta["goal"], "acs", seed=1, n_ants=10, n_iters=10, beta=6, rho=0.1,
+                   progress=False)
+    assert r.success and r.gap == gap(r.length, r.optimal) == 0.0  # this run finds the optimum
+    assert path_metrics(g, r.path, optimal=r.optimal)["gap"] != 0.0  # the float64 re-sum of the path differs
+    assert r.metrics()["gap"] == r.gap and r.to_dict()["gap"] == r.gap
+    failed = jaco.solve(g, g.meta["start"], g.meta["goal"], "acs", n_ants=2, n_iters=1, steplimit=3, progress=False)
+    assert not failed.success and failed.metrics()["gap"] == failed.gap == math.inf
+
+
 def test_performance_indices_by_hand():
     out = performance_indices(
         best_lengths=[10.0, 12.0, math.inf, 14.0],

@@ -290,7 +290,7 @@ def test_solve_json_to_proc_self_fd_1(capfd):
     code = main(["solve", "demo", "--ants", "4", "--iters", "3", "--json", "/proc/self/fd/1"])
     out, err = capfd.readouterr()
     assert code == 0, err
-    assert json.loads(out)["variant"] == "mmas" and "map       demo" in err
+    assert json.loads(out)["planner"] == "mmas" and "map       demo" in err
 
 
 def test_sweep_csv_to_standard_output(capsys, tmp_path):

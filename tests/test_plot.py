@@ -307,3 +307,234 @@ def test_a_text_column_where_numbers_are_needed_is_one_line(call):
     with pytest.raises(jaco.ParamError, match=r"^value 'variant' is a column of text \('iaca', .*needs numbers") as e:
         call(_planner_table())
     assert "\n" not in str(e.value)
+
+
+def test_sweep_box_reads_a_planner_column_as_the_planner():
+    """Tables name the planner ``planner`` (``variant`` before): both are shown by short names."""
+    table = _planner_table().rename(columns={"variant": "planner"})
+    fig = jaco.plot.plot_sweep_box(table, by=["planner", "beta"], value="length")
+    labels = [t.get_text() for t in fig.axes[0].get_xticklabels()]
+    assert labels == ["iaca, beta=8", "iaca, beta=16\n(1 failed)", "backtrack/chaos/iaca, beta=8",
+                      "backtrack/chaos/iaca, beta=16"]
+
+
+# -- searches -----------------------------------------------------------------------------------
+def _search_study(rows, objective="gap", planners=("acs", "mmas", "iaca"), column=None):
+    """A jaco search Study made by hand (no runs): one finished trial per row ``(planner, beta,
+    rho, value)``. ``column``: the name the trials table gives the planner (``planner`` or the older
+    ``variant``), whichever jaco writes now."""
+    optuna = pytest.importorskip("optuna")
+    from optuna.distributions import CategoricalDistribution, FloatDistribution
+
+    from jaco.research import search as S
+
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    study = optuna.create_study(direction="maximize" if objective == "success" else "minimize")
+    space = {"variant": list(planners), "beta": "1:20:log", "rho": "0.05:0.6"}
+    study.set_user_attr(S.ATTR, {"format": S.FORMAT, "format_version": S.FORMAT_VERSION, "space": space,
+                                 "objectives": [objective], "sampler": "tpe"})
+    dists = {"variant": CategoricalDistribution(list(planners)), "beta": FloatDistribution(1.0, 20.0, log=True),
+             "rho": FloatDistribution(0.05, 0.6)}
+    for k, (planner, beta, rho, value) in enumerate(rows):
+        runs = {"8": {"success": [[True]], "gap": [[value]], "length": [[1.0 + value]]}}
+        study.add_trial(optuna.trial.create_trial(
+            params={"variant": planner, "beta": beta, "rho": rho}, distributions=dists, value=value,
+            user_attrs={"jaco_trial": {"planner": planner, "generation": k, "params": {}, "n_ants": 1},
+                        "jaco_runs": runs}))
+    out = S.Study(study)
+    if column is not None:
+        table = out.trials
+        renamed = table.rename(columns={c: column for c in ("variant", "planner") if c in table.columns})
+        out.__class__ = type("RenamedStudy", (S.Study,), {"trials": property(lambda self: renamed)})
+    return out
+
+
+def _three_planners(n=12, seed=0):
+    """acs improves with beta, iaca with rho, mmas fails everywhere (one penalty value)."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for planner in ("acs", "mmas", "iaca"):
+        for beta, rho in zip(rng.uniform(1.0, 20.0, n), rng.uniform(0.05, 0.6, n)):
+            value = {"acs": 0.01 * beta, "mmas": 1.0, "iaca": 0.2 * rho}[planner]
+            rows.append((planner, float(beta), float(rho), value))
+    return rows
+
+
+def _panels(fig):
+    return [a for a in fig.axes if any(c.get_label() == "trials" for c in a.collections)]
+
+
+@pytest.mark.parametrize("column", ["planner", "variant"])
+def test_search_contour_draws_one_panel_per_planner_with_its_own_trials(column):
+    rows = _three_planners()
+    study = _search_study(rows, column=column)
+    fig = jaco.plot.plot_search_contour(study, "beta", "rho")
+    panels = _panels(fig)
+    assert len(panels) == 3 and len(fig.axes) == 4  # one panel per planner and one colour bar
+    norms = set()
+    for ax, planner in zip(panels, ("acs", "mmas", "iaca")):  # the space's order
+        assert ax.get_title().startswith(f"{planner} (12 trials")
+        (points,) = [c for c in ax.collections if c.get_label() == "trials"]
+        mine = sorted((b, r) for p, b, r, _ in rows if p == planner)
+        np.testing.assert_allclose(sorted(map(tuple, points.get_offsets())), mine)
+        np.testing.assert_allclose(sorted(points.get_array()), sorted(100 * v for p, _, _, v in rows if p == planner))
+        norms.add((points.norm.vmin, points.norm.vmax))
+        stars = [c for c in ax.collections if c.get_label().startswith("best")]
+        if planner == "mmas":  # all its trials fail alike: no best trial to star
+            assert not stars and "all equal" in ax.get_title()
+        else:
+            best = min((v, b, r) for p, b, r, v in rows if p == planner)
+            np.testing.assert_allclose(stars[0].get_offsets()[0], best[1:])
+    assert norms == {(100 * min(r[3] for r in rows), 100 * max(r[3] for r in rows))}  # one colour scale
+    assert len(panels[0].get_shared_x_axes().get_siblings(panels[0])) == 3
+
+
+def test_search_contour_draws_one_planner_when_asked_and_refuses_a_mix_in_one_axes():
+    rows = _three_planners()
+    study = _search_study(rows)
+    fig = jaco.plot.plot_search_contour(study, "beta", "rho", planner="iaca")
+    (ax,) = _panels(fig)
+    (points,) = [c for c in ax.collections if c.get_label() == "trials"]
+    np.testing.assert_allclose(sorted(map(tuple, points.get_offsets())), sorted((b, r) for p, b, r, _ in rows if p == "iaca"))
+    assert "of iaca" in ax.get_title()
+    fig, ax = plt.subplots()
+    try:
+        with pytest.raises(jaco.ParamError, match=r"span 3 planners \(acs, mmas, iaca\).*planner="):
+            jaco.plot.plot_search_contour(study, "beta", "rho", ax=ax)
+        assert jaco.plot.plot_search_contour(study, "beta", "rho", ax=ax, planner="acs") is fig
+    finally:
+        plt.close(fig)
+    with pytest.raises(jaco.ParamError, match=r"no finished trial of planner 'ras' .*acs, mmas, iaca"):
+        jaco.plot.plot_search_contour(study, "beta", "rho", planner="ras")
+    for c in ("planner", "variant"):
+        with pytest.raises(jaco.ParamError, match="is not a searched number"):
+            jaco.plot.plot_search_contour(_search_study(rows, column=c), c, "rho")
+
+
+def test_planner_effect_is_eta_squared():
+    # acs 0.1, 0.2, 0.3 (mean 0.2), mmas 1, 1, 1 (mean 1), all: mean 0.6
+    # between: 3 * 0.4² + 3 * 0.4² = 0.96; total: 0.4² + 0.4² + 0.3² + 3 * 0.4² ... by hand:
+    # (0.5² + 0.4² + 0.3²) + 3 * 0.4² = 0.5 + 0.48 = 0.98; η² = 0.96 / 0.98 = 48/49
+    values = [0.1, 0.2, 0.3, 1.0, 1.0, 1.0]
+    planners = ["acs"] * 3 + ["mmas"] * 3
+    assert jaco.plot._planner_effect(values, planners) == pytest.approx(48 / 49)
+    assert jaco.plot._planner_effect([0.2, 0.2, 0.5, 0.5], ["a", "a", "b", "b"]) == pytest.approx(1.0)
+    assert jaco.plot._planner_effect([0.1, 0.3, 0.1, 0.3], ["a", "a", "b", "b"]) == pytest.approx(0.0)
+    assert np.isnan(jaco.plot._planner_effect([0.4, 0.4], ["a", "b"]))  # nothing varies
+
+
+@pytest.mark.filterwarnings("ignore:Argument ``normalize``", "ignore:Target and region quantiles")
+@pytest.mark.parametrize("column", ["planner", "variant"])
+def test_param_importance_shows_the_planner_effect_and_importance_within_each_planner(column):
+    optuna = pytest.importorskip("optuna")
+    from optuna.distributions import FloatDistribution
+
+    rows = _three_planners(n=30)
+    study = _search_study(rows, column=column)
+    fig = jaco.plot.plot_param_importance(study)
+    effect_ax, ax = fig.axes
+    # the planner's effect, by hand: between-planner sum of squares over the total
+    v = np.array([r[3] for r in rows])
+    between = sum(30 * (np.mean([r[3] for r in rows if r[0] == p]) - v.mean()) ** 2 for p in ("acs", "mmas", "iaca"))
+    eta = between / ((v - v.mean()) ** 2).sum()
+    (bar,) = effect_ax.containers[0]
+    assert bar.get_width() == pytest.approx(eta) and eta > 0.5
+    assert [t.get_text().strip() for t in effect_ax.texts] == [f"η² = {eta:.2f}"]
+    assert "η²" in effect_ax.get_xlabel() and "between planners" in effect_ax.get_xlabel()
+    # one bar group per planner: PED-ANOVA over that planner's own trials, shares summing to 1
+    labels = [c.get_label() for c in ax.containers]
+    assert labels == ["acs (30 trials)", "mmas (30 trials: nothing separates its best trials)", "iaca (30 trials)"]
+    names = [t.get_text() for t in ax.get_yticklabels()]
+    for container, planner in zip(ax.containers, ("acs", "mmas", "iaca")):
+        alone = optuna.create_study()
+        for p, b, r, value in rows:
+            if p == planner:
+                alone.add_trial(optuna.trial.create_trial(
+                    params={"beta": b, "rho": r}, value=value,
+                    distributions={"beta": FloatDistribution(1.0, 20.0, log=True), "rho": FloatDistribution(0.05, 0.6)}))
+        raw = optuna.importance.get_param_importances(
+            alone, evaluator=optuna.importance.PedAnovaImportanceEvaluator(), normalize=False)
+        total = sum(raw.values())
+        widths = {n: bar.get_width() for n, bar in zip(names, container)}
+        assert widths == pytest.approx({n: (raw[n] / total if total else 0.0) for n in names})
+    shares = {n: bar.get_width() for n, bar in zip(names, ax.containers[0])}
+    assert shares["beta"] > 0.5 > shares["rho"]  # acs: beta decides
+    shares = {n: bar.get_width() for n, bar in zip(names, ax.containers[2])}
+    assert shares["rho"] > 0.5 > shares["beta"]  # iaca: rho decides
+    assert all(bar.get_width() == 0.0 for bar in ax.containers[1])  # mmas: nothing (not equal shares)
+    fig2, ax2 = plt.subplots()
+    try:
+        with pytest.raises(jaco.ParamError, match="span 3 planners.*planner="):
+            jaco.plot.plot_param_importance(study, ax=ax2)
+        jaco.plot.plot_param_importance(study, ax=ax2, planner="acs")
+        assert [c.get_label() for c in ax2.containers] == ["acs (30 trials)"] and len(fig2.axes) == 1
+        assert ax2.get_title() == "parameter importance within acs (30 trials)"
+    finally:
+        plt.close(fig2)
+
+
+@pytest.mark.parametrize("values, scale", [([0.3, 0.2, 0.25, 0.0, 0.1], "symlog"), ([0.3, 0.2, 0.25, 0.05], "log")])
+def test_search_history_log_axis_keeps_a_gap_of_zero(values, scale):
+    study = _search_study([("acs", 2.0, 0.1, v) for v in values], planners=("acs",))
+    fig = jaco.plot.plot_search_history(study, log=True)
+    ax = fig.axes[0]
+    assert ax.get_yscale() == scale
+    (line,) = ax.get_lines()
+    np.testing.assert_allclose(line.get_ydata(), 100 * np.minimum.accumulate(values))  # the values as they are
+    points = [c for c in ax.collections if c.get_label() == "trials"][0]
+    np.testing.assert_allclose(points.get_offsets()[:, 1], 100 * np.asarray(values))
+    fig.draw_without_rendering()  # a 0 on a plain log axis would be dropped; here it is drawn
+    assert ax.get_ylim()[0] <= 0.0 if scale == "symlog" else ax.get_ylim()[0] > 0.0
+    assert ax.get_ylabel().startswith("gap to the optimum (%) (log scale")
+    if scale == "symlog":
+        assert "linear below 10" in ax.get_ylabel()  # the smallest positive gap is 10%
+    assert jaco.plot.plot_search_history(study).axes[0].get_yscale() == "linear"
+
+
+def _comparison_of(columns):
+    import pandas as pd
+
+    from jaco.research import compare as cmp
+
+    rows = [dict(config=name, seed=seed, success=math.isfinite(g), gap=g, optimal=100.0, length=100.0 * (1 + g))
+            for name, gaps in columns.items() for seed, g in enumerate(gaps)]
+    return cmp.compare(pd.DataFrame(rows), by="config", n_boot=20)
+
+
+@pytest.mark.parametrize("n", [4, 14, 25])
+def test_performance_profile_curves_are_all_told_apart(n):
+    import dataclasses
+
+    import pandas as pd
+
+    base = [0.0, 0.1, 0.2, 0.05, 0.3, 0.0]
+    columns = {f"c{i:02d}": [g + 0.02 * (i % 3) for g in base] for i in range(n - 2)}  # many exact ties
+    columns["twin"] = list(columns["c00"])
+    columns["never"] = [math.inf] * len(base)
+    c = _comparison_of({k: columns[k] for k in ("c00", "c01", "twin", "never")})
+    if n > 4:  # the same comparison with more configurations (compare itself takes seconds for them)
+        ratios = pd.DataFrame(columns) + 1.0
+        c = dataclasses.replace(c, ratios=ratios / ratios.min(axis=1).to_numpy()[:, None])
+    fig = jaco.plot.plot_performance_profile(c)
+    ax = fig.axes[0]
+    lines = ax.get_lines()
+    assert len(lines) == n
+    colors = [tuple(np.round(matplotlib.colors.to_rgba(line.get_color()), 6)) for line in lines]
+    assert len(set(colors)) == n  # a distinct colour for every configuration
+    assert len({(line.get_linestyle(), line.get_marker()) for line in lines}) == n  # and a distinct style too
+    assert len({(col, line.get_linestyle(), line.get_marker()) for col, line in zip(colors, lines)}) == n
+    profile = c.profile()
+    taus = profile.index.to_numpy(float)
+    for line, name in zip(lines, profile.columns):
+        rho = profile[name].to_numpy(float)
+        np.testing.assert_array_equal(line.get_ydata()[:-1], rho)  # drawn exactly: no offset
+        np.testing.assert_array_equal(line.get_xdata()[:-1], taus)
+        steps = [i for i in range(len(rho)) if rho[i] != (rho[i - 1] if i else 0.0)]
+        assert list(line.get_markevery()) == steps  # a marker where the curve steps up
+        assert line.get_markerfacecolor() == "none"
+    labels = {t.get_text() for t in ax.get_legend().get_texts()}
+    assert "twin (same curve as c00)" in labels and "never (no path: on the τ axis)" in labels
+    twins = [line for line in lines if line.get_label() in ("c00", "twin (same curve as c00)")]
+    assert twins[0].get_linewidth() != twins[1].get_linewidth() or twins[0].get_marker() != twins[1].get_marker()
+    by_width = sorted(lines, key=lambda line: line.get_linewidth())
+    assert all(a.get_zorder() >= b.get_zorder() for a, b in zip(by_width, by_width[1:]))  # wider lines below

@@ -48,7 +48,7 @@ def test_result_fields_and_json():
     assert all(len(v) == 8 for v in r.history.values())
     assert 0 < r.coverage <= 1
     d = json.loads(json.dumps(r.to_dict(), allow_nan=False))
-    assert d["path"][-1] == [3, 5] and d["variant"] == "acs" and d["params"]["q0"] == pytest.approx(0.8)
+    assert d["path"][-1] == [3, 5] and d["planner"] == "acs" and d["params"]["q0"] == pytest.approx(0.8)
 
 
 def test_cell_size_scales_reported_lengths_only():
@@ -128,13 +128,13 @@ def test_a_failed_run_explains_what_usually_helps():
     hint = r.hint
     assert hint.startswith("no ant reached the goal")
     # the shortest path is longer than the step limit: that tip comes first, then backtracking
-    assert hint.index("steplimit=6") < hint.index("variant='iaca'") < hint.index("n_ants=16")
+    assert hint.index("steplimit=6") < hint.index("planner='iaca'") < hint.index("n_ants=16")
     assert "beta=8" in hint  # twice the variant's β = 4
     ok = jaco.solve(trap, start, goal, "iaca", n_ants=8, n_iters=5)
     assert ok.success and ok.hint == ""
     from jaco.engine.result import failure_hint
 
     cli = failure_hint(r, cli=True)
-    assert "--variant iaca" in cli and "--steplimit 6" in cli and "--ants 16" in cli
+    assert "--planner iaca" in cli and "--steplimit 6" in cli and "--ants 16" in cli
     stuck = jaco.solve(trap, start, goal, "iaca", n_ants=2, n_iters=1, steplimit=3)
     assert not stuck.success and "backtracking" not in stuck.hint  # it backtracks already

@@ -134,7 +134,8 @@ def test_every_trial_equals_solve_with_its_parameters_and_seeds():
             r = jaco.solve(GRID, *ENDS, seed=seed, n_ants=6, n_iters=8, progress=False, **study._params(frozen))
             row = runs[runs["seed"] == seed].iloc[0]
             assert bool(row["success"]) == r.success and row["length"] == r.length and row["gap"] == r.gap
-        assert table.loc[number, "gap"] == pytest.approx(np.mean(runs["gap"]))  # every run succeeded here
+        assert table.loc[number, "gap_penalised_mean"] == pytest.approx(np.mean(runs["gap"]))  # every run succeeded here
+    assert table.columns[3] == "planner" and set(table["planner"]) <= {"acs", "mmas"}
 
 
 def test_best_so_far_never_worsens_and_best_params_solve():
@@ -142,7 +143,14 @@ def test_best_so_far_never_worsens_and_best_params_solve():
     h = study.history()
     assert len(h) == 12 and (np.diff(h["best"]) <= 0).all()
     assert h["best"].iloc[-1] == study.best_value == h["value"].min()
-    assert set(study.best_params) == {"variant", "beta", "rho"}
+    best = study.best_params
+    assert set(best) == {"planner", "beta", "rho"} and best["planner"] == "acs"
+    r = jaco.solve(GRID, *ENDS, seed=0, n_ants=6, n_iters=8, progress=False, **best)
+    with pytest.warns(DeprecationWarning, match="best_params\\['variant'\\]"):
+        assert best["variant"] == "acs"  # the former key still reads the planner
+    old = {("variant" if k == "planner" else k): v for k, v in best.items()}  # params of an older jaco
+    again = jaco.solve(GRID, *ENDS, seed=0, n_ants=6, n_iters=8, progress=False, **old)
+    assert again.length == r.length and again.variant == r.planner == "acs"
 
 
 def test_a_seeded_sampler_proposes_the_same_trials_and_another_seed_others():
@@ -178,11 +186,12 @@ def test_a_failed_run_counts_as_the_documented_penalty_never_nan():
     optimal = jaco.exact.shortest_path(GRID, *ENDS)[0]
     worst = math.sqrt(2) * 3
     assert (t["success"] == 0).all() and (t["success_rate"] == 0).all()
-    assert np.allclose(t["length"], worst) and np.allclose(t["gap"], worst / optimal - 1) and np.allclose(t["turns"], 3)
+    assert np.allclose(t["length_penalised_mean"], worst) and np.allclose(t["gap_penalised_mean"], worst / optimal - 1)
+    assert np.allclose(t["turns_penalised_mean"], 3) and t["gap_median"].isna().all()  # over successful runs: none
     given = jaco.search(
         GRID, *ENDS, SPACE, variant="acs", trials=2, batch=2, steplimit=3, sampler="random", penalty=2.5, **SMALL
     )
-    assert (given.trials["gap"] == 2.5).all()
+    assert (given.trials["gap_penalised_mean"] == 2.5).all()
 
 
 @pytest.mark.slow  # several objectives: each trial at its own ants and iterations
@@ -203,11 +212,12 @@ def test_sizes_in_the_space_and_a_pareto_front_over_gap_and_budget():
     t = study.trials
     assert set(t["n_ants"]) <= {3, 6} and (t["budget"] == t["n_ants"] * 8).all()
     front = study.best_trials
+    gap = "gap_penalised_mean"
     for _, row in front.iterrows():  # no trial is better on both objectives
         better = (
-            (t["gap"] <= row["gap"])
+            (t[gap] <= row[gap])
             & (t["budget"] <= row["budget"])
-            & ((t["gap"] < row["gap"]) | (t["budget"] < row["budget"]))
+            & ((t[gap] < row[gap]) | (t["budget"] < row["budget"]))
         )
         assert not better.any()
 
@@ -221,7 +231,7 @@ def test_turns_objective_counts_heading_changes_of_the_best_path():
         jaco.solve(GRID, *ENDS, seed=s, n_ants=6, n_iters=8, progress=False, **study._params(frozen)).metrics()["turns"]
         for s in (0, 1)
     ]
-    assert study.trials.loc[0, "turns"] == np.mean(turns)
+    assert study.trials.loc[0, "turns_penalised_mean"] == np.mean(turns)
 
 
 def test_repeated_generations_and_searches_never_recompile():
@@ -347,7 +357,7 @@ def test_halving_rungs_promote_the_best_third_and_rerun_at_the_larger_budget():
 def test_evosax_strategy_searches_and_replays_after_an_interruption(tmp_path, monkeypatch):
     pytest.importorskip("evosax")
     kw = dict(variant="acs", trials=12, batch=4, sampler="evosax:SNES", **SMALL)
-    whole = jaco.search(GRID, *ENDS, SPACE, **kw).trials[["beta", "rho", "gap"]]
+    whole = jaco.search(GRID, *ENDS, SPACE, **kw).trials[["beta", "rho", "gap_penalised_mean"]]
     assert whole["beta"].between(0.5, 12.0).all() and whole["rho"].between(0.05, 0.6).all()
     db = f"sqlite:///{tmp_path / 'es.db'}"
     calls = []
@@ -367,7 +377,7 @@ def test_evosax_strategy_searches_and_replays_after_an_interruption(tmp_path, mo
     resumed = jaco.search(GRID, *ENDS, SPACE, storage=db, **kw)
     t = resumed.trials
     assert len(t) == 12 and set(t["state"]) == {"COMPLETE"}
-    assert np.array_equal(t[["beta", "rho", "gap"]].to_numpy(), whole.to_numpy())  # the same search, bit for bit
+    assert np.array_equal(t[["beta", "rho", "gap_penalised_mean"]].to_numpy(), whole.to_numpy())  # the same search, bit for bit
 
 
 def test_tune_estimator_is_evosax_open_es_gradient():
@@ -445,7 +455,7 @@ def test_a_stored_trial_reruns_to_its_stored_value(tmp_path):
     for number in range(4):  # the stored value is the mean of the stored runs
         runs = study.runs(number)
         if runs["success"].all():
-            assert study.trials.loc[number, "gap"] == np.mean(runs["gap"])
+            assert study.trials.loc[number, "gap_penalised_mean"] == np.mean(runs["gap"])
     # a stored run that differs from its rerun is reported
     trial = study.study.trials[1]  # a copy: changing it changes nothing stored
     key = next(iter(trial.user_attrs["jaco_runs"]))
@@ -551,8 +561,17 @@ def test_cli_search_resumes_prints_the_best_and_reruns_a_trial(tmp_path, capsys)
     assert main(args) == 0
     out = capsys.readouterr().out
     assert "best: trial" in out and "optuna-dashboard sqlite:///" in out and (tmp_path / "h.png").stat().st_size > 0
+    assert "gap_penalised_mean" in out and "gap_median" in out and "variant" not in out
+    text = (tmp_path / "t.csv").read_text()
     table = __import__("pandas").read_csv(tmp_path / "t.csv")
-    assert len(table) == 4 and table["gap"].notna().all()
+    assert len(table) == 4 and table["gap_penalised_mean"].notna().all() and set(table["planner"]) == {"acs"}
+    # floats at float32 precision, as every CSV jaco writes: each the shortest decimal of its float32
+    trials = jaco.load_study(db).trials
+    for col in ("beta", "rho", "gap_penalised_mean", "gap_median", "length_mean", "end_s"):
+        back, exact = table[col].to_numpy(np.float64), trials[col].to_numpy(np.float64)
+        assert back.astype(np.float32).tobytes() == exact.astype(np.float32).tobytes(), col
+        assert all(str(np.float32(x)) in text for x in exact if np.isfinite(x)), col
+    assert not [cell for line in text.splitlines()[1:] for cell in line.split(",") if len(cell) > 16]  # no float64 noise
     assert main(args[: args.index("--trials") + 1] + ["6"] + args[args.index("--trials") + 2 :]) == 0
     assert "6 trials in the study" in capsys.readouterr().out
     assert main(["rerun", db, "--trial", "5"]) == 0

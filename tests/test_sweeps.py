@@ -225,9 +225,9 @@ def test_summarize_over_several_planners_keeps_each_planners_own_parameters():
     assert len(s) == 6 and not s.drop(columns=["length_std"]).isna().any().any()
     shared = {"alpha", "beta", "rho", "q"}  # every planner here has them: they stay columns
     assert shared <= set(s.columns) and not {"q0", "xi", "tau0", "p_best"} & set(s.columns)
-    params = dict(zip(s.variant, s.params))
+    params = dict(zip(s.planner, s.params))
     assert params == {"as": "tau0=0.1", "acs": "tau0=0.01, q0=0.8, xi=0.1", "mmas": "p_best=0.05"}
-    one = jaco.summarize(table[table.variant == "acs"])  # one planner: every parameter a column
+    one = jaco.summarize(table[table.planner == "acs"])  # one planner: every parameter a column
     assert "params" not in one and {"q0", "xi", "tau0"} <= set(one.columns)
 
 
@@ -236,20 +236,41 @@ def test_queries_are_integer_columns_that_survive_a_csv_round_trip(tmp_path):
 
     other = jaco.maps.random_map(12, 0.2, seed=4)
     table = jaco.sweep([GRID, other], *ENDS, "as", params={"alpha": [0.7]}, seeds=2, **TINY)
-    assert list(table.columns[:6]) == ["map", "start_row", "start_col", "goal_row", "goal_col", "config"]
+    assert list(table.columns[:7]) == ["planner", "map", "start_row", "start_col", "goal_row", "goal_col", "config"]
     assert table.start_row.dtype == np.int64 and (table.goal_row == ENDS[1][0]).all()
     path = tables.write_csv(table, tmp_path / "t.csv")
     text = path.read_text()
     for x in table["length"]:  # the shortest decimal of the float32 (54.970562), never float64 noise
         assert f",{str(np.float32(x))}," in text
     assert all(len(cell.replace("-", "").replace(".", "").lstrip("0")) <= 9 for line in text.splitlines()[1:]
-               for cell in line.split(",")[1:])  # float32 needs at most 9 significant digits
+               for cell in line.split(",")[2:])  # float32 needs at most 9 significant digits
     assert "0.7," in text and "0.699999988079071" not in text  # alpha: a float64 0.7 is written as the float32 it ran as
     back = tables.read_table(path)
     assert list(back.columns) == list(table.columns) and back.start_col.dtype.kind == "i"
     for col in ("length", "cost", "optimal", "gap", "coverage", "alpha"):
         assert back[col].to_numpy(np.float32).tobytes() == table[col].to_numpy(np.float32).tobytes(), col
     assert tables.differences(back, table) == []
+
+
+def test_a_one_planner_table_names_its_planner_and_compares(tmp_path):
+    """Every table names its planner, one planner too: the CSV says what produced it, and
+    jaco.compare reads it back by planner and the swept columns."""
+    from jaco.research import tables
+
+    table = jaco.sweep(GRID, *ENDS, "acs", params={"beta": [1.0, 3.0]}, seeds=3, **TINY)
+    assert table.columns[0] == "planner" and set(table["planner"]) == {"acs"}
+    path = tables.write_csv(table, tmp_path / "one.csv")
+    assert path.read_text().startswith("planner,config,") and "\nacs,0," in path.read_text()
+    back = tables.read_table(path)
+    c = jaco.compare(back, by=["planner", "beta"], n_boot=20)
+    assert set(c.summary["configuration"]) == {"acs, beta=1", "acs, beta=3"}
+    assert c.text.startswith("2 configurations (planner, beta) compared on gap")
+    with pytest.raises(jaco.JacoError, match=r"column 'beta' varies .*by=\['planner', 'beta'\]"):
+        jaco.compare(back)  # the default, by planner: the hint names the swept column
+    # a table of an older jaco names its planner "variant": it is read as "planner"
+    old = tmp_path / "old.csv"
+    old.write_text(path.read_text().replace("planner,", "variant,", 1))
+    assert list(tables.read_table(old).columns) == list(back.columns)
 
 
 def test_summarize_a_real_sweep_per_query():

@@ -127,6 +127,30 @@ def test_a_check_fails_on_a_planner_that_breaks_the_contract():
         testing.check_documented(jaco.PLANNERS["as"]._replace(source=""))
 
 
+@pytest.mark.parametrize("typed, name", [
+    ("IACA", "iaca"), ("Mmas", "mmas"), ("ACS+Multi", "acs+multi"), ("IACA+SHORTCUT", "iaca+shortcut"),
+])
+def test_planner_names_are_case_insensitive(typed, name):
+    """Every entry point resolves a name in the registry (get_planner), in any case."""
+    assert get_planner(typed) is get_planner(name)
+    grid = jaco.maps.named("utrap-15")
+    _same_run(jaco.solve(grid, *_ends(grid), typed, n_ants=4, n_iters=2), jaco.solve(grid, *_ends(grid), name, n_ants=4, n_iters=2))
+
+
+@pytest.mark.parametrize("typed, suggestion", [
+    ("iacaa", "'iaca'"), ("IACC", "'iaca'"), ("mmsa", "'mmas'"), ("iaca+shortcutt", "'iaca+shortcut'"),
+])
+def test_a_misspelt_planner_gets_the_closest_names_before_the_list(typed, suggestion):
+    with pytest.raises(jaco.JacoError) as e:
+        get_planner(typed)
+    text = str(e.value)
+    assert text.startswith(f"unknown planner {typed!r} (did you mean {suggestion}")
+    assert text.index("did you mean") < text.index("registered: acs") and "\n" not in text
+    with pytest.raises(jaco.JacoError) as e:
+        get_planner("zzzz")  # nothing close: the list only
+    assert "did you mean" not in str(e.value) and "registered: acs" in str(e.value)
+
+
 def test_pheromone_on_cells_is_supported():
     grid = jaco.maps.random_map(12, 0.2, seed=3)
     on_cells = jaco.PLANNERS["as"]._replace(name="as-cells", pheromone_on="cells")

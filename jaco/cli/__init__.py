@@ -1,7 +1,7 @@
 """Command line interface: ``jaco demo | solve | sweep | search | rerun | planners | maps | info``.
 
 Run ``jaco --help`` or ``jaco COMMAND --help`` for the options. Every user mistake (bad argument,
-unknown map / variant / parameter, missing file, blocked or unreachable start/goal, out-of-range
+unknown map / planner / parameter, missing file, blocked or unreachable start/goal, out-of-range
 parameter, an output that cannot be written, a call too large for the memory budget) ends as one
 line ``jaco: error: ...`` on stderr and exit code 2, never a traceback. Anything else that escapes
 is a bug in jaco: one line ``jaco: internal error: ...`` and exit code 3 (``jaco --debug COMMAND``
@@ -87,6 +87,7 @@ def main(argv: list[str] | None = None) -> int:
 def _main(argv, JacoError) -> int:
     argv = _join_negative_xy(argv)
     debug = "--debug" in argv[: argv.index("--") if "--" in argv else None]
+    args = None
     try:
         parser = build_parser()
         try:
@@ -112,10 +113,10 @@ def _main(argv, JacoError) -> int:
         print(f"jaco: error: {_one_line(text)}", file=sys.stderr)
         return USER_ERROR
     except KeyboardInterrupt:
-        print("jaco: interrupted", file=sys.stderr)
+        print(_stopped("interrupted", args), file=sys.stderr)
         return INTERRUPTED
     except Terminated:
-        print("jaco: terminated", file=sys.stderr)
+        print(_stopped("terminated", args), file=sys.stderr)
         return TERMINATED
     except Exception as e:  # a bug: one line and exit code 3, the traceback only with --debug
         if debug:
@@ -129,6 +130,18 @@ def _main(argv, JacoError) -> int:
                 file=sys.stderr,
             )
         return INTERNAL_ERROR
+
+
+def _stopped(word: str, args) -> str:
+    """The last line of a stopped command: ``jaco: interrupted`` (or ``terminated``), and for a
+    command that keeps finished work (``args.kept``, set by sweep and search) what it kept and how
+    to resume: ``jaco: interrupted: 600 runs stored in long.db; the same command resumes``."""
+    kept = getattr(args, "kept", None)
+    try:
+        said = kept() if kept is not None else ""
+    except BaseException:  # noqa: BLE001 - a second signal, or a store that cannot be read now: the plain line
+        said = ""
+    return f"jaco: {word}: {said}" if said else f"jaco: {word}"
 
 
 def entry() -> None:

@@ -9,6 +9,7 @@ import functools
 import json
 import math
 import os
+import shlex
 import sys
 import time
 from pathlib import Path
@@ -85,7 +86,7 @@ def _report(grid, result, exact_length, seconds, scenario=None, scen_label=None)
     print(f"{'query':<{w}} start {tuple(result.start)} -> goal {tuple(result.goal)}")
     shown = ", ".join(f"{k}={v:g}" for k, v in result.params.items())
     print(
-        f"{'variant':<{w}} {result.variant} ({result.n_ants} ants x {result.n_iters} iterations, "
+        f"{'planner':<{w}} {result.variant} ({result.n_ants} ants x {result.n_iters} iterations, "
         f"seed {result.seed}; {shown})"
     )
     if result.success:
@@ -299,9 +300,12 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     starts, goals, scenarios, label = resolve_queries(grid, args)
     _check_outputs(args, grid, files=(("--csv", None), ("--record", (".csv",)), ("--store", None)))
     from ..planners.registry import get_planner
+    from ..research.store import counting
     from ..research.sweeps import sweep
     from ..research.tables import short_name
 
+    ledger: dict = {}  # what an interrupt leaves in the store (the last line says)
+    args.kept = functools.partial(_sweep_kept, args.store, ledger)
     names = args.planner or [args.default_planner]
     variants = [get_planner(v) for v in names]
     variant = variants[0] if len(variants) == 1 else variants
@@ -316,19 +320,21 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     )
     if scenarios is not None:
         print(f"queries: {label}", flush=True)
-    table = sweep(
-        grid,
-        start,
-        goal,
-        variant,
-        axes,
-        args.seeds,
-        n_ants=args.ants,
-        n_iters=args.iters,
-        steplimit=args.steplimit,  # progress: a bar on a terminal
-        store=args.store,
-        chunk=args.chunk,
-    )
+    with counting(ledger):
+        table = sweep(
+            grid,
+            start,
+            goal,
+            variant,
+            axes,
+            args.seeds,
+            n_ants=args.ants,
+            n_iters=args.iters,
+            steplimit=args.steplimit,  # progress: a bar on a terminal
+            store=args.store,
+            chunk=args.chunk,
+        )
+    args.kept = None
     seconds = time.perf_counter() - args.started
     args.finished = True
     print(f"{len(table)} runs in {seconds:.2f} s (since the command started: imports, JIT compilation and the runs)")
@@ -362,9 +368,23 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         )
         print(f"wrote {args.record} and {sidecar} (rerun them with 'jaco rerun {sidecar}')")
     _print_sweep_summary(table, variants, axes, several)
-    if len(variants) > 1 and (args.csv or args.record):
-        print(f"\ncompare the planners with paired tests: jaco compare {args.csv or args.record}")
+    if n_configs > 1 and (args.csv or args.record):
+        # every swept column, so that the command runs as printed
+        by = " ".join(f"--by {c}" for c in ["planner", *(k for k, v in axes.items() if len(v) > 1)])
+        what = "planners" if len(variants) > 1 else "configurations"
+        print(f"\ncompare the {what} with paired tests: jaco compare {shlex.quote(str(args.csv or args.record))} {by}")
     return 0
+
+
+def _sweep_kept(store, ledger) -> str:
+    """What an interrupted sweep kept (``ledger``: :func:`jaco.research.store.counting`'s) and how
+    to go on, for the line ``jaco: interrupted: ...``."""
+    if store is None:
+        return "nothing was kept (add --store FILE to keep finished chunks)"
+    runs = sum(n for sweeps in ledger.values() for n in sweeps.values())
+    if not runs:
+        return f"no chunk had finished, nothing new stored in {store}; the same command resumes"
+    return f"{runs} run{'s' if runs != 1 else ''} stored in {store}; the same command resumes"
 
 
 def _print_sweep_summary(table, variants, axes, several) -> None:
@@ -372,7 +392,7 @@ def _print_sweep_summary(table, variants, axes, several) -> None:
     from ..research.sweeps import summarize
     from ..research.tables import percent, short_name
 
-    swept = (["variant"] if len(variants) > 1 else []) + list(axes)
+    swept = (["planner"] if len(variants) > 1 else []) + list(axes)
     by = swept + ["config"] if several else None  # several queries: one row per configuration
     summary = (
         summarize(table, by=by if by else None)
@@ -408,10 +428,10 @@ def _print_sweep_summary(table, variants, axes, several) -> None:
 
 
 def _variant_of(row, variants):
-    """The planner of a summary row (the one planner of the sweep, or the row's ``variant``)."""
+    """The planner of a summary row (the one planner of the sweep, or the row's ``planner``)."""
     from ..planners.registry import get_planner
 
-    return get_planner(row["variant"]) if len(variants) > 1 else variants[0]
+    return get_planner(row["planner"]) if len(variants) > 1 else variants[0]
 
 
 def _summary_table(shown, swept, lengths: bool = True) -> str:
@@ -423,7 +443,7 @@ def _summary_table(shown, swept, lengths: bool = True) -> str:
     from ..research.tables import number, short_name, text_table
 
     failed = shown["success_rate"] == 0
-    text = pd.DataFrame({k: shown[k].map(short_name if k == "variant" else number) for k in swept})
+    text = pd.DataFrame({k: shown[k].map(short_name if k == "planner" else number) for k in swept})
     text["success_%"] = (100 * shown["success_rate"]).map(lambda x: f"{x:.0f}")
     columns = (["length_median", "length_min"] if lengths else []) + ["gap_median", "gap_q1", "gap_q3", "gap_mean"]
     for col in columns:
@@ -431,34 +451,40 @@ def _summary_table(shown, swept, lengths: bool = True) -> str:
         values = (scale * shown[col]).map(lambda x: "-" if math.isnan(x) else _unsigned_zero(f"{x:.4g}"))
         text[col + ("_%" if col.startswith("gap") else "")] = values.where(~failed, "failed")
     text["runs"] = shown["runs"].map(str)
-    return text_table(text, left=["variant"])
+    return text_table(text, left=["planner"])
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
     """Paired statistics on a saved results table (jaco.research.compare)."""
     import warnings
 
-    from ..research.compare import UnequalPairsWarning, compare
-    from ..research.tables import read_table
+    from ..research.compare import ByError, UnequalPairsWarning, compare
+    from ..research.tables import FORMER_PLANNER, PLANNER, read_table
 
     figures = [f for f in ("--cd", "--profile") if getattr(args, f[2:]) is not None]
     _check_outputs(args, figures=figures)
-    table = read_table(args.table)
-    by = args.by or ["variant"]
+    table = read_table(args.table)  # an older table's "variant" column is "planner"
+    by = args.by or [PLANNER]
+    if FORMER_PLANNER in by and FORMER_PLANNER not in table.columns:
+        by = [PLANNER if b == FORMER_PLANNER else b for b in by]  # --by variant: the former name
     if args.where:
         table = _where(table, args.where)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", UnequalPairsWarning)
-        result = compare(
-            table,
-            by=by,
-            value=args.value,
-            blocks=args.blocks,
-            alpha=args.alpha,
-            confidence=args.confidence,
-            n_boot=args.boot,
-            seed=args.seed,
-        )
+        try:
+            result = compare(
+                table,
+                by=by,
+                value=args.value,
+                blocks=args.blocks,
+                alpha=args.alpha,
+                confidence=args.confidence,
+                n_boot=args.boot,
+                seed=args.seed,
+            )
+        except ByError as e:  # the columns that tell the configurations apart, as options
+            options = " ".join(f"--by {shlex.quote(str(c))}" for c in e.by)
+            raise UsageError(str(e).replace(f"by={e.by!r}", options)) from None
     for w in caught:  # a jaco warning line, not Python's with a source line (the words repeat it as a note)
         if issubclass(w.category, UnequalPairsWarning):
             print(f"jaco: warning: {_one_line(str(w.message))}", file=sys.stderr)
@@ -487,6 +513,8 @@ def _where(table, items):
         name, value = name.strip(), value.strip()
         if not sep or not name:
             raise UsageError(f"--where expects NAME=VALUE (e.g. beta=16), got {item!r}")
+        if name == "variant" and name not in table.columns and "planner" in table.columns:
+            name = "planner"  # the planner column's former name
         if name not in table.columns:
             raise UsageError(
                 f"--where {item}: no column {name!r} in the table (columns: {', '.join(map(str, table.columns))})"
@@ -561,11 +589,15 @@ def cmd_maps(args: argparse.Namespace) -> int:
     for name in maps.NAMED:
         g = maps.named(name)
         print(f"  {name:14s} {g.height:>3d}x{g.width:<3d}  start {g.meta['start']} -> goal {g.meta['goal']}")
-    print(f"\nbundled files ({maps.DATA_DIR}):")
+    folders: dict = {}  # each folder that holds bundled files, as it is on disk, with its files
     for name in maps.BUNDLED:
-        print(f"  {name}")
+        folders.setdefault(maps.bundled(name).parent, []).append(name)
+    for folder, names in folders.items():
+        print(f"\nbundled files in {folder}:")
+        for name in names:
+            print(f"  {name}")
     print(
-        "\nA MAP argument is a file path, a named map, or a bundled file name, e.g.\n"
+        "\nA MAP argument is a file path, a named map, or a bundled file's bare name (no folder), e.g.\n"
         "  jaco solve random-32-32-10.map --scen random-32-32-10-even-10.scen --index 34"
     )
     return 0

@@ -73,7 +73,9 @@ def _add_query_options(p) -> None:
     )
     q.add_argument("--goal-xy", type=_xy, metavar="X,Y", help="goal as a world point in metres (ROS maps)")
     q.add_argument(
-        "--scen", metavar="FILE", help="MovingAI .scen file (a path or a bundled file name): take start/goal from it"
+        "--scen",
+        metavar="FILE",
+        help="MovingAI .scen file (a path, or a bundled file's bare name): take start/goal from it",
     )
     q.add_argument(
         "--index",
@@ -147,7 +149,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "map",
         metavar="MAP",
-        help="map file (.map .yaml .txt .npy .png .pgm ...), named map or bundled file; see 'jaco maps'",
+        help="map file (.map .yaml .txt .npy .png .pgm ...), named map or a bundled file's bare name; see 'jaco maps'",
     )
     _add_query_options(p)
     p.add_argument(
@@ -204,7 +206,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--param rho=0.1,0.3 --seeds 8 --csv sweep.csv; several planners: --planner mmas --planner acs "
         "(every --param must belong to every planner).",
     )
-    p.add_argument("map", metavar="MAP", help="map file, named map or bundled file; see 'jaco maps'")
+    p.add_argument("map", metavar="MAP", help="map file, named map or a bundled file's bare name; see 'jaco maps'")
     _add_query_options(p)
     _add_run_options(p, default_planner="mmas", several=True)
     p.add_argument(
@@ -253,7 +255,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--planner acs --param beta=1:20:log --param rho=0.01:0.5 --trials 256 --batch 64 --seeds 4 --sampler tpe "
         "--storage sqlite:///study.db",
     )
-    p.add_argument("map", metavar="MAP", help="map file, named map or bundled file; see 'jaco maps'")
+    p.add_argument("map", metavar="MAP", help="map file, named map or a bundled file's bare name; see 'jaco maps'")
     _add_query_options(p)
     _add_run_options(p, default_planner="mmas", several=True)
     p.add_argument(
@@ -326,13 +328,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--plot",
         metavar="FILE",
-        help="write the optimisation history (best so far against trials; "
+        help="write the optimisation history (best so far against trials, on a log axis: a failed run's "
+        "penalty is far above the gaps of the successful trials, which a linear axis would flatten; "
         "with two objectives the Pareto front) in the format its suffix names",
     )
     p.add_argument(
         "--plot-format",
         metavar="FMT",
         help="the --plot format (png, svg, pdf ...) when FILE has no suffix: '-', a device or a pipe",
+    )
+    p.add_argument(
+        "--linear",
+        action="store_true",
+        help="draw the --plot history on a linear axis instead of the default log axis "
+        "(symlog, linear near 0, when a value is 0)",
     )
     p.set_defaults(func=cmd_search)
 
@@ -348,14 +357,15 @@ def build_parser() -> argparse.ArgumentParser:
         "failures tie (docs/compare.md).",
         epilog="Example: jaco sweep Berlin_1_256.map --scen Berlin_1_256.map.scen --bucket 85: --count 6 "
         "--planner iaca --planner mmas --param beta=8,16 --seeds 3 --csv b.csv; "
-        "jaco compare b.csv --by variant --by beta --cd cd.png --profile profile.png",
+        "jaco compare b.csv --by planner --by beta --cd cd.png --profile profile.png",
     )
     p.add_argument("table", metavar="TABLE.csv", help="a results table (jaco sweep --csv or --record)")
     p.add_argument(
         "--by",
         action="append",
         metavar="COL",
-        help="the column naming a configuration (repeatable: --by variant --by beta; default variant)",
+        help="the column naming a configuration (repeatable: --by planner --by beta; default planner; "
+        "'variant', its former name, is read as planner)",
     )
     p.add_argument(
         "--value",

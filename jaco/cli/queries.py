@@ -9,8 +9,30 @@ from typing import Any
 from .args import UsageError
 
 
+def _bare(spec: str) -> bool:
+    """Whether ``spec`` is a bare file name (no folder): only a bare name reaches a bundled file."""
+    return "/" not in spec and "\\" not in spec
+
+
+def _bundled_name(name: str) -> str | None:
+    """The bundled file that the bare ``name`` names (``arena``: ``arena.map``), or None."""
+    from .. import maps
+
+    return next((n for n in (name, name + ".map", name + ".yaml") if n in maps.BUNDLED), None)
+
+
+def _not_found(what: str, spec: str) -> UsageError:
+    """A path that does not exist: an error, never the bundled copy of the same name (a typo in a
+    folder must not run on other data); when a bundled file has that name, how to reach it."""
+    copy = _bundled_name(Path(spec.replace("\\", "/")).name)
+    hint = f"; a bundled copy exists: use its bare name {copy}" if copy else ""
+    return UsageError(f"{what} {spec!r} not found{hint}")
+
+
 def load_map(spec: str) -> Any:
-    """A map from a file path, a name in :data:`jaco.maps.NAMED`, or a bundled file name."""
+    """A map from a file path, a name in :data:`jaco.maps.NAMED`, or a bundled file's bare name
+    (``den312d.map``, ``arena``; see ``jaco maps``). A path that does not exist is an error, even
+    when a bundled file has its name."""
     from .. import maps
 
     path = Path(spec)
@@ -20,11 +42,10 @@ def load_map(spec: str) -> Any:
         return maps.load(path)
     if spec in maps.NAMED:
         return maps.named(spec)
-    base = spec.replace("\\", "/").split("/")[-1]
-    if base in maps.BUNDLED or base + ".map" in maps.BUNDLED or base + ".yaml" in maps.BUNDLED:
+    if _bare(spec) and _bundled_name(spec) is not None:
         return maps.load(maps.bundled(spec))
-    if path.suffix.lower() in maps.SUPPORTED_SUFFIXES or "/" in spec or "\\" in spec:
-        return maps.load(path)  # raises the loader's "not found" message
+    if path.suffix.lower() in maps.SUPPORTED_SUFFIXES or not _bare(spec):
+        raise _not_found("map file", spec)
     raise UsageError(
         f"unknown map {spec!r}: no such file, and not a named map "
         f"({', '.join(sorted(maps.NAMED))}) or bundled file (see 'jaco maps')"
@@ -32,12 +53,15 @@ def load_map(spec: str) -> Any:
 
 
 def _scen_path(spec: str) -> Path:
+    """A scenario file: a path that exists, or a bundled file's bare name."""
     from .. import maps
 
     path = Path(spec)
-    if not path.exists() and path.name in maps.BUNDLED:
-        return maps.bundled(path.name)
-    return path
+    if path.exists():
+        return path
+    if _bare(spec) and spec in maps.BUNDLED:
+        return maps.bundled(spec)
+    raise _not_found("scenario file", spec)
 
 
 _SELECTION = ("--index", "--bucket", "--optimal", "--count")

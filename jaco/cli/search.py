@@ -52,7 +52,7 @@ def _fmt(name: str, x) -> str:
         return x
     if x is None or (isinstance(x, float) and math.isnan(x)):
         return "-"
-    if name in ("gap", "success", "success_rate", "gap_median"):
+    if name in ("gap", "success", "success_rate", "gap_median", "gap_penalised_mean"):
         return f"{100 * x:.2f}%"
     return f"{x:.4g}"
 
@@ -72,8 +72,8 @@ def cmd_search(args: argparse.Namespace) -> int:
     if not space:
         raise UsageError("jaco search needs at least one --param NAME=LOW:HIGH (or a list a,b,c) to search")
     variants = args.planner or [args.default_planner]
-    if "variant" in space:
-        raise UsageError("name the planners with --planner (repeatable), not --param variant=...")
+    if "variant" in space or "planner" in space:
+        raise UsageError("name the planners with --planner (repeatable), not --param planner=...")
     space["variant"] = variants if len(variants) > 1 else variants[0]
     grid = load_map(args.map)
     starts, goals, scenarios, label = resolve_queries(grid, args)
@@ -84,13 +84,16 @@ def cmd_search(args: argparse.Namespace) -> int:
         else f"{len(starts)} queries ({label})"
     )
     _check_outputs(args, grid, figures=("--plot",), files=(("--csv", None),))
-    from ..research.search import Halving, search
+    args.kept = lambda: _search_kept(args.storage, args.study)  # what an interrupt kept (the last line says)
+    from ..research.search import Halving, objective_column, search
 
     fidelity = None
     if args.halving or args.hyperband:
         fidelity = Halving(min_iters=args.min_iters, eta=args.eta, hyperband=args.hyperband)
     elif args.min_iters is not None or args.eta != 3:
         raise UsageError("--min-iters and --eta belong to --halving or --hyperband")
+    if args.linear and not args.plot:
+        raise UsageError("--linear is the axis of the --plot history: give --plot FILE too")
     objectives = args.objective or ["gap"]
     trials = 128 if args.trials is None and args.timeout is None else args.trials  # --timeout alone: until it
     budget = " or ".join(([f"{trials} trials"] if trials else []) + ([f"{args.timeout:g} s"] if args.timeout else []))
@@ -121,6 +124,7 @@ def cmd_search(args: argparse.Namespace) -> int:
         storage=args.storage,
         study_name=args.study,
     )
+    args.kept = None
     args.finished = True  # from here a failed write says that the search itself finished
     seconds = time.perf_counter() - args.started
     t = study.timings
@@ -135,41 +139,47 @@ def cmd_search(args: argparse.Namespace) -> int:
     table = study.trials
     if args.csv:
         from ..outputs import write_text
+        from ..research.tables import csv_text
 
-        print(f"wrote {write_text(args.csv, table.to_csv(index=False, lineterminator=chr(10)))}")
+        print(f"wrote {write_text(args.csv, csv_text(table))}")  # floats at float32 precision, as every table
     if args.plot:
         from .. import plot
 
-        fig = plot.plot_search_history(study) if len(objectives) == 1 else plot.plot_pareto(study, *objectives[:2])
+        fig = (  # a log axis by default: the failures' penalties would flatten the gaps on a linear one
+            plot.plot_search_history(study, log=not args.linear)
+            if len(objectives) == 1
+            else plot.plot_pareto(study, *objectives[:2])
+        )
         print(f"wrote {plot.save(fig, args.plot, format=args.plot_format)}")
     finished = table[table["state"] == "COMPLETE"]
+    columns = [objective_column(o) for o in objectives]  # gap_penalised_mean, ...
     shown = (
         study.best_trials
         if len(objectives) > 1
         else finished.sort_values(
-            [objectives[0], "number"], ascending=[objectives[0] != "success", True], kind="stable"
+            [columns[0], "number"], ascending=[objectives[0] != "success", True], kind="stable"
         ).head(args.top)
     )
     params = [c for c in table.columns if c in space and c != "variant"]
-    cols = ["number", "variant", *params, *objectives, "success_rate", "runs"]
+    cols = ["number", "planner", *params, *columns, "success_rate", "gap_median", "runs"]
     what = "Pareto front" if len(objectives) > 1 else f"top {len(shown)} of {len(finished)} finished trials"
-    print(f"\n{what} (a failed run counts as its penalty in {', '.join(objectives)}):")
+    penalised = [c for o, c in zip(objectives, columns) if c != o]
+    note = f"; a failed run counts as its penalty in {', '.join(penalised)}" if penalised else ""
+    print(f"\n{what} (gap_median over the successful runs{note}):")
     import pandas as pd
 
     text = pd.DataFrame({c: shown[c].map(lambda x, c=c: _fmt(c, x)) for c in cols if c in shown})
     print(text.to_string(index=False) if len(text) else "(none)")
     if finished.empty or not (finished["success_rate"] > 0).any():
         print(
-            "\nno trial reached the goal: try a backtracking planner (--variant iaca), more ants or iterations, "
+            "\nno trial reached the goal: try a backtracking planner (--planner iaca), more ants or iterations, "
             "or a larger β or step limit"
         )
         return NO_PATH
     if len(objectives) == 1:
         best = study.best_params
         conf = ", ".join(f"{k}={v:g}" if not isinstance(v, str) else f"{k}={v}" for k, v in best.items())
-        print(
-            f"\nbest: trial {study.best_trial.number}: {conf}; {objectives[0]} {_fmt(objectives[0], study.best_value)}"
-        )
+        print(f"\nbest: trial {study.best_trial.number}: {conf}; {columns[0]} {_fmt(columns[0], study.best_value)}")
     if args.storage:
         print(
             f"study {study.study.study_name!r} in {args.storage}: run the same command again to resume or extend it "
@@ -177,6 +187,24 @@ def cmd_search(args: argparse.Namespace) -> int:
             f"'optuna-dashboard {args.storage if '://' in args.storage else 'sqlite:///' + args.storage}' shows it"
         )
     return 0
+
+
+def _search_kept(storage: str | None, study_name: str | None) -> str:
+    """What an interrupted search kept (its finished trials, read back from ``storage``) and how to
+    go on, for the line ``jaco: interrupted: ...``."""
+    if storage is None:
+        return "nothing was kept (add --storage FILE.db to keep finished trials)"
+    from ..errors import JacoError
+    from ..research.search import load_study
+
+    try:
+        trials = load_study(storage, study_name or "jaco").study.trials
+    except JacoError:  # no storage file or no study yet: nothing had finished
+        trials = []
+    done = sum(t.state.name == "COMPLETE" for t in trials)
+    if not done:
+        return f"no trial had finished, none stored in {storage}; the same command resumes"
+    return f"{done} trial{'s' if done != 1 else ''} stored in {storage}; the same command resumes"
 
 
 def cmd_rerun(args: argparse.Namespace) -> int:

@@ -176,6 +176,22 @@ def unknown_parameter(
     )
 
 
+def owners(name: str, planners: Iterable[Any]) -> str:
+    """Which of ``planners`` (objects with ``name`` and ``params``) have the parameter ``name``, in
+    the words of a sweep or a search whose parameter some or all of them lack: ``"parameter 'q0'
+    belongs to acs only, not to mmas"``, or ``"parameter 'q0' is not used by planner 'mmas'; it
+    uses: alpha, ..."`` when none has it (no "did you mean": the name is right, the planner is not)."""
+    planners = list(planners)
+    have = [p.name for p in planners if name in p.params]
+    lack = [p.name for p in planners if name not in p.params]
+    if have:
+        return f"parameter {name!r} belongs to {' and '.join(have)} only, not to {', '.join(lack)}"
+    used = ", ".join(sorted(set().union(*(p.params for p in planners))))
+    if len(lack) == 1:
+        return f"parameter {name!r} is not used by planner {lack[0]!r}; it uses: {used}"
+    return f"parameter {name!r} is not used by any of the planners {', '.join(lack)}; they use: {used}"
+
+
 def check_values(values: Mapping, allowed: Iterable[str], where: str) -> dict:
     """Validate user values (names, NaN, ranges of :data:`SPECS`) with numpy; returns float arrays.
 

@@ -53,6 +53,11 @@ class Result:
     waypoints: tuple = ()  # the targets visited between start and goal (jaco.waypoints)
 
     @property
+    def planner(self) -> str:
+        """The planner's name (the field keeps its former name, ``variant``, as records do)."""
+        return self.variant
+
+    @property
     def hint(self) -> str:
         """Empty when the run succeeded; otherwise a plain explanation of the failure and what
         usually helps (:func:`failure_hint`)."""
@@ -63,14 +68,17 @@ class Result:
         clearance, safety cost S, any-angle length, valid, gap) plus the run's ``cost``,
         ``coverage`` and ``best_iteration``. S uses the run's ``rs_cost`` when the variant has one
         (the multi-objective cost), else :data:`jaco.metrics.SAFETY_RADIUS`, so S and E are those
-        of the cost. A failed run has length inf and no path figures."""
+        of the cost. A failed run has length inf and no path figures. ``gap`` is the result's own
+        :attr:`gap` (:func:`jaco.metrics.gap` of :attr:`length`, which the run summed in float32):
+        one gap per result, never a second one from the float64 length of the path."""
         from ..metrics import SAFETY_RADIUS, path_metrics
 
         run = {"cost": self.cost, "coverage": self.coverage, "best_iteration": self.best_iteration}
         if not self.success:
-            return {"length": math.inf, "valid": False, **run}
+            return {"length": math.inf, "valid": False, "gap": self.gap, **run}
         rs = self.params.get("rs_cost", SAFETY_RADIUS)  # a successful result carries its grid
-        return {**path_metrics(cast(Grid, self.grid), self.path, optimal=self.optimal, rs=rs), **run}
+        figures = path_metrics(cast(Grid, self.grid), self.path, rs=rs)
+        return {**figures, "gap": self.gap, **run}
 
     def to_dict(self) -> dict:
         """JSON-ready dict (no numpy types; inf written as None where JSON has no inf)."""
@@ -80,7 +88,7 @@ class Result:
             return x if math.isfinite(x) else None
 
         return {
-            "variant": self.variant,
+            "planner": self.variant,
             "path": self.path.tolist(),
             "length": num(self.length),
             "success": bool(self.success),
@@ -137,7 +145,7 @@ def failure_hint(result: Result, *, cli: bool = False) -> str:
     opt = (
         {
             "steplimit": "--steplimit ",
-            "variant": "--variant iaca",
+            "planner": "--planner iaca",
             "n_ants": "--ants ",
             "n_iters": "--iters ",
             "beta": "--param beta=",
@@ -145,7 +153,7 @@ def failure_hint(result: Result, *, cli: bool = False) -> str:
         if cli
         else {
             "steplimit": "steplimit=",
-            "variant": "variant='iaca'",
+            "planner": "planner='iaca'",
             "n_ants": "n_ants=",
             "n_iters": "n_iters=",
             "beta": "beta=",
@@ -162,7 +170,7 @@ def failure_hint(result: Result, *, cli: bool = False) -> str:
     backtracks = result.variant == "iaca" or "backtrack" in result.variant
     if not backtracks:
         tips.append(
-            f"a backtracking planner ({opt['variant']}): {result.variant}'s ants die in dead ends, and maps "
+            f"a backtracking planner ({opt['planner']}): {result.variant}'s ants die in dead ends, and maps "
             "of rooms, corridors and traps are full of them; IACA's ants step back instead"
         )
     beta = result.params.get("beta")

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from ..engine.cost import COSTS, MULTI_PARAMS
 from ..engine.planner import FrozenMap, Planner
-from ..errors import JacoError, ParamError
+from ..errors import JacoError, ParamError, did_you_mean
 from . import (
     apf_guided,  # APF-ACO and its PF-ACO baseline (Dong & Zhao 2021)
     chaos,  # chaos ACO (the Xi'an Technological University paper)
@@ -37,16 +37,23 @@ def get_planner(variant: str | Planner) -> Planner:
     """A :class:`Planner` as it is, or one by name: a registered planner, a composition's name
     (``compose(construct=..., ...)``, :func:`jaco.planners.compose.compose`), or either with
     another cost (``"acs+multi"``, :func:`with_cost`) or a local search (``"iaca+shortcut"``,
-    :func:`with_local_search`)."""
+    :func:`with_local_search`).
+
+    The one place every entry point (``jaco.solve``, ``jaco.sweep``, ``jaco.search``, the CLI)
+    resolves a name: in any case (``"IACA"`` is ``iaca``, ``"IACA+Shortcut"`` is ``iaca+shortcut``);
+    an unknown name raises :class:`~jaco.errors.JacoError` with the closest names ("did you mean
+    'iaca'?", difflib) before the registered list."""
     if isinstance(variant, Planner):
         return variant
     if isinstance(variant, str):
-        if variant in PLANNERS:
-            return PLANNERS[variant]
+        found = _registered(variant)
+        if found is not None:
+            return found
         composed = parse(variant)
         if composed is not None:
             return composed
         base, _, suffix = variant.rpartition("+")
+        suffix = suffix.strip().lower()
         if base and (suffix in COSTS or (suffix in LOCAL_SEARCHES and suffix != "none")):
             try:
                 found = get_planner(base)
@@ -64,10 +71,28 @@ def get_planner(variant: str | Planner) -> Planner:
             f"a planner must be a name (str) or a Planner, got {type(variant).__name__} {variant!r}{several}"
         )
     raise JacoError(
-        f"unknown planner {variant!r}; registered: {', '.join(sorted(PLANNERS))} "
+        f"unknown planner {variant!r}{_did_you_mean(variant)}; registered: {', '.join(sorted(PLANNERS))} "
         "(or a composition: compose(construct=..., heuristic=..., rule=...); a suffix adds a cost or a local "
         f"search: +{', +'.join(sorted(COSTS))}, +{', +'.join(k for k in LOCAL_SEARCHES if k != 'none')})"
     )
+
+
+def _registered(name: str) -> Planner | None:
+    """The registered planner of that name, in any case (``"IACA"`` is ``iaca``), or None."""
+    if name in PLANNERS:
+        return PLANNERS[name]
+    folded = name.strip().casefold()
+    hits = [v for k, v in PLANNERS.items() if k.casefold() == folded]
+    return hits[0] if len(hits) == 1 else None
+
+
+def _did_you_mean(name: str) -> str:
+    """``" (did you mean 'iaca'?)"`` for the registered names closest to a misspelt one (difflib, in
+    any case), a name with a suffix (``"iaca+shortcutt"``) among the names with one; or ``""``."""
+    base, plus, _ = name.strip().rpartition("+")
+    suffixes = [*sorted(COSTS), *(k for k in LOCAL_SEARCHES if k != "none")]
+    candidates = [f"{k}+{s}" for k in PLANNERS for s in suffixes] if plus and base else list(PLANNERS)
+    return did_you_mean(name.strip().casefold(), [c.casefold() for c in candidates])
 
 
 def register(variant: Planner) -> Planner:

@@ -1,8 +1,9 @@
 """From a results table to a conclusion: which planner (or configuration) is better, and how sure.
 
-``jaco.compare(table, by="variant") -> Comparison`` takes a tidy table (:func:`jaco.sweep`, or one
+``jaco.compare(table, by="planner") -> Comparison`` takes a tidy table (:func:`jaco.sweep`, or one
 read back with :func:`jaco.research.tables.read_table`) with a column (or columns, ``by``) naming
-the configuration and pairs its runs over the *pairing*: the query (``map, start_row, start_col,
+the configuration (a table of an older jaco names its planner column ``variant``: it is read as
+``planner``, and ``by="variant"`` as ``by="planner"``) and pairs its runs over the *pairing*: the query (``map, start_row, start_col,
 goal_row, goal_col``, when present) and the ``seed``. Every configuration should have one run per
 pair; when some lack pairs others have, :func:`compare` warns (:class:`UnequalPairsWarning`, and a
 note in the words) and each statistic says over how many runs or pairs it is.
@@ -57,12 +58,13 @@ import numpy as np
 import pandas as pd
 
 from ..errors import JacoError
-from .tables import QUERY_COLUMNS, number, percent, short_name, text_table
+from .tables import FORMER_PLANNER, PLANNER, QUERY_COLUMNS, number, percent, short_name, text_table
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
 __all__ = [
+    "ByError",
     "Comparison",
     "UnequalPairsWarning",
     "compare",
@@ -78,6 +80,15 @@ PAIRING = (*QUERY_COLUMNS, "seed")
 RESULTS = ("success", "length", "cost", "best_iteration", "optimal", "gap", "coverage")
 #: Names of a column that names the query (a number, a scenario): it belongs in the pairing, not in ``by``.
 QUERY_LIKE = (*QUERY_COLUMNS, "query", "query_id", "scenario", "scen", "problem", "instance", "start", "goal")
+
+
+class ByError(JacoError):
+    """A table whose configurations ``by`` does not tell apart; ``by`` is the list that would
+    (the command line names it as ``--by`` options)."""
+
+    def __init__(self, message: str, by: list):
+        super().__init__(message)
+        self.by = by
 
 
 class UnequalPairsWarning(UserWarning):
@@ -236,7 +247,7 @@ def _label(by, key) -> str:
     key = key if isinstance(key, tuple) else (key,)
     parts = []
     for name, v in zip(by, key):
-        if name == "variant":
+        if name in (PLANNER, FORMER_PLANNER):
             parts.append(short_name(v))
         elif isinstance(v, str):
             parts.append(v)
@@ -246,7 +257,7 @@ def _label(by, key) -> str:
 
 
 def _runs_text(table: pd.DataFrame, mask, columns: Sequence[str]) -> str:
-    """``"1 run (variant=A, seed=3)"`` or ``"3 runs (the first: variant=A, seed=3)"``."""
+    """``"1 run (planner=A, seed=3)"`` or ``"3 runs (the first: planner=A, seed=3)"``."""
     mask = np.asarray(mask, bool)
     first = table[mask].iloc[0]
     where = ", ".join(f"{c}={number(first[c])}" for c in columns)
@@ -281,12 +292,12 @@ def _check_table(table, by, value, blocks, pairing, ratio_of) -> tuple[pd.DataFr
     """The table in the current layout, ``by``, the pairing and ``ratio_of``, or one JacoError line."""
     if not isinstance(table, pd.DataFrame):
         raise JacoError(f"compare takes a results table (a DataFrame), got {type(table).__name__}")
-    from .tables import normalise
+    from .tables import normalise, planner_by
 
-    table = normalise(table)
+    table = normalise(table)  # an older table's "variant" column is "planner"
     if len(table) == 0:  # before the columns: a header-only CSV reads as columns of objects
         raise JacoError("compare: the table has no rows")
-    by = [by] if isinstance(by, str) else list(by)
+    by = planner_by(by, table, "compare", stacklevel=4)  # "variant": the planner column's former name
     if not by:
         raise JacoError("compare: by must name at least one column (the planner or configuration)")
     columns = ", ".join(map(str, table.columns))
@@ -346,28 +357,49 @@ def _check_pairs(table: pd.DataFrame, by: list[str], pairing: list[str]) -> None
         if table[dup].groupby(by + pairing, dropna=False)[c].nunique(dropna=False).max() > 1
     ]
     query = [c for c in varying if str(c).lower() in QUERY_LIKE]
+    # the settings that vary, every one at once ("config", the design's row, only when nothing else does)
+    settings = [c for c in varying if c not in query and c != "config"] or [c for c in varying if c == "config"]
+    no_seed = "seed" not in table.columns
     if query:
         suggest = [c for c in pairing if c != "seed"] + [query[0]] + ["seed"] * ("seed" in pairing)
         hint = (
             f"column {query[0]!r} names the query and varies within a configuration and pair: "
             f"pair the runs by it (pairing={suggest!r})"
         )
-    elif varying:
-        hint = (
-            f"column {varying[0]!r} varies within a configuration and pair: add it to by "
-            f"(by={by + [varying[0]]!r}) or select its rows first"
+    elif settings:
+        which = f"column {settings[0]!r} varies" if len(settings) == 1 else f"columns {_names(settings)} vary"
+        suggest = by + settings
+        raise ByError(
+            f"compare: {int(dup.sum())} rows share a configuration and pair ({', '.join(by + pairing)}); "
+            f"{which} within a configuration and pair: add {'it' if len(settings) == 1 else 'them'} to by "
+            f"(by={suggest!r}) or select their rows first" + (f"; {_NO_SEED}" if no_seed else ""),
+            suggest,
         )
+    elif no_seed:
+        hint = _NO_SEED
     else:
-        hint = "the table repeats runs"
+        hint = "the table repeats runs (the same configuration, query and seed twice)"
     raise JacoError(
         f"compare: {int(dup.sum())} rows share a configuration and pair ({', '.join(by + pairing)}); {hint}"
     )
+
+
+_NO_SEED = (
+    "the table has no 'seed' column, so the repeated runs of a configuration cannot be paired: "
+    "keep the 'seed' column jaco.sweep writes (or give pairing= the columns that name a run)"
+)
+
+
+def _names(columns) -> str:
+    """``'beta', 'rho'``."""
+    return ", ".join(repr(c) for c in columns)
 
 
 def _check_settings(table: pd.DataFrame, by: list[str], pairing: list[str]) -> None:
     """A setting (a column constant within at least half of the configurations) that changes
     within another configuration, and not with the pair, would merge two configurations."""
     ids = table.groupby(by, dropna=False, sort=False).ngroup().to_numpy()
+    found = []  # (column, the first configuration it changes in), every such column
     for c in _other_columns(table, by, pairing):
         counts = table[c].groupby(ids).nunique(dropna=False)
         changing = counts.index[counts.to_numpy() > 1]
@@ -375,14 +407,22 @@ def _check_settings(table: pd.DataFrame, by: list[str], pairing: list[str]) -> N
             continue  # constant everywhere, or changing in most configurations: a measurement
         if table.groupby(pairing, dropna=False)[c].nunique(dropna=False).max() <= 1:
             continue  # fixed by the pair (a query's cells when the pairing numbers the queries)
-        part = table[ids == changing[0]]
-        shown = part[c].value_counts(dropna=False)
-        values = ", ".join(f"{number(v)} on {n} run{'s' * (n != 1)}" for v, n in shown.iloc[:3].items())
-        raise JacoError(
-            f"compare: column {c!r} changes within configuration {_label(by, tuple(part[by].iloc[0]))} "
-            f"({values}{', ...' * (len(shown) > 3)}): add it to by (by={by + [c]!r}) or select its rows first "
-            "(or drop the column, if it is a measurement and not a setting)"
-        )
+        found.append((c, changing[0]))
+    if not found:
+        return
+    c, first = found[0]
+    part = table[ids == first]
+    shown = part[c].value_counts(dropna=False)
+    values = ", ".join(f"{number(v)} on {n} run{'s' * (n != 1)}" for v, n in shown.iloc[:3].items())
+    more = [name for name, _ in found[1:]]
+    also = f"; so do {_names(more)}" if more else ""
+    suggest = by + [c, *more]
+    raise ByError(
+        f"compare: column {c!r} changes within configuration {_label(by, tuple(part[by].iloc[0]))} "
+        f"({values}{', ...' * (len(shown) > 3)}){also}: add {'them' if more else 'it'} to by (by={suggest!r}) "
+        "or select its rows first (or drop the column, if it is a measurement and not a setting)",
+        suggest,
+    )
 
 
 def _config_rng(seed: int, name: str) -> np.random.Generator:
@@ -394,7 +434,7 @@ def _config_rng(seed: int, name: str) -> np.random.Generator:
 
 def compare(
     table: pd.DataFrame,
-    by: str | Sequence[str] = "variant",
+    by: str | Sequence[str] = "planner",
     value: str = "gap",
     *,
     blocks: str = "run",
@@ -407,7 +447,8 @@ def compare(
 ) -> Comparison:
     """Compare the configurations of a results table (module docstring: what, and how ties and
     failed runs are handled). ``by``: the column (or list of columns) naming a configuration, e.g.
-    ``"variant"`` or ``["variant", "beta"]``; ``value``: the column compared, lower is better
+    ``"planner"`` or ``["planner", "beta"]`` (``"variant"``, the planner column's former name, is
+    taken as ``"planner"`` with a DeprecationWarning); ``value``: the column compared, lower is better
     (default ``gap``); ``blocks``: ``"run"`` (each pair is a block of the Friedman test) or
     ``"query"`` (each query, the median over its seeds); ``alpha``: the level of the tests'
     verdicts and of the critical difference; ``confidence`` and ``n_boot``: the bootstrap

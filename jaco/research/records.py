@@ -410,9 +410,23 @@ class SweepRecord:
                 new = sweep(**kw)
         except TypeError as e:
             raise RecordError(f"{self.path}: this jaco cannot rerun the recorded sweep ({e})") from None
-        diffs = [] if _csv_text(new) == self.table_text else differences(self.table, new)
+        diffs = [] if _csv_text(new) == self.table_text else differences(self.table, _as_recorded(new, self))
         what = f"{len(new)} rows x {len(new.columns)} columns"
         return Rerun(not diffs, diffs, list(self.warnings), new, what)
+
+
+def _as_recorded(new, record: SweepRecord):
+    """The rerun's table as the record's jaco wrote it: a one-planner table written before every
+    table named its planner has no ``planner`` column (its sidecar's ``call.variant`` names it),
+    so the rerun's is checked against the call and left out."""
+    from .tables import PLANNER
+
+    if PLANNER not in new.columns or PLANNER in record.table.columns:
+        return new
+    named = record.call["variant"]
+    if isinstance(named, str) and set(new[PLANNER]) == {named}:
+        return new.drop(columns=PLANNER)
+    return new  # a different planner: the columns differ, and the rerun says so
 
 
 # -- loading --------------------------------------------------------------------------------

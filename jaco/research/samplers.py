@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from ..engine.params import owners
 from ..errors import JacoError
 from .space import VARIANT, Categorical, Float, Int, Space, SpaceError
 
@@ -88,7 +89,11 @@ def check_sampler(sampler: Any, space: Space, n_objectives: int) -> str:
     if sampler == "gp" and find_spec("torch") is None:
         raise JacoError("sampler 'gp' needs PyTorch (pip install torch), which jaco[search] does not install")
     if sampler == "grid" and space.conditional():
-        raise SpaceError("sampler 'grid' needs every parameter to belong to every planner (no conditional parameter)")
+        name = next(n for n in space.dims if not all(space.uses(p, n) for p in space.planners))
+        raise SpaceError(
+            f"sampler 'grid' needs every parameter to belong to every planner (no conditional parameter): "
+            f"{owners(name, space.planners.values())}"
+        )
     return sampler
 
 

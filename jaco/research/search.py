@@ -7,7 +7,7 @@ finishes (docs/search.md).
 >>> study = jaco.search(grid, grid.meta["start"], grid.meta["goal"], {"beta": (1.0, 8.0), "rho": (0.05, 0.5)},
 ...                     trials=8, batch=4, seeds=2, n_ants=8, n_iters=10, sampler="random", progress=False)
 >>> len(study.trials), sorted(study.best_params)
-(8, ['beta', 'rho', 'variant'])
+(8, ['beta', 'planner', 'rho'])
 
 **Evaluation.** A generation's trials are grouped by planner and sizes; each group runs
 trials × seeds × queries through one planner's compiled chunk program (:class:`jaco.research.sweeps.Runner`,
@@ -77,6 +77,29 @@ OBJECTIVES: dict[str, Literal["minimize", "maximize"]] = {
     "budget": "minimize",
 }
 PENALIZED = ("gap", "length", "turns")
+
+
+def objective_column(name: str) -> str:
+    """The column of :attr:`Study.trials` that holds objective ``name``: a penalised objective
+    (``gap``, ``length``, ``turns``: the mean over runs, a failed run counted as its penalty) is
+    ``gap_penalised_mean`` ..., so that it never reads as the ``gap_median`` and ``length_mean``
+    beside it (over the successful runs only); ``success`` and ``budget`` keep their names."""
+    return f"{name}_penalised_mean" if name in PENALIZED else name
+
+
+class BestParams(dict):
+    """:attr:`Study.best_params`: a dict with the key ``planner``; ``["variant"]`` (its former
+    name) still reads it, with a DeprecationWarning."""
+
+    def __missing__(self, key):
+        if key == VARIANT and "planner" in self:
+            warnings.warn(
+                "best_params['variant'] is the former name of best_params['planner']", DeprecationWarning, stacklevel=2
+            )
+            return self["planner"]
+        raise KeyError(key)
+
+
 ATTR = "jaco"  # the study's user attribute with everything jaco needs to rerun and resume it
 STOPPED = "jaco_stopped"  # the study's user attribute: why the last search call stopped (None: it did not end)
 _clock = time.monotonic  # the timeout's clock (a module name, so tests can replace it)
@@ -738,8 +761,9 @@ class _Run:
             value = None
         if value is not None:
             name = self.info["objectives"][0]
+            shown = objective_column(name)  # gap_penalised_mean, as the trials table names it
             self.bar.status(
-                f"best {name} {100 * value:.2f}%" if name in ("gap", "success") else f"best {name} {value:.4g}"
+                f"best {shown} {100 * value:.2f}%" if name in ("gap", "success") else f"best {shown} {value:.4g}"
             )
 
     def _job(self, trial, planner, params: dict, sizes: dict) -> Job:
@@ -960,11 +984,14 @@ class Study:
         return list(self.info["objectives"])
 
     def _params(self, frozen) -> dict:
-        """A trial's planner, its searched values and the fixed values of the space that apply."""
+        """A trial's planner (key ``planner``), its searched values and the fixed values of the
+        space that apply (the stored trial keeps the planner under Optuna's parameter ``variant``)."""
         a = trial_info(frozen)
         used = set(a["params"]) | set(SIZES)
         fixed = {k: v for k, v in self.info["space"].items() if isinstance(v, (int, float)) and k in used}
-        return {VARIANT: a["planner"], **fixed, **{k: v for k, v in frozen.params.items() if k != VARIANT}}
+        return BestParams(
+            {"planner": a["planner"], **fixed, **{k: v for k, v in frozen.params.items() if k != VARIANT}}
+        )
 
     @property
     def best_trial(self) -> Any:
@@ -975,8 +1002,9 @@ class Study:
 
     @property
     def best_params(self) -> dict:
-        """The best trial's planner (``variant``), searched and fixed parameters and searched
-        sizes: ``jaco.solve(grid, start, goal, **study.best_params)`` runs it."""
+        """The best trial's planner (key ``planner``), searched and fixed parameters and searched
+        sizes: ``jaco.solve(grid, start, goal, **study.best_params)`` runs it (``jaco.solve`` also
+        takes the former key, ``variant``, and ``best_params["variant"]`` still reads the planner)."""
         return self._params(self.best_trial)
 
     @property
@@ -993,9 +1021,10 @@ class Study:
 
     @property
     def trials(self) -> pd.DataFrame:
-        """One row per trial: ``number, state, generation, variant``, the searched parameters, the
-        objective value(s) (a column per objective, the penalty counted for failed runs),
-        ``success_rate``, ``gap_median`` and ``length_mean`` over the successful runs,
+        """One row per trial: ``number, state, generation, planner``, the searched parameters, the
+        objective value(s) (a column per objective, :func:`objective_column`: ``gap_penalised_mean``
+        for ``gap``, the mean over runs with the penalty counted for failed runs),
+        ``success_rate``, ``gap_median`` and ``length_mean`` over the successful runs only,
         ``n_ants, n_iters`` (of its last evaluation), ``runs``, ``iterations`` (ant-iterations
         spent on it, all rungs), ``start_s`` and ``end_s`` (seconds since the study's first trial
         started)."""
@@ -1009,7 +1038,7 @@ class Study:
                 "number": t.number,
                 "state": t.state.name,
                 "generation": a.get("generation"),
-                VARIANT: a.get("planner"),
+                "planner": a.get("planner"),
             }
             row.update({k: v for k, v in t.params.items() if k != VARIANT})
             values = (
@@ -1018,7 +1047,7 @@ class Study:
                 else ([t.intermediate_values[max(t.intermediate_values)]] if t.intermediate_values else [math.nan])
             )
             for name, v in zip(self.objectives, values):
-                row[name] = v
+                row[objective_column(name)] = v
             runs = a["runs"]
             last = runs.get(str(a.get("n_iters"))) if runs else None
             if last is not None:
@@ -1047,11 +1076,12 @@ class Study:
         name = self.objectives[0]
         sign = 1.0 if OBJECTIVES[name] == "minimize" else -1.0
         complete = table["state"].eq("COMPLETE")
-        best = (sign * table[name].where(complete)).cummin().ffill() * sign  # a pruned trial keeps the best
+        column = objective_column(name)
+        best = (sign * table[column].where(complete)).cummin().ffill() * sign  # a pruned trial keeps the best
         out = pd.DataFrame(
             {
                 "number": table["number"].to_numpy(),
-                "value": table[name].to_numpy(),
+                "value": table[column].to_numpy(),
                 "best": best.to_numpy(),
                 "iterations": table["iterations"].cumsum().to_numpy(),
                 "end_s": table["end_s"].to_numpy(),
@@ -1072,7 +1102,7 @@ class Study:
                     for j, s in enumerate(self.info["seeds"]):
                         row = {
                             "number": t.number,
-                            VARIANT: trial_info(t)["planner"],
+                            "planner": trial_info(t)["planner"],
                             "n_iters": int(n_iters),
                             "query": q,
                             "start": tuple(query["start"]),

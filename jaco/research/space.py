@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from .. import planners as _planners  # noqa: F401 (its modules declare every component's parameters)
-from ..engine.params import ORDERED, SPECS, check_values
+from ..engine.params import ORDERED, SPECS, check_values, owners
 from ..engine.planner import Planner
 from ..errors import ParamError
 
@@ -216,8 +216,7 @@ def parse_space(space: Any, variant: Any = None) -> Space:
         if name in SIZES:
             dim = _check_size(name, dim)
         elif name not in used:
-            who = f"planner {names[0]!r}" if len(planners) == 1 else f"any of the planners {list(planners)}"
-            raise SpaceError(f"parameter {name!r} is not used by {who}; it uses: {', '.join(sorted(used))}")
+            raise SpaceError(owners(name, planners.values()))
         elif isinstance(dim, float):
             check_values({name: dim}, (name,), "a search space")
         elif isinstance(dim, Categorical):

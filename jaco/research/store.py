@@ -19,6 +19,7 @@ SIGKILL); a second process gets a one-line :class:`~jaco.errors.JacoError` namin
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import fcntl
 import hashlib
@@ -40,6 +41,29 @@ _DTYPES = {"cost": "<f4", "length": "<f4", "best_iteration": "<i4", "covered": "
 
 class StoreError(JacoError):
     """A sweep store that cannot be used: locked by another process, or not a jaco store."""
+
+
+#: The open :func:`counting` ledgers.
+_LEDGERS: list[dict] = []
+
+
+@contextlib.contextmanager
+def counting(ledger: dict | None = None):
+    """While open, fills a ledger (``ledger``, or a new dict) ``{store path: {sweep fingerprint:
+    runs stored}}`` of every sweep that used a store: the runs it found there, plus each chunk it
+    appended once committed. What an interrupted ``jaco sweep --store`` reports as kept."""
+    ledger = {} if ledger is None else ledger
+    _LEDGERS.append(ledger)
+    try:
+        yield ledger
+    finally:
+        _LEDGERS.remove(ledger)
+
+
+def _count(path: Path, key: str, runs: int, add: bool) -> None:
+    for ledger in _LEDGERS:
+        sweeps = ledger.setdefault(str(path), {})
+        sweeps[key] = sweeps.get(key, 0) + runs if add else runs
 
 
 def check_store_path(path: Any, what: str = "store") -> Path:
@@ -164,6 +188,7 @@ class SweepStore:
             for dst, name, blob in zip(outs, FIELDS, row[1:]):
                 dst[:, rows] = np.frombuffer(blob, _DTYPES[name]).reshape(n_q, len(rows))
             done[rows] = True
+        _count(self.path, key, int(done.sum()) * n_q, add=False)
         return done
 
     def append(self, key: str, rows: Any, outputs: Any) -> None:
@@ -178,6 +203,7 @@ class SweepStore:
         except BaseException:
             self.db.execute("ROLLBACK")
             raise
+        _count(self.path, key, int(np.size(outputs[0])), add=True)  # queries x rows
 
     def stored_runs(self, key: str) -> int:
         """How many rows of sweep ``key`` are stored."""

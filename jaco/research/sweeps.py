@@ -38,7 +38,7 @@ from ..engine import native
 from ..engine.cache import cached, is_cached
 from ..engine.checks import check_relations, check_seeds, check_sizes, default_steplimit, params_from, resolve_params
 from ..engine.memory import CONFIG_BYTES, bytes_per_run, check_memory, check_run_memory
-from ..engine.params import check_values
+from ..engine.params import check_values, owners
 from ..engine.planner import Planner
 from ..engine.problem import make_problem, stack
 from ..engine.run import make_run
@@ -568,8 +568,9 @@ def sweep(
     store holds any number of sweeps, each found by a fingerprint of its arguments; a second
     process on the same store gets a one-line error naming the lock.
 
-    Returns a tidy DataFrame: ``map, start, goal`` (when there are several queries), ``config``
-    (the configuration's row in the design), the variant's parameters, ``seed`` and the results
+    Returns a tidy DataFrame: ``planner`` (its name: every table names its planner, one planner
+    too), ``map, start_row, start_col, goal_row, goal_col`` (when there are several queries),
+    ``config`` (the configuration's row in the design), the planner's parameters, ``seed`` and the results
     ``success, length, cost, best_iteration, optimal, gap, coverage``. ``table.attrs["sweep"]``
     holds the plan (:func:`plan_sweep`).
 
@@ -711,19 +712,27 @@ def _run_sweep(bar, st, outs, todo, store=None, key=None) -> pd.DataFrame:
 
 
 def _over_variants(variants, run, params) -> pd.DataFrame:
-    """One sweep per planner, stacked with a ``variant`` column; every planner and its parameter
-    axes are checked before anything compiles."""
+    """One sweep per planner (each with its ``planner`` column), stacked; every planner and its
+    parameter axes are checked before anything compiles."""
     variants = [get_planner(v) for v in variants]
     if not variants:
-        raise JacoError("variant: an empty list of planners")
+        raise JacoError("planner: an empty list of planners")
     names = [v.name for v in variants]
     if len(set(names)) != len(names):
-        raise JacoError(f"variant: a planner is listed twice in {names}")
+        raise JacoError(f"planner: a planner is listed twice in {names}")
+    axes = list(params) if isinstance(params, dict) else as_design(params).names
+    for axis in axes:  # one that some planners lack: say which have it (no "did you mean")
+        have = [v.name for v in variants if axis in v.params]
+        if have and len(have) < len(variants):
+            raise ParamError(
+                f"{owners(axis, variants)}: a sweep over several planners takes only the parameters every one of "
+                f"them has; sweep {' and '.join(have)} on {'its' if len(have) == 1 else 'their'} own, or search "
+                "(jaco search, jaco.search), which sets a parameter only for the planners that have it"
+            )
     for v in variants:
         _config_table(v, params)
-    tables = [run(v) for v in variants]
-    table = pd.concat([t.assign(variant=v.name) for v, t in zip(variants, tables)], ignore_index=True)
-    table = table[["variant"] + [c for c in table.columns if c != "variant"]]
+    tables = [run(v) for v in variants]  # each with its first column "planner"
+    table = pd.concat(tables, ignore_index=True)
     table.attrs["sweep"] = {v.name: t.attrs["sweep"] for v, t in zip(variants, tables)}
     return table
 
@@ -737,9 +746,9 @@ def _tidy(variant, queries, problems, values, config, seed_arr, cost, length, be
         success = np.isfinite(cost[q])
         L = np.where(success, length[q].astype(np.float64) * g.cell_size, math.inf)
         optimal = float(problems[q].optimal) * g.cell_size
-        cols = {}
+        cols = {"planner": [variant.name] * n_rows}  # every table names its planner, one planner too
         if n_q > 1:  # the query as integer columns, so that a CSV round trip keeps them numbers
-            cols = {
+            cols |= {
                 "map": [g.name] * n_rows,
                 "start_row": np.full(n_rows, s[0], np.int64),
                 "start_col": np.full(n_rows, s[1], np.int64),
@@ -776,7 +785,7 @@ def summarize(table: pd.DataFrame, by: Any = None) -> pd.DataFrame:
     them with :func:`jaco.research.compare.compare`, which counts a failure as worse than any path.
     Gaps are fractions (0.05 is 5 %), as in the table.
 
-    A table of several planners (``jaco.sweep(..., variant=[...])``) has a column for every
+    A table of several planners (``jaco.sweep(..., planner=[...])``) has a column for every
     planner's parameters, empty (NaN) on the rows of planners without that parameter. By default
     the summary keeps as columns the parameters every planner of the table has, and folds the
     others into one text column ``params``, each row holding its own planner's values only
@@ -791,7 +800,9 @@ def summarize(table: pd.DataFrame, by: Any = None) -> pd.DataFrame:
         table = fold_params(table, RESULT_COLUMNS)
         by = [c for c in table.columns if c not in RESULT_COLUMNS]
     else:
-        by = [by] if isinstance(by, str) else list(by)
+        from .tables import planner_by
+
+        by = planner_by(by, table, "summarize")  # "variant": the planner column's former name
     missing = [c for c in by if c not in table.columns]
     if missing:
         raise JacoError(f"summarize: no column {missing[0]!r} in the table")

@@ -12,6 +12,11 @@
   text and floats at float64 precision) are read by :func:`read_table` into the same layout, and
   :func:`differences` compares two tables value by value, each recorded column at the precision it
   was written in, so a sweep record of either kind reruns bit for bit.
+* **The planner column** is ``planner`` in every table, with one planner too. Tables written
+  before planners had one name call it ``variant`` (and a one-planner table had none):
+  :func:`normalise` renames it on read, and :func:`planner_by` takes ``by="variant"`` as
+  ``"planner"`` (with a DeprecationWarning); run and sweep *record files* keep the field
+  ``call.variant`` (docs/records.md, "One word per layer").
 * **Short names**: :func:`short_name` turns a composition's full name
   ``compose(construct=backtrack, heuristic=chaos, rule=iaca, transition=q0, ...)`` into
   ``backtrack/chaos/iaca`` for tables and legends.
@@ -37,6 +42,10 @@ if TYPE_CHECKING:
 
 #: The columns that name a query in a table of several queries.
 QUERY_COLUMNS = ("map", "start_row", "start_col", "goal_row", "goal_col")
+#: The column that names the planner of a row, in every table jaco writes.
+PLANNER = "planner"
+#: The planner column's former name (tables written before planners had one name): read as :data:`PLANNER`.
+FORMER_PLANNER = "variant"
 _CELL = re.compile(r"^\s*\(\s*(-?\d+)\s*,\s*(-?\d+)\s*\)\s*$")
 
 
@@ -120,9 +129,12 @@ def read_table(source: PathArg) -> pd.DataFrame:
 
 
 def normalise(table: pd.DataFrame) -> pd.DataFrame:
-    """The current layout of a result table: ``start``/``goal`` columns holding ``"(row, col)"``
-    text or pairs become two integer columns each, in their place; anything else is unchanged."""
+    """The current layout of a result table: a ``variant`` column (the planner's former name) is
+    ``planner``; ``start``/``goal`` columns holding ``"(row, col)"`` text or pairs become two
+    integer columns each, in their place; anything else is unchanged."""
     out = table
+    if FORMER_PLANNER in out.columns and PLANNER not in out.columns:
+        out = out.rename(columns={FORMER_PLANNER: PLANNER})
     for end in ("start", "goal"):
         if end not in out.columns or f"{end}_row" in out.columns:
             continue
@@ -137,6 +149,23 @@ def normalise(table: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
+def planner_by(by: Any, table: pd.DataFrame | None = None, where: str = "by", stacklevel: int = 3) -> list:
+    """``by`` (a column name or a list of them) as a list, the planner column's former name
+    ``"variant"`` read as ``"planner"`` (a DeprecationWarning) unless ``table`` has a column
+    ``variant`` (an older table not read through :func:`normalise`)."""
+    import warnings
+
+    names = [by] if isinstance(by, str) else list(by)
+    if FORMER_PLANNER not in names or (table is not None and FORMER_PLANNER in table.columns):
+        return names
+    warnings.warn(
+        f"{where}: {FORMER_PLANNER!r} is the former name of the planner column; use {PLANNER!r}",
+        DeprecationWarning,
+        stacklevel=stacklevel,
+    )
+    return [PLANNER if n == FORMER_PLANNER else n for n in names]
+
+
 def _cell(x):
     if isinstance(x, str):
         m = _CELL.match(x)
@@ -147,14 +176,15 @@ def _cell(x):
 
 
 def fold_params(table: pd.DataFrame, results: Iterable[str] = ()) -> pd.DataFrame:
-    """A table of several planners (a ``variant`` column) with the parameters only some of them
+    """A table of several planners (a ``planner`` column) with the parameters only some of them
     have folded into one text column ``params`` after the others, each row holding its own
     planner's values (``"q0=0.8, xi=0.1"``, float32 precision); other tables as they are.
     A parameter column is any numeric column that is not a query column, ``config`` or one of
     ``results``; it is folded when it is empty (NaN) on some rows."""
-    if "variant" not in table.columns or table["variant"].nunique() < 2:
+    name = PLANNER if PLANNER in table.columns else FORMER_PLANNER  # an older table's "variant"
+    if name not in table.columns or table[name].nunique() < 2:
         return table
-    skip = {*results, *QUERY_COLUMNS, "variant", "config"}
+    skip = {*results, *QUERY_COLUMNS, name, "config"}
     params = [c for c in table.columns if c not in skip and pd.api.types.is_numeric_dtype(table[c].dtype)]
     partial = [c for c in params if table[c].isna().any()]
     if not partial:
