@@ -90,11 +90,16 @@ def move_weights(variant: Any, trail: Trail, problem: Any, params: Params, t: An
     return scaled(log_w, problem.nbr >= 0)
 
 
-def step_targets(pheromone_on: str, cells: jax.Array, moves: jax.Array, start: Any, n_cells: int) -> jax.Array:
+def step_targets(
+    pheromone_on: str, cells: jax.Array, moves: jax.Array, start: Any, n_cells: int, edges: jax.Array | None = None
+) -> jax.Array:
     """Pheromone element of every step: the entered cell (cells) or ``from·8 + move`` (moves);
-    out of range (``N`` or ``8N``) where no step was taken."""
+    out of range (``N`` or ``8N``) where no step was taken. ``edges``, where the walk gave them,
+    are the latter already (no pass over every step slot)."""
     if pheromone_on == "cells":
         return jnp.where(cells >= 0, cells, n_cells)
+    if edges is not None:
+        return edges
     prev = jnp.concatenate([jnp.broadcast_to(start, cells[:1].shape), cells[:-1]], axis=0)
     return jnp.where(moves >= 0, prev * 8 + moves, 8 * n_cells)
 
@@ -127,5 +132,7 @@ def walk_colony(
         problem, weights, key, params.q0 if exploit else 0.0, n_ants=n_ants, steplimit=steplimit, exploit=exploit
     )
     cost = jnp.where(tours.arrived, variant.cost(tours, problem, params), jnp.inf)
-    targets = step_targets(variant.pheromone_on, tours.cells, tours.moves, problem.start, problem.nbr.shape[0])
+    targets = step_targets(
+        variant.pheromone_on, tours.cells, tours.moves, problem.start, problem.nbr.shape[0], tours.edges
+    )
     return Colony(tours.cells, targets, tours.step_len, cost, tours.length, tours.n_steps, tours.visited)

@@ -246,7 +246,7 @@ def walk(
     _load()
     n = weights.shape[-2]
     out = (
-        jax.ShapeDtypeStruct((steplimit, n_ants), jnp.int8),
+        jax.ShapeDtypeStruct((steplimit, n_ants), jnp.int32),
         jax.ShapeDtypeStruct((steplimit, n_ants), jnp.int32),
         jax.ShapeDtypeStruct((n_ants,), jnp.int32),
         jax.ShapeDtypeStruct((n_ants,), jnp.int32),
@@ -271,7 +271,6 @@ def deposit(tau: jax.Array, targets: jax.Array, amounts: jax.Array) -> jax.Array
         "jaco_deposit",
         jax.ShapeDtypeStruct(tau.shape, jnp.float32),
         vmap_method="broadcast_all",
-        input_output_aliases={0: 0},
     )
     return call(tau, flat, per)
 

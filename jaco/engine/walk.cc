@@ -106,19 +106,19 @@ int32_t grid_width(const int32_t* off, int32_t* row_of, int32_t* col_of) {
 // ---- the dying-ant walk (jaco.engine.walk.jax_walk) ------------------------------------------
 ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Buffer<ffi::U32> words,
                     ffi::Buffer<ffi::S32> start, ffi::Buffer<ffi::S32> goal, ffi::Buffer<ffi::F32> q0,
-                    ffi::Buffer<ffi::S32> offsets, ffi::ResultBuffer<ffi::S8> moves,
+                    ffi::Buffer<ffi::S32> offsets, ffi::ResultBuffer<ffi::S32> edges,
                     ffi::ResultBuffer<ffi::S32> cells, ffi::ResultBuffer<ffi::S32> n_steps,
                     ffi::ResultBuffer<ffi::S32> n_diagonal, ffi::ResultBuffer<ffi::PRED> arrived,
                     ffi::ResultBuffer<ffi::PRED> visited, int64_t steplimit, bool exploit) {
   const auto wd = weights.dimensions();
-  const auto md = moves->dimensions();
+  const auto md = edges->dimensions();
   const int64_t N = wd[wd.size() - 2], S = md[md.size() - 2], A = md[md.size() - 1];
   const int64_t B = leading(wd, 2);
   const float* W0 = weights.typed_data();
   const uint32_t* K = words.typed_data();
   const int32_t *st = start.typed_data(), *gl = goal.typed_data(), *off0 = offsets.typed_data();
   const float* q = q0.typed_data();
-  int8_t* mv0 = moves->typed_data();
+  int32_t* ed0 = edges->typed_data();
   int32_t* cl0 = cells->typed_data();
   int32_t *ns0 = n_steps->typed_data(), *nd0 = n_diagonal->typed_data();
   bool *arr0 = arrived->typed_data(), *vis0 = visited->typed_data();
@@ -128,7 +128,7 @@ ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Bu
   for_each_colony(pool, B, [=]() {
     return [=, tabu = std::vector<uint32_t>()](int64_t b) mutable {
       LaneColony colony{W0 + b * N * 8, off0 + b * 8, st[b], gl[b], int32_t(N), q[b], K[2 * b], K[2 * b + 1],
-                        A, S, exploit, mv0 + b * S * A, cl0 + b * S * A, ns0 + b * A, nd0 + b * A, arr0 + b * A,
+                        A, S, exploit, ed0 + b * S * A, cl0 + b * S * A, ns0 + b * A, nd0 + b * A, arr0 + b * A,
                         vis0 + b * N, nullptr, 0, {}, {}};
       colony.width = grid_width(colony.offsets, colony.row_of, colony.col_of);
       const int64_t pad = int64_t(colony.width) + 2;
@@ -185,7 +185,7 @@ XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoWalk, WalkImpl,
                                   .Arg<ffi::Buffer<ffi::S32>>()   // goal (...)
                                   .Arg<ffi::Buffer<ffi::F32>>()   // q0 (...)
                                   .Arg<ffi::Buffer<ffi::S32>>()   // move offsets (..., 8)
-                                  .Ret<ffi::Buffer<ffi::S8>>()    // moves (..., S, A)
+                                  .Ret<ffi::Buffer<ffi::S32>>()   // edges (..., S, A): from·8 + move, 8N where none
                                   .Ret<ffi::Buffer<ffi::S32>>()   // cells (..., S, A)
                                   .Ret<ffi::Buffer<ffi::S32>>()   // steps (..., A)
                                   .Ret<ffi::Buffer<ffi::S32>>()   // diagonal steps (..., A)

@@ -36,7 +36,9 @@ class Tours(NamedTuple):
     """Step-major record ``(S, A)`` of one colony's walks.
 
     ``cells[t, a]``: the cell ant a entered at step t, or -1 when it took no step;
-    ``moves[t, a]``: the move index (0..7) of that step, or -1; ``step_len`` its length.
+    ``moves[t, a]``: the move index (0..7) of that step, or -1; ``step_len`` its length;
+    ``edges[t, a]``: ``from·8 + move`` of that step, ``8N`` where none (the pheromone element of
+    the step when the pheromone is on moves), or None where the walk did not give them.
     ``arrived[a]``: reached the goal; ``n_steps[a]``: steps taken; ``length[a]``: path length.
     ``visited``: cells visited by any ant (coverage).
     """
@@ -48,6 +50,7 @@ class Tours(NamedTuple):
     n_steps: jax.Array
     length: jax.Array
     visited: jax.Array
+    edges: jax.Array | None = None
 
 
 def key_words(key: jax.Array) -> jax.Array:
@@ -128,8 +131,8 @@ def jax_walk(
 ) -> tuple[jax.Array, ...]:
     """The walk in JAX, every ant on its own lane until the last one stops.
 
-    Returns ``moves (steplimit, A) int8`` and ``cells (steplimit, A) int32`` of every step (-1
-    where no step), ``n_steps (A,)``, ``n_diagonal (A,)`` (its diagonal steps), ``arrived (A,)``
+    Returns ``edges (steplimit, A)``, ``from·8 + move`` of every step (``8N`` where no step), and
+    ``cells (steplimit, A)``, the cell entered (-1 where no step), ``n_steps (A,)``, ``n_diagonal (A,)`` (its diagonal steps), ``arrived (A,)``
     and ``visited (N,)``. Steps run in chunks of :data:`CHUNK` inside a while loop that ends when
     every ant has stopped."""
     s_pad = pad_steps(steplimit)
@@ -142,18 +145,19 @@ def jax_walk(
         w = jnp.where(visited[lanes[:, None], nb], 0.0, weights[cur])
         ok = running & jnp.any(w > 0, axis=-1) & (t < steplimit)
         k = choose(w, step_uniforms(words, lanes, t), q0, exploit)
+        edge = jnp.where(ok, cur * 8 + k, 8 * n_cells)
         cur = jnp.where(ok, cur + offsets[k], cur)
         # XLA's CPU scatter is much faster when told the indices are sorted and unique.
         visited = visited.at[lanes, cur].set(True, indices_are_sorted=True, unique_indices=True)
         running = ok & (cur != goal)  # a dead-end ant or one at the step limit stops
         carry = (cur, visited, running, n_steps + ok, n_diagonal + (ok & (k >= 4)))
-        return carry, (jnp.where(ok, k, -1).astype(jnp.int8), jnp.where(ok, cur, -1))
+        return carry, (edge, jnp.where(ok, cur, -1))
 
     def chunk(state):
-        t0, carry, moves, cells = state
-        carry, (m, c) = jax.lax.scan(step, carry, t0 + jnp.arange(CHUNK), unroll=True)
+        t0, carry, edges, cells = state
+        carry, (e, c) = jax.lax.scan(step, carry, t0 + jnp.arange(CHUNK), unroll=True)
         put = lambda buf, rows: jax.lax.dynamic_update_slice_in_dim(buf, rows, t0, axis=0)  # noqa: E731
-        return t0 + CHUNK, carry, put(moves, m), put(cells, c)
+        return t0 + CHUNK, carry, put(edges, e), put(cells, c)
 
     def more(state):
         return (state[0] < steplimit) & jnp.any(state[1][2])
@@ -161,17 +165,18 @@ def jax_walk(
     visited = jnp.zeros((n_ants, n_cells), bool).at[:, start].set(True)
     zero = jnp.zeros((n_ants,), jnp.int32)
     carry = (jnp.full((n_ants,), start, jnp.int32), visited, jnp.full((n_ants,), start != goal), zero, zero)
-    moves = jnp.full((s_pad, n_ants), -1, jnp.int8)
+    edges = jnp.full((s_pad, n_ants), 8 * n_cells, jnp.int32)
     cells = jnp.full((s_pad, n_ants), -1, jnp.int32)
-    _, (cur, visited, _, n_steps, n_diagonal), moves, cells = jax.lax.while_loop(
-        more, chunk, (jnp.int32(0), carry, moves, cells)
+    _, (cur, visited, _, n_steps, n_diagonal), edges, cells = jax.lax.while_loop(
+        more, chunk, (jnp.int32(0), carry, edges, cells)
     )
-    return moves[:steplimit], cells[:steplimit], n_steps, n_diagonal, cur == goal, jnp.any(visited, axis=0)
+    return edges[:steplimit], cells[:steplimit], n_steps, n_diagonal, cur == goal, jnp.any(visited, axis=0)
 
 
-def _tours(moves, cells, n_steps, n_diagonal, arrived, visited) -> Tours:
-    """The walks as :class:`Tours`: the step lengths from the moves, the path lengths from the counts."""
-    moves = moves.astype(jnp.int32)
+def _tours(edges, cells, n_steps, n_diagonal, arrived, visited) -> Tours:
+    """The walks as :class:`Tours`: the moves and step lengths from the edges (computed only
+    where a planner uses them), the path lengths from the counts."""
+    moves = jnp.where(cells >= 0, edges & 7, -1)
     # Moves 0-3 are straight, 4-7 diagonal (jaco.moves.MOVES): two selects, not a gather per step.
     straight, diagonal = (np.float32(MOVE_LENGTHS[k]) for k in (0, 4))
     return Tours(
@@ -183,6 +188,7 @@ def _tours(moves, cells, n_steps, n_diagonal, arrived, visited) -> Tours:
         # Integer counts, so a length is bit-identical however the runs are batched.
         length=(n_steps - n_diagonal) + jnp.sqrt(jnp.float32(2)) * n_diagonal,
         visited=visited,
+        edges=edges,
     )
 
 

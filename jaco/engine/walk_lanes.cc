@@ -330,7 +330,7 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
   const int64_t A = c.n_ants, S = c.steplimit;
   const int32_t start = c.start, goal = c.goal;
   uint32_t* tabu = c.tabu;
-  std::memset(c.moves, -1, S * A);
+  for (int64_t i = 0; i < S * A; ++i) c.edges[i] = 8 * c.n_cells;  // a loop, not std::fill_n: walk_shared.h
   std::memset(c.cells, -1, S * A * sizeof(int32_t));
   std::memset(c.visited, 0, c.n_cells);
   c.visited[start] = true;
@@ -390,14 +390,15 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
     const vi step = s.live & ok;
     const vi cell = pick(step, s.cur + move_offset(c.offsets, chosen), s.cur);
     const vi slot = s.t * int32_t(A) + s.ant;
-    int32_t marked[L], entered[L], at[L], move[L];
+    int32_t marked[L], entered[L], at[L], move[L], from[L];
     std::memcpy(marked, &s.prev, sizeof marked);
+    std::memcpy(from, &s.cur, sizeof from);
     std::memcpy(entered, &cell, sizeof entered);
     std::memcpy(at, &slot, sizeof at);
     std::memcpy(move, &chosen, sizeof move);
     for (unsigned m = lanes_set(step); m; m &= m - 1) {  // lane order: two lanes may share a cell's word
       const int l = __builtin_ctz(m);
-      c.moves[at[l]] = int8_t(move[l]);
+      c.edges[at[l]] = from[l] * 8 + move[l];
       c.cells[at[l]] = entered[l];
       c.visited[entered[l]] = true;
       if (marked[l] >= 0) tabu[marked[l]] |= 1u << l;

@@ -14,7 +14,7 @@ struct LaneColony {
   uint32_t k0, k1;        // the iteration's key words
   int64_t n_ants, steplimit;
   bool exploit;
-  int8_t* moves;          // (S, A), S = steplimit, -1 where no step
+  int32_t* edges;         // (S, A), S = steplimit: from·8 + move of each step, 8N where no step
   int32_t* cells;         // (S, A), -1 where no step
   int32_t* n_steps;       // (A,)
   int32_t* n_diagonal;    // (A,)
