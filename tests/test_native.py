@@ -258,6 +258,20 @@ def _runs(variant):
     return solves, jaco.sweep(GRID, start, goal, variant, params={"rho": [0.1, 0.3]}, seeds=2, **kw)
 
 
+def test_one_colony_split_between_threads_takes_the_jax_walks_moves(walk_choice):
+    # One solve is one colony: with more threads than colonies the kernel splits a colony's ants
+    # between threads (at least 16 ants a part), and merges the cells each part visited.
+    runs = {}
+    for walk in ("native", "jax"):
+        walk_choice(walk)
+        runs[walk] = [jaco.solve(GRID, (0, 0), (13, 13), planner, seed=5, n_ants=40, n_iters=6) for planner in ("as", "acs")]
+    for a, b in zip(runs["native"], runs["jax"], strict=True):
+        np.testing.assert_array_equal(a.path, b.path)
+        assert a.length == b.length and a.coverage == b.coverage
+        for k in a.history:
+            np.testing.assert_array_equal(a.history[k], b.history[k])
+
+
 @pytest.mark.parametrize("variant", _QUICK)
 def test_a_planner_of_each_walk_gives_the_same_runs_with_both_walks(variant, walk_choice):
     walk_choice("native")

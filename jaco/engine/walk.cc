@@ -124,12 +124,20 @@ ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Bu
   bool *arr0 = arrived->typed_data(), *vis0 = visited->typed_data();
   const LaneWalk walk = lane_walk();
   (void)steplimit;  // S, the step buffer's length
+  // Fewer colonies than threads (one solve): each colony's ants are split between threads. An
+  // ant's walk depends on nothing but its own uniforms, so the moves are the same however split;
+  // each part marks the cells its ants visited in its own row, merged below.
+  const int64_t n_threads = std::max<int64_t>(pool.num_threads(), 1);
+  const int64_t parts = B > 0 && B < n_threads ? std::min<int64_t>((n_threads + B - 1) / B, std::max<int64_t>(A / 16, 1)) : 1;
+  std::vector<uint8_t> part_visited(parts > 1 ? B * parts * N : 0);
 
-  for_each_colony(pool, B, [=]() {
-    return [=, tabu = std::vector<uint32_t>()](int64_t b) mutable {
+  for_each_colony(pool, B * parts, [=, &part_visited]() {
+    return [=, &part_visited, tabu = std::vector<uint32_t>()](int64_t task) mutable {
+      const int64_t b = task / parts, p = task % parts;
+      bool* vis = parts > 1 ? reinterpret_cast<bool*>(part_visited.data() + task * N) : vis0 + b * N;
       LaneColony colony{W0 + b * N * 8, off0 + b * 8, st[b], gl[b], int32_t(N), q[b], K[2 * b], K[2 * b + 1],
-                        A, S, exploit, ed0 + b * S * A, cl0 + b * S * A, ns0 + b * A, nd0 + b * A, arr0 + b * A,
-                        vis0 + b * N, nullptr, 0, {}, {}};
+                        A, S, A * p / parts, A * (p + 1) / parts, exploit, ed0 + b * S * A, cl0 + b * S * A,
+                        ns0 + b * A, nd0 + b * A, arr0 + b * A, vis, nullptr, 0, {}, {}};
       colony.width = grid_width(colony.offsets, colony.row_of, colony.col_of);
       const int64_t pad = int64_t(colony.width) + 2;
       if (int64_t(tabu.size()) < N + 2 * pad) tabu.assign(N + 2 * pad, 0u);  // zero between colonies
@@ -137,6 +145,12 @@ ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Bu
       walk(colony);
     };
   });
+  for (int64_t b = 0; b < B && parts > 1; ++b)
+    for (int64_t i = 0; i < N; ++i) {
+      bool any = false;
+      for (int64_t p = 0; p < parts; ++p) any |= part_visited[(b * parts + p) * N + i] != 0;
+      vis0[b * N + i] = any;
+    }
   return ffi::Error::Success();
 }
 

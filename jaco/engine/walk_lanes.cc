@@ -327,11 +327,19 @@ inline vi move_offset(const int32_t* offsets, vi chosen) {
 }  // namespace
 
 void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
-  const int64_t A = c.n_ants, S = c.steplimit;
+  const int64_t A = c.n_ants, S = c.steplimit, first = c.ant_begin, end = c.ant_end;
   const int32_t start = c.start, goal = c.goal;
   uint32_t* tabu = c.tabu;
-  for (int64_t i = 0; i < S * A; ++i) c.edges[i] = 8 * c.n_cells;  // a loop, not std::fill_n: walk_shared.h
-  std::memset(c.cells, -1, S * A * sizeof(int32_t));
+  // No step yet in this call's columns (loops, not std::fill_n: walk_shared.h says why).
+  if (first == 0 && end == A) {
+    for (int64_t i = 0; i < S * A; ++i) c.edges[i] = 8 * c.n_cells;
+    std::memset(c.cells, -1, S * A * sizeof(int32_t));
+  } else {
+    for (int64_t t = 0; t < S; ++t) {
+      for (int64_t a = first; a < end; ++a) c.edges[t * A + a] = 8 * c.n_cells;
+      std::memset(c.cells + t * A + first, -1, (end - first) * sizeof(int32_t));
+    }
+  }
   std::memset(c.visited, 0, c.n_cells);
   c.visited[start] = true;
   vi offset[8];
@@ -343,12 +351,12 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
   s.cur = zero + start;
   s.prev = zero - 1;
   s.t = s.drawn = s.diagonal = s.ant = s.live = zero;
-  int64_t next = 0;
+  int64_t next = first;
   int n_live = 0;
   // Lane l takes the next ant that has a step to take (an ant on the goal, or with no step
   // allowed by the limit, is finished at once), or idles.
   auto load = [&](int l) {
-    for (; next < A; ++next) {
+    for (; next < end; ++next) {
       if (start == goal || S == 0) {
         c.n_steps[next] = 0;
         c.n_diagonal[next] = 0;

@@ -13,13 +13,14 @@ struct LaneColony {
   float q0;
   uint32_t k0, k1;        // the iteration's key words
   int64_t n_ants, steplimit;
+  int64_t ant_begin, ant_end;  // the ants this call walks (the colony's ants may be split between threads)
   bool exploit;
   int32_t* edges;         // (S, A), S = steplimit: from·8 + move of each step, 8N where no step
   int32_t* cells;         // (S, A), -1 where no step
   int32_t* n_steps;       // (A,)
   int32_t* n_diagonal;    // (A,)
   bool* arrived;          // (A,)
-  bool* visited;          // (N,)
+  bool* visited;          // (N,): the cells this call's ants visited
   uint32_t* tabu;         // (N,) scratch of the thread, all zero on entry and on return; valid
                           // from tabu[-pad] to tabu[N - 1 + pad], pad = width + 2 (the rows above
                           // the first and below the last, always zero)
