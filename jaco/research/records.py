@@ -43,28 +43,12 @@ from ..errors import resolve_aliases
 from ..grid import Grid
 from ..metrics import gap
 from ..outputs import as_path, atomic_paths, check_output, write_text
-from .record_format import (
-    CHECKED_VERSIONS,
-    EMBED_ROWS_MAX,
-    FORMAT,
-    FORMAT_VERSION,
-    RecordError,
-    RecordWarning,
-    _cells,
-    _header,
-    _json_text,
-    _uncells,
-    _unnum,
-    check_record,
-    grid_from_entry,
-    map_entry,
-    map_hash,
-    recordable_name,
-    save_path,
-    save_run,
-    version_warnings,
-    versions,
-)
+from .record_errors import RecordError, RecordWarning
+from .record_format import recordable_name, save_path, save_run
+from .record_json import _cells, _json_text, _uncells, _unnum
+from .record_map import EMBED_ROWS_MAX, grid_from_entry, map_entry, map_hash
+from .record_schema import check_record
+from .record_versions import CHECKED_VERSIONS, FORMAT, FORMAT_VERSION, _header, version_warnings, versions
 
 __all__ = [
     "CHECKED_VERSIONS",
