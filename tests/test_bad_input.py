@@ -284,7 +284,7 @@ def stop(*args, **kwargs):
 def test_sweep_arguments_before_compiling(variant, seeds, grid, start):
     try:
         with pytest.MonkeyPatch.context() as mp:
-            mp.setattr(jaco.research.sweeps, "_plan", stop)  # where the sweep would compile
+            mp.setattr(jaco.research.chunks, "_plan", stop)  # where the sweep would compile
             outcome(lambda: jaco.plan_sweep(grid, start, (3, 5), variant, None, seeds, **SMALL))
     except Valid:
         assert isinstance(seeds, int) or all(isinstance(s, int) and 0 <= s < 2**32 for s in seeds)

@@ -43,8 +43,19 @@ def smoke(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("bench")
     md, js = tmp / "BENCHMARKS.md", tmp / "bench.json"
     proc = subprocess.run(
-        [sys.executable, str(ROOT / "experiments" / "bench_throughput.py"), "--smoke", "--out", str(md), "--json", str(js)],
-        cwd=ROOT, capture_output=True, text=True, timeout=900,
+        [
+            sys.executable,
+            str(ROOT / "experiments" / "bench_throughput.py"),
+            "--smoke",
+            "--out",
+            str(md),
+            "--json",
+            str(js),
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=900,
     )
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     return proc.stdout, md.read_text(), json.loads(js.read_text())
@@ -94,7 +105,15 @@ def test_smoke_reports_solve_scaling_and_targets(smoke):
 def test_smoke_json_figures(smoke):
     _, _, R = smoke
     for k, fig in R["throughput"].items():
-        for f in ("wall_s", "configs_per_s", "steps", "steps_per_s", "steps_per_cpu_s", "vs_native", "vs_native_per_core"):
+        for f in (
+            "wall_s",
+            "configs_per_s",
+            "steps",
+            "steps_per_s",
+            "steps_per_cpu_s",
+            "vs_native",
+            "vs_native_per_core",
+        ):
             assert math.isfinite(fig[f]) and fig[f] > 0, (k, f)
     lanes = {"native walk, baseline lanes": True} if jaco.engine.native.isa() != "baseline" else {}
     assert R["equal"] == {"native, 2 devices": True, "jax, 2 devices": True, "native walk, JAX walk": True, **lanes}
@@ -183,7 +202,10 @@ def test_profile_smoke_both_walks_take_the_same_moves(tmp_path):
     md = tmp_path / "BENCHMARKS.md"
     proc = subprocess.run(
         [sys.executable, str(ROOT / "experiments" / "profile_iteration.py"), "--smoke", "--out", str(md)],
-        cwd=ROOT, capture_output=True, text=True, timeout=900,
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=900,
     )
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     text = md.read_text()
@@ -192,7 +214,9 @@ def test_profile_smoke_both_walks_take_the_same_moves(tmp_path):
         vals = numbers(table_row(text, label)[1:])
         # CPU and wall ms of both walks, CPU ns per real step of both, the native walk's cycles per step
         assert len(vals) == 7 and all(math.isfinite(v) and v > 0 for v in vals), label
-    cells = [[c.strip() for c in line.strip().strip("|").split("|")] for line in text.splitlines() if line.startswith("|")]
+    cells = [
+        [c.strip() for c in line.strip().strip("|").split("|")] for line in text.splitlines() if line.startswith("|")
+    ]
     walk_rows = [numbers(row[1:]) for row in cells if row[0] == "walk" or row[0].startswith("walk (")]
     assert sum(len(v) for v in walk_rows) == 7  # the native walk (named by its lanes) and the JAX walk
     assert re.search(r"Where the native iteration's \d+ ns CPU per real step go: the walk \d+", text)
@@ -219,9 +243,19 @@ def test_scale_benchmark_smoke_writes_its_section(tmp_path):
 def test_before_after_smoke_compares_a_revision_with_itself(tmp_path):
     md = tmp_path / "BENCHMARKS.md"
     proc = subprocess.run(
-        [sys.executable, str(ROOT / "experiments" / "bench_before_after.py"), "--before", "HEAD", "--smoke",
-         "--out", str(md)],
-        cwd=ROOT, capture_output=True, text=True, timeout=1200,
+        [
+            sys.executable,
+            str(ROOT / "experiments" / "bench_before_after.py"),
+            "--before",
+            "HEAD",
+            "--smoke",
+            "--out",
+            str(md),
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=1200,
     )
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     text = md.read_text()
@@ -231,3 +265,24 @@ def test_before_after_smoke_compares_a_revision_with_itself(tmp_path):
         assert len(vals) == 6 and all(math.isfinite(v) and v > 0 for v in vals), label
     worktrees = subprocess.run(["git", "worktree", "list"], cwd=ROOT, capture_output=True, text=True).stdout
     assert "jaco-before-" not in worktrees  # removed again
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("script", ["bench_workers.py", "bench_shared_sweep.py"])
+def test_the_worker_benchmarks_run_at_smoke_size_and_write_their_section(tmp_path, script):
+    md = tmp_path / "B.md"
+    done = subprocess.run(
+        [sys.executable, str(ROOT / "experiments" / script), "--smoke", "--out", str(md)],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    text = md.read_text()
+    section = script.removesuffix(".py")
+    assert f"<!-- {section}:start -->" in text and f"Command: `python experiments/{script} --smoke`" in text
+    if script == "bench_workers.py":  # both worker counts finished their trials
+        assert "| 1 worker | 16 |" in text and "| 2 workers | 16 |" in text
+    else:  # every worker's table equal to the first
+        assert text.count("| True |") == 2 and "| False |" not in text

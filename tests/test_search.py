@@ -38,7 +38,7 @@ def _no_compile(monkeypatch):
     def boom(*a, **k):
         raise AssertionError("compiled before the error")
 
-    monkeypatch.setattr(jaco.research.sweeps, "_plan", boom)
+    monkeypatch.setattr(jaco.research.chunks, "_plan", boom)
 
 
 # -- the space ---------------------------------------------------------------------------------
@@ -104,6 +104,9 @@ def test_a_bad_space_is_one_line_before_anything_compiles(monkeypatch, space, va
         (dict(timeout="60"), "timeout must be a positive finite number"),
         (dict(trials=None), "give trials, timeout or both"),
         (dict(trials=None, timeout=5.0, sampler="grid"), "sampler 'grid' sizes its grid from trials"),
+        (dict(worker=-1), "worker must be an integer >= 0"),
+        (dict(heartbeat_interval=0), "heartbeat_interval must be a positive finite number"),
+        (dict(heartbeat_interval=5, grace_period=5), r"grace_period \(5 s\) must be longer than heartbeat_interval"),
     ],
 )
 def test_bad_search_arguments_are_one_line_before_anything_compiles(monkeypatch, kwargs, match):
@@ -376,7 +379,9 @@ def test_evosax_strategy_searches_and_replays_after_an_interruption(tmp_path, mo
     monkeypatch.setattr(S.Evaluator, "__call__", real)
     resumed = jaco.search(GRID, *ENDS, SPACE, storage=db, **kw)
     t = resumed.trials
-    assert len(t) == 12 and set(t["state"]) == {"COMPLETE"}
+    # the interrupted generation's members were failed and asked again (the same proposals)
+    assert list(t["state"]) == ["COMPLETE"] * 4 + ["FAIL"] * 4 + ["COMPLETE"] * 8
+    t = t[t["state"] == "COMPLETE"]
     assert np.array_equal(t[["beta", "rho", "gap_penalised_mean"]].to_numpy(), whole.to_numpy())  # the same search, bit for bit
 
 
@@ -423,12 +428,17 @@ def test_interrupted_batch_resumes_without_loss_or_double_evaluation(tmp_path, m
         S.Evaluator, "__call__", lambda self, jobs: (seen.extend(j["trial"].number for j in jobs), real(self, jobs))[1]
     )
     study = jaco.search(GRID, *ENDS, SPACE, **kw)
-    assert sorted(seen) == [n for n, (s, _, _) in before.items() if s == "RUNNING"]  # the stale ones, once
+    # each stale trial is failed and evaluated again once, as a new trial that names it (retry_of)
+    assert sorted(seen) == [8, 9, 10, 11]
     after = {t.number: (t.state.name, t.values, t.datetime_complete) for t in study.study.trials}
-    assert len(after) == 8 and {s for s, _, _ in after.values()} == {"COMPLETE"}
+    retried = {t.number: t.user_attrs["jaco_trial"].get("retry_of") for t in study.study.trials}
+    assert [retried[n] for n in seen] == [4, 5, 6, 7]
+    assert [after[n][0] for n in range(12)] == ["COMPLETE"] * 4 + ["FAIL"] * 4 + ["COMPLETE"] * 4
     for n, old in before.items():
         if old[0] == "COMPLETE":
             assert after[n] == old  # a finished trial is never evaluated again
+        else:  # the retry has the stale trial's parameters
+            assert study.study.trials[n + 4].params == study.study.trials[n].params
 
 
 def test_a_resumed_study_must_be_the_same_search(tmp_path):
@@ -462,19 +472,6 @@ def test_a_stored_trial_reruns_to_its_stored_value(tmp_path):
     trial.user_attrs["jaco_runs"][key]["length"][0][0] = 1.0
     rerun = S.TrialRecord(study.info, trial).rerun()
     assert not rerun.matched and "length: 1 of 2 runs differ" in rerun.differences[0]
-
-
-def test_a_second_process_on_a_locked_study_gets_one_line(tmp_path):
-    from jaco.research.store import StoreError, exclusive_lock
-
-    db = tmp_path / "s.db"
-    held = exclusive_lock(db, "test")
-    try:
-        with pytest.raises(StoreError, match="in use by another process") as e:
-            jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=2, batch=2, storage=str(db), **SMALL)
-        assert "\n" not in str(e.value)
-    finally:
-        held.close()
 
 
 KILLED = textwrap.dedent("""
@@ -511,14 +508,21 @@ def test_resume_after_sigkill_loses_nothing_and_duplicates_nothing(tmp_path, kil
         sampler="tpe",
         storage=str(db),
         progress=False,
+        heartbeat_interval=0.5,
+        grace_period=2.0,
     )
     trials = study.study.trials
     assert [t.number for t in trials] == list(range(len(trials)))
     assert sum(t.state.name == "COMPLETE" for t in trials) == 60
-    # nothing stays RUNNING; a trial killed before its parameters were stored is FAIL (never evaluated)
-    assert all(
-        t.state.name == "COMPLETE" or (t.state.name == "FAIL" and "jaco_trial" not in t.user_attrs) for t in trials
-    )
+    # nothing stays RUNNING; a killed trial is FAIL: never evaluated (killed before its parameters
+    # were stored) or evaluated again exactly once, as a later trial with its parameters
+    retries = [t.user_attrs["jaco_trial"].get("retry_of") for t in trials if "jaco_trial" in t.user_attrs]
+    for t in trials:
+        assert t.state.name in ("COMPLETE", "FAIL")
+        if t.state.name == "FAIL" and "jaco_trial" in t.user_attrs:
+            assert killed[t.number][0] == "RUNNING" and retries.count(t.number) == 1
+            (again,) = [r for r in trials if r.user_attrs.get("jaco_trial", {}).get("retry_of") == t.number]
+            assert again.state.name == "COMPLETE" and again.params == t.params
     for n, (s, v) in killed.items():
         if s == "COMPLETE":
             assert trials[n].values == v  # kept, not evaluated again

@@ -1,5 +1,5 @@
 """jaco.sweep(..., store=PATH): finished chunks survive a kill; the resumed table equals an
-uninterrupted sweep bit for bit."""
+uninterrupted sweep bit for bit. Several processes sharing a store: tests/test_shared_sweep.py."""
 
 import sqlite3
 import subprocess
@@ -9,7 +9,7 @@ import textwrap
 import pytest
 
 import jaco
-from jaco.research.store import StoreError, exclusive_lock
+from jaco.research.store import StoreError
 
 from test_search import ENDS, GRID  # the small map with walls both test files plan on
 
@@ -46,14 +46,7 @@ def test_a_resumed_sweep_may_cut_its_chunks_differently(tmp_path):
     assert both.attrs["sweep"]["acs"]["resumed_runs"] == 6 and both.attrs["sweep"]["mmas"]["resumed_runs"] == 0
 
 
-def test_a_locked_store_or_a_foreign_file_is_one_line(tmp_path):
-    store = tmp_path / "s.db"
-    held = exclusive_lock(store, "test")
-    try:
-        with pytest.raises(StoreError, match="in use by another process"):
-            jaco.sweep(GRID, *ENDS, "acs", AXES, store=store, **KW)
-    finally:
-        held.close()
+def test_a_foreign_file_is_one_line(tmp_path):
     foreign = tmp_path / "notes.db"
     foreign.write_text("not a database at all, just text " * 50)
     with pytest.raises(StoreError, match="not a jaco sweep store"):

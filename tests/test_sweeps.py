@@ -154,8 +154,8 @@ def test_chunks_fit_the_budget_and_match_one_chunk(reference, capsys):
 
 def test_a_low_first_guess_is_corrected_by_the_compiled_memory_analysis(reference, monkeypatch):
     budget = int(reference.attrs["sweep"]["bytes_per_chunk"] * 0.6)
-    monkeypatch.setattr(jaco.research.sweeps, "bytes_per_run", lambda *a, **k: 1)  # "everything fits"
-    monkeypatch.setattr(jaco.research.sweeps, "_PER_CONFIG", {})
+    monkeypatch.setattr(jaco.research.chunks, "bytes_per_run", lambda *a, **k: 1)  # "everything fits"
+    monkeypatch.setattr(jaco.research.chunks, "_PER_CONFIG", {})
     table = jaco.sweep(GRID, *ENDS, "as", params=AXES, seeds=SEEDS, memory_budget=budget, **TINY)
     pd.testing.assert_frame_equal(table, reference, check_exact=True)
     plan = table.attrs["sweep"]

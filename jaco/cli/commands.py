@@ -296,6 +296,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         raise UsageError(
             f"--record writes the table as CSV plus a .json sidecar: give a name ending in .csv, got {args.record!r}"
         )
+    if args.grace_period is not None and not args.store:
+        raise UsageError("--grace-period is for a shared store: give --store FILE.db too")
     grid = load_map(args.map)
     starts, goals, scenarios, label = resolve_queries(grid, args)
     _check_outputs(args, grid, files=(("--csv", None), ("--record", (".csv",)), ("--store", None)))
@@ -333,6 +335,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             steplimit=args.steplimit,  # progress: a bar on a terminal
             store=args.store,
             chunk=args.chunk,
+            grace_period=args.grace_period,
         )
     args.kept = None
     seconds = time.perf_counter() - args.started
@@ -341,7 +344,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     if args.store:
         plans = table.attrs["sweep"].values() if len(variants) > 1 else [table.attrs["sweep"]]
         resumed = sum(p.get("resumed_runs", 0) for p in plans)
-        print(f"store {args.store}: {resumed} runs were already stored, {len(table) - resumed} ran now")
+        print(
+            f"store {args.store}: {resumed} runs were already stored or ran in other processes, "
+            f"{len(table) - resumed} ran here"
+        )
     if scenarios is not None and not several:
         print(f"scenario {label}: optimal length {scenarios[0].optimal:.4f} (from the .scen file)")
     if args.csv:

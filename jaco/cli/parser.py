@@ -225,7 +225,16 @@ def build_parser() -> argparse.ArgumentParser:
         "--store",
         metavar="FILE.db",
         help="append every finished chunk to this SQLite store: the same command again skips the "
-        "finished runs (a killed sweep resumes), and the table equals an uninterrupted sweep",
+        "finished runs (a killed sweep resumes), and the table equals an uninterrupted sweep; the same "
+        "command in several processes or hosts (a shared filesystem) shares the chunks out",
+    )
+    p.add_argument(
+        "--grace-period",
+        type=_seconds,
+        default=None,
+        metavar="S",
+        help="with --store: a process's claim on a chunk expires after S seconds without its heartbeat, "
+        "and another process takes the chunk over (default 60)",
     )
     p.add_argument(
         "--chunk",
@@ -319,10 +328,43 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--storage",
         metavar="URL",
-        help="sqlite:///study.db (or a .db path), journal:FILE (or a .journal path): the study lives there "
-        "and the same command again resumes it",
+        help="sqlite:///study.db (or a .db path), journal:FILE (or a .journal path), or a database URL "
+        "(postgresql+psycopg://user@host/db): the study lives there, the same command again resumes it, and "
+        "several workers (--workers, or commands on other hosts) share it",
     )
     p.add_argument("--study", metavar="NAME", help="study name in the storage (default 'jaco')")
+    work = p.add_argument_group("several workers on one study (needs --storage)")
+    work.add_argument(
+        "--workers",
+        type=_pos_int,
+        default=1,
+        metavar="N",
+        help="start N local worker processes on the study, each on its share of the cores; one progress "
+        "display; Ctrl-C or SIGTERM stops them all (default 1: this process searches)",
+    )
+    work.add_argument(
+        "--worker",
+        type=_nonneg_int,
+        default=0,
+        metavar="I",
+        help="this process's worker index when several run the study (one per host or job-array task): its "
+        "sampler is seeded --seed + I (default 0)",
+    )
+    work.add_argument(
+        "--heartbeat-interval",
+        type=_seconds,
+        default=30.0,
+        metavar="SECONDS",
+        help="a worker's heartbeat into the storage (default 30)",
+    )
+    work.add_argument(
+        "--grace-period",
+        type=_seconds,
+        default=None,
+        metavar="SECONDS",
+        help="a RUNNING trial whose worker's heartbeat is older is taken over by another worker "
+        "(default 3 heartbeat intervals)",
+    )
     p.add_argument("--top", type=_pos_int, default=10, metavar="N", help="trials in the summary table (default 10)")
     p.add_argument("--csv", metavar="OUT", help="write the trials table (one row per trial) as CSV")
     p.add_argument(

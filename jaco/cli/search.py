@@ -63,9 +63,9 @@ def _outputs(*flags):
     return outputs(*flags)
 
 
-@_outputs("--csv", "--plot")
-def cmd_search(args: argparse.Namespace) -> int:
-    from .commands import _check_outputs
+def _prepare(args: argparse.Namespace) -> dict:
+    """What ``jaco search`` searches: the arguments of :func:`jaco.search` (``call``) and what the
+    summary needs, checked before anything compiles."""
     from .queries import load_map, resolve_queries
 
     space = parse_space(args.param)
@@ -78,14 +78,7 @@ def cmd_search(args: argparse.Namespace) -> int:
     grid = load_map(args.map)
     starts, goals, scenarios, label = resolve_queries(grid, args)
     start, goal = (starts[0], goals[0]) if len(starts) == 1 else (starts, goals)
-    where = (
-        f"start {tuple(starts[0])} -> goal {tuple(goals[0])}"
-        if len(starts) == 1
-        else f"{len(starts)} queries ({label})"
-    )
-    _check_outputs(args, grid, figures=("--plot",), files=(("--csv", None),))
-    args.kept = lambda: _search_kept(args.storage, args.study)  # what an interrupt kept (the last line says)
-    from ..research.search import Halving, objective_column, search
+    from ..research.search import Halving
 
     fidelity = None
     if args.halving or args.hyperband:
@@ -94,22 +87,12 @@ def cmd_search(args: argparse.Namespace) -> int:
         raise UsageError("--min-iters and --eta belong to --halving or --hyperband")
     if args.linear and not args.plot:
         raise UsageError("--linear is the axis of the --plot history: give --plot FILE too")
-    objectives = args.objective or ["gap"]
+    if args.workers > 1 and not args.storage:
+        raise UsageError("--workers N shares one study between processes: give --storage (a .db file, ...)")
+    if args.workers > 1 and args.sampler.startswith("evosax:"):
+        raise UsageError("an evosax strategy runs one worker per study: leave out --workers")
     trials = 128 if args.trials is None and args.timeout is None else args.trials  # --timeout alone: until it
-    budget = " or ".join(([f"{trials} trials"] if trials else []) + ([f"{args.timeout:g} s"] if args.timeout else []))
-    if trials and args.timeout:
-        budget += ", whichever comes first"
-    print(
-        f"search {', '.join(variants)} on {grid.name} ({grid.height}x{grid.width}), {where}: {budget} in batches of {args.batch}, {args.seeds} seeds, sampler {args.sampler}"
-        + (f", {'hyperband' if args.hyperband else 'successive halving'} over iterations" if fidelity else "")
-        + (f", storage {args.storage}" if args.storage else ""),
-        flush=True,
-    )
-    study = search(
-        grid,
-        start,
-        goal,
-        space,
+    call = dict(
         trials=trials,
         timeout=args.timeout,
         batch=args.batch,
@@ -119,20 +102,71 @@ def cmd_search(args: argparse.Namespace) -> int:
         steplimit=args.steplimit,
         sampler=args.sampler,
         seed=args.seed,
-        objective=objectives,
+        objective=args.objective or ["gap"],
         fidelity=fidelity,
         storage=args.storage,
         study_name=args.study,
+        worker=args.worker,
+        heartbeat_interval=args.heartbeat_interval,
+        grace_period=args.grace_period,
     )
+    return dict(
+        grid=grid,
+        start=start,
+        goal=goal,
+        space=space,
+        call=call,
+        variants=variants,
+        scenarios=scenarios,
+        where=f"start {tuple(starts[0])} -> goal {tuple(goals[0])}"
+        if len(starts) == 1
+        else f"{len(starts)} queries ({label})",
+    )
+
+
+@_outputs("--csv", "--plot")
+def cmd_search(args: argparse.Namespace) -> int:
+    from ..research.search import search
+    from .commands import _check_outputs
+
+    job = _prepare(args)
+    grid, call, variants = job["grid"], job["call"], job["variants"]
+    _check_outputs(args, grid, figures=("--plot",), files=(("--csv", None),))
+    args.kept = lambda: _search_kept(args.storage, args.study)  # what an interrupt kept (the last line says)
+    trials = call["trials"]
+    budget = " or ".join(([f"{trials} trials"] if trials else []) + ([f"{args.timeout:g} s"] if args.timeout else []))
+    if trials and args.timeout:
+        budget += ", whichever comes first"
+    print(
+        f"search {', '.join(variants)} on {grid.name} ({grid.height}x{grid.width}), {job['where']}: {budget} in batches of {args.batch}, {args.seeds} seeds, sampler {args.sampler}"
+        + (f", {'hyperband' if args.hyperband else 'successive halving'} over iterations" if call["fidelity"] else "")
+        + (f", storage {args.storage}" if args.storage else "")
+        + (f", {args.workers} workers" if args.workers > 1 else ""),
+        flush=True,
+    )
+    if args.workers > 1:
+        study = run_workers(args, call)
+    else:
+        study = search(grid, job["start"], job["goal"], job["space"], **call)
     args.kept = None
     args.finished = True  # from here a failed write says that the search itself finished
+    return _summary(args, study, job["space"], call["objective"], job["scenarios"])
+
+
+def _summary(args, study, space, objectives, scenarios) -> int:
+    """The lines and files after a search: timings, the best trials, --csv and --plot."""
+    from ..research.search import objective_column
+
     seconds = time.perf_counter() - args.started
     t = study.timings
-    print(
-        f"{len(study.study.trials)} trials in the study; this command ran {t.get('generations', 0)} generations in "
-        f"{seconds:.2f} s (sampler {t.get('sampler_s', 0):.2f} s, evaluation {t.get('evaluate_s', 0):.2f} s, "
-        f"{t.get('compiles', 0)} compiled programs)"
-    )
+    if args.workers > 1:
+        print(f"{len(study.study.trials)} trials in the study; {args.workers} workers ran for {seconds:.2f} s")
+    else:
+        print(
+            f"{len(study.study.trials)} trials in the study; this command ran {t.get('generations', 0)} generations in "
+            f"{seconds:.2f} s (sampler {t.get('sampler_s', 0):.2f} s, evaluation {t.get('evaluate_s', 0):.2f} s, "
+            f"{t.get('compiles', 0)} compiled programs)"
+        )
     print(f"stopped: {study.stopped}")
     for sc in scenarios or ():
         print(f"scenario #{sc.index}: optimal length {sc.optimal:.4f} (from the .scen file)")
@@ -187,6 +221,120 @@ def cmd_search(args: argparse.Namespace) -> int:
             f"'optuna-dashboard {args.storage if '://' in args.storage else 'sqlite:///' + args.storage}' shows it"
         )
     return 0
+
+
+# -- --workers N: local worker processes on one study ---------------------------------------------
+def _shares(cores: list[int], n: int) -> list[list[int]]:
+    """The cores of each of ``n`` workers: a round-robin split (a core each, shared, when there are
+    fewer cores than workers)."""
+    if n <= len(cores):
+        return [cores[i::n] for i in range(n)]
+    return [[cores[i % len(cores)]] for i in range(n)]
+
+
+def _worker(state: dict, index: int, cores: list[int]) -> None:
+    """One worker process of ``--workers N`` (spawned): its own process group (a Ctrl-C in the
+    terminal reaches the parent, which stops the workers), its share of the cores, the search."""
+    import os
+    import sys
+
+    from ..errors import JacoError
+    from ..research.search import search
+
+    os.setpgrp()
+    if cores and hasattr(os, "sched_setaffinity"):
+        os.sched_setaffinity(0, cores)  # before the first compile: XLA sizes its thread pool from it
+    args = argparse.Namespace(**state)
+    args.workers, args.worker = 1, state["worker"] + index
+    code = 0
+    try:
+        if getattr(args, "walk", None) is not None:  # as jaco.cli does for every command
+            from ..engine import native
+
+            native.set_walk(args.walk)
+        job = _prepare(args)
+        search(job["grid"], job["start"], job["goal"], job["space"], **job["call"], progress=False)
+    except KeyboardInterrupt:  # stopped by the parent: the batch that ran is stored, the running one released
+        code = 130
+    except (JacoError, UsageError) as e:
+        print(f"jaco: error: worker {args.worker}: {' '.join(str(e).split())}", file=sys.stderr)
+        code = 2
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)  # at once, as the jaco command after an interrupt (an XLA compile cannot be stopped)
+
+
+def run_workers(args: argparse.Namespace, call: dict):
+    """``--workers N``: N worker processes on the study in ``args.storage``; the parent shows the
+    study's finished trials, and on Ctrl-C or SIGTERM sends each worker SIGINT and waits for it."""
+    import multiprocessing
+    import os
+
+    from .. import progress as _progress
+    from ..errors import JacoError
+    from ..research.search import load_study
+
+    cores = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else list(range(os.cpu_count() or 1))
+    state = {k: v for k, v in vars(args).items() if not callable(v)}
+    ctx = multiprocessing.get_context("spawn")
+    procs = [
+        ctx.Process(target=_worker, args=(state, i, share), name=f"jaco-worker-{i}")
+        for i, share in enumerate(_shares(cores, args.workers))
+    ]
+    bar = _progress.Bar(_progress.enabled(None), f"search {args.sampler}, {args.workers} workers", "trial")
+    bar.start(call["trials"])
+    watch: list = []
+    try:
+        for p in procs:
+            p.start()
+        while any(p.is_alive() for p in procs):
+            procs[0].join(timeout=1.0) if procs[0].is_alive() else time.sleep(1.0)
+            done = _finished(args, watch)
+            bar.update(min(done, call["trials"] or done))
+            if any(p.exitcode not in (None, 0) for p in procs):
+                break  # a worker failed: stop the others
+    except BaseException:  # Ctrl-C or SIGTERM (raised as jaco.cli.Terminated)
+        _stop(procs)
+        raise
+    finally:
+        bar.close()
+    _stop(procs)
+    failed = [(i, p.exitcode) for i, p in enumerate(procs) if p.exitcode != 0]
+    if failed:
+        i, code = failed[0]
+        raise JacoError(f"worker {args.worker + i} of {len(procs)} exited with code {code} (its message is above)")
+    return load_study(args.storage, args.study or "jaco")
+
+
+def _finished(args, watch: list) -> int:
+    """The study's finished trials (0 before a worker created it); ``watch`` keeps the study open."""
+    from ..errors import JacoError
+    from ..research.search import load_study
+
+    try:
+        if not watch:
+            watch.append(load_study(args.storage, args.study or "jaco").study)
+        return sum(t.state.name in ("COMPLETE", "PRUNED") for t in watch[0].get_trials(deepcopy=False))
+    except (JacoError, Exception):  # noqa: BLE001 - no study yet, or a busy storage: ask again next second
+        return 0
+
+
+def _stop(procs, wait: float = 120.0) -> None:
+    """SIGINT to every running worker; each stores what ran and releases its running trials (another
+    worker, or the same command again, takes them over at once). One still running after ``wait``
+    seconds is killed: its trials are taken over once its heartbeat is older than the grace period."""
+    import os
+    import signal
+
+    for p in procs:
+        if p.is_alive() and p.pid is not None:
+            os.kill(p.pid, signal.SIGINT)
+    deadline = time.monotonic() + wait
+    for p in procs:
+        p.join(timeout=max(0.0, deadline - time.monotonic()))
+        if p.is_alive():
+            p.kill()
+            p.join()
 
 
 def _search_kept(storage: str | None, study_name: str | None) -> str:

@@ -42,11 +42,18 @@ COMPLETE with their value at ``n_iters``.
 journal file), any other SQLAlchemy URL, or a storage object. Every trial is written when it is
 asked (RUNNING) and again when its batch finishes (COMPLETE or PRUNED, with its seeds, per-run
 lengths and success and what reruns it). Killed at any moment, the same call again resumes: a
-trial left RUNNING is evaluated again with its stored parameters (it never finished, so nothing
-is counted twice) and the search goes on until ``trials`` trials are finished (or its ``timeout``
-passes: no new batch starts after it, the running one is stored). While a search
-runs, its SQLite or journal file is locked (an exclusive flock): a second process on the same
-study gets a one-line error naming the lock. ``optuna-dashboard sqlite:///study.db`` shows it.
+trial left RUNNING is marked FAIL and evaluated again, once, as a new trial with its stored
+parameters (it never finished, so nothing is counted twice) and the search goes on until
+``trials`` trials are finished (or its ``timeout`` passes: no new batch starts after it, the
+running one is stored). ``optuna-dashboard sqlite:///study.db`` shows it.
+
+**Workers.** Several processes (on one machine or several hosts) may search one study at once:
+each asks its own batch, runs it and tells it, until ``trials`` trials are finished by all of them
+together (at most one batch more per other worker). Each writes a heartbeat every
+``heartbeat_interval`` seconds; a RUNNING trial whose worker's heartbeat is older than
+``grace_period`` (or whose worker stopped, or was a process of this host that is gone) is claimed
+by exactly one other worker through an atomic RUNNING → FAIL transition and evaluated again
+(:class:`_Workers`). ``worker`` (an index per process) offsets the sampler's seed (docs/search.md).
 """
 
 from __future__ import annotations
@@ -229,28 +236,41 @@ def _check_storage_path(path: Path | None) -> None:
 
 
 @contextmanager
-def _opened(storage, lock_path):
-    """The storage object, with its file locked while the search runs."""
+def _opened(storage, path):
+    """The storage object (no lock: several workers share a study, :class:`_Workers`)."""
+    import optuna
 
-    lock = None
-    if lock_path is not None:
-        from .store import exclusive_lock
-
-        lock = exclusive_lock(lock_path, "study storage")
     engine = None
     try:
         if storage == "journal":
-            storage = _journal(lock_path)
+            storage = _journal(path)
         elif isinstance(storage, str) and storage.startswith("sqlite:///"):
-            storage = _sqlite(storage, lock_path)
+            storage = _created(lambda url=storage: _sqlite(url, path))
             engine = storage.engine
+        elif isinstance(storage, str):  # any other SQLAlchemy URL (postgresql+psycopg://...)
+            storage = _created(
+                lambda url=storage: optuna.storages.RDBStorage(url, engine_kwargs={"pool_pre_ping": True})
+            )
         yield storage
     finally:
         if engine is not None:
             engine.dispose()  # closes the connections: SQLite folds its write-ahead log back into the file
-            _rollback_journal(lock_path)
-        if lock is not None:
-            lock.close()
+            _rollback_journal(path)
+
+
+def _created(make, tries: int = 8):
+    """``make()``, again after a moment when it fails the first times: workers that open a new
+    database at the same moment race to create Optuna's tables (one wins; the others, a moment
+    later, find them)."""
+    import random
+
+    for k in range(tries):
+        try:
+            return make()
+        except Exception:  # noqa: BLE001 - a duplicate table or version row, a busy file: retried, then raised
+            if k == tries - 1:
+                raise
+            time.sleep(0.2 + random.random() * 0.5)
 
 
 def _rollback_journal(path) -> None:
@@ -278,20 +298,180 @@ def _sqlite(url: str, path):
     """Optuna's RDB storage on SQLite in write-ahead-log mode with ``synchronous=NORMAL``: a commit
     no longer waits for the disk (measured here: 128 trials asked and told in 6 s instead of 17 s),
     and a committed trial still survives a killed process (only a power cut or an OS crash could
-    lose the last commits). SQLite keeps ``FILE-wal`` and ``FILE-shm`` beside the file while the
-    search runs (after a kill they hold committed trials: the next open folds them back); at the end
-    the file returns to SQLite's default journal (:func:`_rollback_journal`)."""
+    lose the last commits). Several workers share the file: every transaction begins IMMEDIATE
+    (it takes the write lock at once, so two workers never both read a trial RUNNING and then
+    both write it: the second waits, up to a 60 s busy timeout, and reads the first's write).
+    SQLite keeps ``FILE-wal`` and ``FILE-shm`` beside the file while workers run (after a kill
+    they hold committed trials: the next open folds them back); at the end the file returns to
+    SQLite's default journal when no other worker has it open (:func:`_rollback_journal`)."""
     import sqlite3
 
     import optuna
+    from sqlalchemy import event
 
     def connect():
-        con = sqlite3.connect(str(path), timeout=60, check_same_thread=False)
+        con = sqlite3.connect(str(path), timeout=60, check_same_thread=False, isolation_level=None)
+        con.execute("PRAGMA busy_timeout=60000")
         con.execute("PRAGMA journal_mode=WAL")
         con.execute("PRAGMA synchronous=NORMAL")
         return con
 
-    return optuna.storages.RDBStorage(url, engine_kwargs={"creator": connect})
+    storage = optuna.storages.RDBStorage(url, engine_kwargs={"creator": connect})
+    event.listen(storage.engine, "begin", lambda conn: conn.exec_driver_sql("BEGIN IMMEDIATE"))
+    return storage
+
+
+# -- workers: heartbeats and the takeover of a dead worker's trials --------------------------------
+BEAT = "jaco_worker:"  # the study's user attribute per worker: its last heartbeat (time.time(); 0: it stopped)
+
+
+def _alive_pid(pid: int) -> bool:
+    import os
+
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's process
+        return True
+    return True
+
+
+class _Workers:
+    """This worker's heartbeat (a thread writes the study attribute ``jaco_worker:ID`` every
+    ``interval`` seconds; 0 when the worker stops) and the takeover of the trials of dead workers:
+    a RUNNING trial is a dead worker's when its owner's heartbeat is older than ``grace`` (or 0,
+    or the owner was a process of this host that no longer exists). :meth:`claim` fails such a
+    trial through one atomic storage transition, so exactly one worker wins it."""
+
+    def __init__(self, study, storage, claim_lock, interval: float, grace: float):
+        import os
+        import socket
+        import threading
+        import uuid
+
+        self.study, self.storage, self.claim_lock = study, storage, claim_lock
+        self.interval, self.grace = interval, grace
+        self.host = socket.gethostname()
+        self.id = f"{self.host}:{os.getpid()}:{uuid.uuid4().hex[:8]}"
+        self.study_id = storage.get_study_id_from_name(study.study_name)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._beat_loop, name="jaco-heartbeat", daemon=True)
+
+    def start(self) -> None:
+        self._beat(time.time())
+        self._thread.start()
+
+    def stop(self) -> None:
+        """No more heartbeats; a trial this worker leaves RUNNING is free for takeover at once."""
+        self._stop.set()
+        self._thread.join()
+        try:
+            self._beat(0.0)
+        except Exception:  # noqa: BLE001 - the storage failed (what stopped the search?): its heartbeat ages out
+            pass
+
+    def _beat(self, when: float) -> None:
+        self.storage.set_study_user_attr(self.study_id, BEAT + self.id, when)
+
+    def _beat_loop(self) -> None:
+        while not self._stop.wait(self.interval):
+            try:
+                self._beat(time.time())
+            except Exception:  # noqa: BLE001 - a busy storage misses one beat; the grace period allows it
+                pass
+
+    def alive(self, owner: str | None, beats: dict) -> bool:
+        """Whether worker ``owner`` (None: a trial of a jaco before workers) may still run its trials."""
+        if owner == self.id:
+            return True
+        beat = beats.get(BEAT + owner) if owner else None
+        if not beat:
+            return False
+        host, pid, _ = owner.rsplit(":", 2)  # type: ignore[union-attr]
+        if host == self.host and not _alive_pid(int(pid)):
+            return False
+        return time.time() - float(beat) < self.grace
+
+    def running(self, trials) -> tuple[list, list]:
+        """RUNNING ``trials`` split into (live workers' trials, dead workers' trials); a trial asked
+        but never given its parameters (its worker killed in between) is dead once older than the
+        grace period."""
+        beats = self.storage.get_study_user_attrs(self.study_id)
+        live: list = []
+        dead: list = []
+        for t in trials:
+            if "jaco_trial" in t.user_attrs:
+                ok = self.alive(t.user_attrs["jaco_trial"].get("owner"), beats)
+            else:
+                started = t.datetime_start.timestamp() if t.datetime_start else 0.0
+                ok = time.time() - started < self.grace
+            (live if ok else dead).append(t)
+        return live, dead
+
+    def claim(self, frozen) -> bool:
+        """Mark a dead worker's RUNNING trial FAIL; True for the one worker whose transition did it."""
+        import optuna
+        from optuna.trial import TrialState
+
+        tid = self.storage.get_trial_id_from_study_id_trial_number(self.study_id, frozen.number)
+        with self.claim_lock():
+            try:
+                if self.storage.get_trial(tid).state != TrialState.RUNNING:
+                    return False
+                return bool(self.storage.set_trial_state_values(tid, TrialState.FAIL))
+            except (optuna.exceptions.UpdateFinishedTrialError, optuna.exceptions.StorageInternalError):
+                return False  # another worker failed it first
+
+    def replace(self, frozen):
+        """A new RUNNING trial owned by this worker with ``frozen``'s parameters, attributes and
+        intermediate values (``retry_of``: its number)."""
+        from datetime import datetime
+
+        from optuna.trial import FrozenTrial, Trial, TrialState
+
+        attrs = dict(frozen.user_attrs)
+        attrs["jaco_trial"] = {**attrs["jaco_trial"], "owner": self.id, "retry_of": frozen.number}
+        template = FrozenTrial(
+            number=-1,
+            state=TrialState.RUNNING,
+            value=None,
+            datetime_start=datetime.now(),
+            datetime_complete=None,
+            params=frozen.params,
+            distributions=frozen.distributions,
+            user_attrs=attrs,
+            system_attrs=frozen.system_attrs,
+            intermediate_values=frozen.intermediate_values,
+            trial_id=-1,
+        )
+        return Trial(self.study, self.storage.create_new_trial(self.study_id, template_trial=template))
+
+
+@contextmanager
+def _no_lock():
+    yield
+
+
+def _claim_lock(store, path):
+    """What serialises the claims of a journal file (its appends are atomic, but a journal's
+    state change is not a compare-and-set): Optuna's own open-lock beside it. SQLite's IMMEDIATE
+    transactions and PostgreSQL's row locks make the claim atomic by themselves."""
+    if store.__class__.__name__ != "JournalStorage" or path is None:
+        return _no_lock
+    from optuna.storages.journal import JournalFileOpenLock
+
+    lock = JournalFileOpenLock(f"{path}.claim")
+
+    @contextmanager
+    def held():
+        lock.acquire()
+        try:
+            yield
+        finally:
+            lock.release()
+
+    return held
 
 
 @contextmanager
@@ -474,6 +654,9 @@ def search(
     fidelity: Any = None,
     storage: Any = None,
     study_name: str | None = None,
+    worker: int = 0,
+    heartbeat_interval: float = 30.0,
+    grace_period: float | None = None,
     memory_budget: int = 2 << 30,
     devices: Any = None,
     progress: bool | None = None,
@@ -493,7 +676,10 @@ def search(
     ``"evosax:NAME"`` strategy or an Optuna sampler (:mod:`jaco.research.samplers`),
     ``sampler_options`` passed to an evosax strategy; ``seed`` seeds the sampler; ``objective``,
     ``penalty``, ``fidelity``, ``storage`` and ``study_name``: see the module. ``planner``: the
-    planner when ``space`` has no ``"variant"`` (default ``"mmas"``).
+    planner when ``space`` has no ``"variant"`` (default ``"mmas"``). ``worker``: this process's
+    index among the workers of the study (its sampler is seeded ``seed + worker``);
+    ``heartbeat_interval`` and ``grace_period`` (default three intervals), in seconds: when another
+    worker takes over this one's trials (see the module).
 
     Returns a :class:`Study`: ``best_params`` (ready for ``jaco.solve(grid, start, goal,
     **best_params)``), ``best_value``, ``trials`` (a DataFrame, one row per trial), ``history()``,
@@ -566,8 +752,9 @@ def search(
     )
     seed_list = check_seeds(seeds)
     budget = check_budget(memory_budget)
-    storage_obj, lock_path, storage_text = _storage(storage)
-    _check_storage_path(lock_path)
+    storage_obj, path, storage_text = _storage(storage)
+    _check_storage_path(path)
+    beats = _heartbeats(worker, heartbeat_interval, grace_period)
     if study_name is not None and (not isinstance(study_name, str) or not study_name.strip()):
         raise SearchError(f"study_name must be a non-empty string, got {study_name!r}")
     if storage is not None:
@@ -603,7 +790,7 @@ def search(
     )
     bar = _progress.Bar(_progress.enabled(progress), f"search {sampler_name}", "trial")
     t0 = time.perf_counter()
-    with _quiet(), _opened(storage_obj, lock_path) as store:
+    with _quiet(), _opened(storage_obj, path) as store:
         import optuna
 
         proposer = None
@@ -611,7 +798,7 @@ def search(
             proposer = EvosaxProposer(sampler_name, space, seed=seed, batch=batch, options=sampler_options)
             optuna_s = EvosaxProposer.queue()
         elif isinstance(sampler, str):
-            optuna_s = optuna_sampler(sampler_name, space, seed=seed, batch=batch, trials=trials or 0)  # grid: given
+            optuna_s = optuna_sampler(sampler_name, space, seed=seed + beats[0], batch=batch, trials=trials or 0)
         else:
             optuna_s = sampler
         try:
@@ -627,7 +814,8 @@ def search(
         _attach(study, info, storage_text)
         study.set_user_attr(STOPPED, None)  # until this call ends: a killed call leaves no stale reason
         deadline = None if timeout is None else started + timeout
-        run = _Run(study, space, evaluator, info, halving, sizes, batch, bar, proposer, deadline)
+        workers = _Workers(study, store, _claim_lock(store, path), *beats[1:])
+        run = _Run(study, space, evaluator, info, halving, sizes, batch, bar, proposer, workers, deadline)
         bar.start(trials, f"search {sampler_name}")  # type: ignore[arg-type]  # None: no total
         try:
             run.until(trials)
@@ -644,6 +832,18 @@ def search(
         with _quiet():
             study = optuna.load_study(study_name=study.study_name, storage=storage_obj)
     return Study(study, timings=timings)
+
+
+def _heartbeats(worker, interval, grace) -> tuple[int, float, float]:
+    """``(worker, heartbeat_interval, grace_period)`` checked; the grace period defaults to three
+    heartbeat intervals."""
+    if isinstance(worker, bool) or not isinstance(worker, (int, np.integer)) or not 0 <= worker < 2**20:
+        raise SearchError(f"worker must be an integer >= 0 (this worker's index), got {worker!r}")
+    interval = _positive_seconds("heartbeat_interval", interval)
+    grace = 3 * interval if grace is None else _positive_seconds("grace_period", grace)
+    if grace <= interval:
+        raise SearchError(f"grace_period ({grace:g} s) must be longer than heartbeat_interval ({interval:g} s)")
+    return int(worker), interval, grace
 
 
 def _study_info(
@@ -730,13 +930,12 @@ def _attach(study, info: dict, where: str) -> None:
 class _Run:
     """One call's progress through a study: finish stale trials, then generations or brackets."""
 
-    def __init__(self, study, space, evaluator, info, halving, sizes, batch, bar, proposer, deadline=None):
+    def __init__(self, study, space, evaluator, info, halving, sizes, batch, bar, proposer, workers, deadline=None):
         self.study, self.space, self.evaluate, self.info = study, space, evaluator, info
         self.halving, self.sizes, self.batch, self.bar, self.proposer = halving, sizes, batch, bar, proposer
-        self.deadline, self.ran, self.timed_out = deadline, False, False
-        self.timings = {"sampler_s": 0.0, "evaluate_s": 0.0, "generations": 0}
-        stored = [trial_info(t).get("generation") for t in study.get_trials(deepcopy=False)]
-        self.generation = 1 + max([g for g in stored if g is not None], default=-1)
+        self.workers, self.deadline, self.ran, self.timed_out = workers, deadline, False, False
+        self.timings = {"sampler_s": 0.0, "evaluate_s": 0.0, "storage_s": 0.0, "generations": 0, "retried": 0}
+        self.generation = 0
 
     # trials and their state
     def _trials(self, states=None):
@@ -782,36 +981,51 @@ class _Run:
             **{k: int(sizes[k]) for k in SIZES},
         )
 
+    def _next_generation(self) -> int:
+        """One more than the largest generation stored (workers' generations interleave)."""
+        stored = [trial_info(t).get("generation") for t in self._trials()]
+        return 1 + max([g for g in stored if g is not None], default=-1)
+
     def _ask(self, n: int, extra_attrs=None) -> list[Job]:
         t0 = time.perf_counter()
         jobs = []
         for i in range(n):
             trial = self.study.ask()
-            planner, suggested = suggest(trial, self.space)
-            job = self._job(trial, planner, {**self.space.fixed, **suggested}, {**self.sizes, **suggested})
-            # one attribute, one storage write: what reruns the trial and places it in the search
-            trial.set_user_attr(
-                "jaco_trial",
-                {
-                    "planner": planner,
-                    "params": job["own"],
-                    "n_ants": job["n_ants"],
-                    "generation": self.generation,
-                    **(extra_attrs(i) if extra_attrs else {}),
-                },
-            )
-            jobs.append(job)
+            try:
+                jobs.append(self._described(trial, extra_attrs(i) if extra_attrs else {}))
+            except BaseException:  # interrupted before its parameters were stored: never evaluated
+                from optuna.trial import TrialState
+
+                self.study.tell(trial, state=TrialState.FAIL)
+                raise
         self.timings["sampler_s"] += time.perf_counter() - t0
         return jobs
 
-    def _stale(self, frozen) -> Job:
-        """A trial left RUNNING by an earlier process, to be evaluated again."""
-        from optuna.trial import Trial
+    def _described(self, trial, extra: dict) -> Job:
+        """The job of a trial just asked, its parameters stored with it (``jaco_trial``)."""
+        planner, suggested = suggest(trial, self.space)
+        job = self._job(trial, planner, {**self.space.fixed, **suggested}, {**self.sizes, **suggested})
+        # one attribute, one storage write: what reruns the trial and places it in the search
+        trial.set_user_attr(
+            "jaco_trial",
+            {
+                "planner": planner,
+                "params": job["own"],
+                "n_ants": job["n_ants"],
+                "generation": self.generation,
+                "owner": self.workers.id,
+                **extra,
+            },
+        )
+        return job
 
+    def _retry(self, frozen) -> Job:
+        """A dead worker's trial (claimed: now FAIL) evaluated again as a new trial of this worker."""
         a = trial_info(frozen)
         sizes = {"n_ants": a["n_ants"], "n_iters": frozen.params.get("n_iters", self.sizes["n_iters"])}
-        job = self._job(Trial(self.study, frozen._trial_id), a["planner"], a["params"], sizes)
+        job = self._job(self.workers.replace(frozen), a["planner"], a["params"], sizes)
         job["stored"] = dict(a["runs"])
+        self.timings["retried"] += 1
         return job
 
     def _evaluate(self, jobs, n_iters=None) -> None:
@@ -839,52 +1053,100 @@ class _Run:
 
     # the loop
     def until(self, trials: int | None) -> None:
-        self._resume_stale()
-        self._progress()
-        if self.proposer is not None:
-            return self._evosax(trials)
-        bracket = len({trial_info(t).get("bracket") for t in self._trials()} - {None})
-        while (done := self._finished()) < (math.inf if trials is None else trials) and not self._out_of_time():
-            n = self.batch if trials is None else min(self.batch, trials - done)
+        """Generations (or brackets) until ``trials`` trials of the study are finished, by all its
+        workers together; a dead worker's trials are taken over before every batch."""
+        self.workers.start()
+        try:
+            self._takeover()
+            self._progress()
+            if self.proposer is not None:
+                return self._evosax(trials)
+            self._loop(trials)
+        finally:
+            self.workers.stop()
+
+    def _counts(self) -> tuple[int, int]:
+        """(finished trials, trials that live workers are evaluating) in the study; a trial still
+        being asked (no parameters stored yet) is not counted: see docs/search.md for the bound."""
+        from optuna.trial import TrialState
+
+        trials = self._trials((TrialState.COMPLETE, TrialState.PRUNED, TrialState.RUNNING))
+        live, _ = self.workers.running([t for t in trials if t.state == TrialState.RUNNING])
+        done = sum(t.state != TrialState.RUNNING for t in trials)
+        return done, sum("jaco_trial" in t.user_attrs for t in live)
+
+    def _brackets_started(self) -> int:
+        """Brackets in the study, all workers' (a bracket is one worker's: its owner and number)."""
+        return len({(a.get("owner"), a["bracket"]) for a in map(trial_info, self._trials()) if "bracket" in a})
+
+    def _loop(self, trials: int | None) -> None:
+        while True:
+            self._takeover()
+            done, running = self._counts()
+            if (trials is not None and done >= trials) or self._out_of_time():
+                return
+            n = self.batch if trials is None else min(self.batch, trials - done - running)
+            if n <= 0:  # other workers run the last trials: wait, to take them over if they die
+                if self.deadline is not None and _clock() >= self.deadline:
+                    self.timed_out = True
+                    return
+                time.sleep(min(1.0, self.workers.interval))
+                continue
+            self.generation = self._next_generation()
             if self.halving is None:
                 jobs = self._ask(n)
                 self._evaluate(jobs)
                 self._tell(jobs)
             else:
                 brackets = self.halving.brackets(self.sizes["n_iters"])
-                rungs = brackets[bracket % len(brackets)]
+                bracket = self._brackets_started()
                 jobs = self._ask(n, lambda i, bracket=bracket: {"bracket": bracket})
-                self._bracket(jobs, rungs)
-                bracket += 1
+                self._bracket(jobs, brackets[bracket % len(brackets)])
             self.timings["generations"] += 1
-            self.generation += 1
             self._progress()
 
-    def _resume_stale(self) -> None:
-        """Finish what an earlier, killed process left RUNNING (this process holds the lock)."""
+    def _takeover(self) -> None:
+        """Claim the trials of dead workers (each by exactly one worker: :meth:`_Workers.claim`)
+        and evaluate them again as new trials; a trial asked but never given its parameters is
+        only failed. An evosax study asks its failed members again when it replays."""
         from optuna.trial import TrialState
 
-        stale = []
-        for t in self._trials((TrialState.RUNNING,)):
-            if "jaco_trial" in t.user_attrs:
-                stale.append(t)
-            else:  # killed between Optuna's ask and the storing of its parameters: never evaluated
-                self.study.tell(t.number, state=TrialState.FAIL)
-        if not stale or self.proposer is not None:
+        t0 = time.perf_counter()
+        _, dead = self.workers.running(self._trials((TrialState.RUNNING,)))
+        won = [t for t in dead if self.workers.claim(t) and "jaco_trial" in t.user_attrs]
+        self.timings["storage_s"] += time.perf_counter() - t0
+        if not won or self.proposer is not None:
             return
         if self.halving is None:
-            jobs = [self._stale(t) for t in stale]
+            jobs = [self._retry(t) for t in won]
             self._evaluate(jobs)
             self._tell(jobs)
             return
         brackets = self.halving.brackets(self.sizes["n_iters"])
         by_bracket: dict = {}
-        for t in stale:
-            by_bracket.setdefault(trial_info(t)["bracket"], []).append(t)
-        for b in sorted(by_bracket):
-            everyone = [t for t in self._trials() if trial_info(t).get("bracket") == b]
-            jobs = [self._stale(t) for t in everyone]
+        for t in won:
+            a = trial_info(t)
+            by_bracket.setdefault((a["bracket"], a.get("owner") or ""), []).append(t)
+        finished = (TrialState.COMPLETE, TrialState.PRUNED)
+        for b, owner in sorted(by_bracket):
+            done = [
+                t
+                for t in self._trials(finished)
+                if (trial_info(t).get("bracket"), trial_info(t).get("owner") or "") == (b, owner)
+            ]
+            jobs = [self._job_of(t) for t in done] + [self._retry(t) for t in by_bracket[b, owner]]
             self._bracket(jobs, brackets[b % len(brackets)], resumed=True)
+
+    def _job_of(self, frozen) -> Job:
+        """A finished trial of a resumed bracket (its stored rungs are used, never evaluated again)."""
+        from optuna.trial import Trial
+
+        a = trial_info(frozen)
+        sizes = {"n_ants": a["n_ants"], "n_iters": frozen.params.get("n_iters", self.sizes["n_iters"])}
+        tid = self.workers.storage.get_trial_id_from_study_id_trial_number(self.workers.study_id, frozen.number)
+        job = self._job(Trial(self.study, tid), a["planner"], a["params"], sizes)
+        job["stored"] = dict(a["runs"])
+        return job
 
     def _bracket(self, jobs, rungs, resumed=False) -> None:
         """Successive halving of ``jobs`` over ``rungs`` (iterations); values already stored for a
@@ -894,7 +1156,8 @@ class _Run:
         sign = 1.0 if self.study.directions[0].name == "MINIMIZE" else -1.0
         alive = list(jobs)
         for k, budget in enumerate(rungs):
-            stored = {j["trial"].number: self.study._storage.get_trial(j["trial"]._trial_id) for j in alive}
+            numbers = {j["trial"].number for j in alive}
+            stored = {t.number: t for t in self._trials() if t.number in numbers}
             todo = [j for j in alive if budget not in stored[j["trial"].number].intermediate_values]
             self._evaluate(todo, budget)
             for j in todo:
@@ -927,7 +1190,7 @@ class _Run:
             z = self.proposer.ask(generation)
             members = by_gen.get(generation, {})
             fitness = np.full(len(z), np.nan, np.float32)
-            jobs = []
+            jobs: list = []
             for m, t in sorted(members.items()):
                 if not (0 <= m < len(z) and np.array_equal(np.asarray(trial_info(t)["z"], np.float32), z[m])):
                     raise SearchError(
@@ -936,8 +1199,11 @@ class _Run:
                     )
                 if t.state == TrialState.COMPLETE:
                     fitness[m] = sign * t.values[0]
-                else:  # left RUNNING by a killed process: evaluate it now
-                    jobs.append(Job(self._stale(t), member=m))
+                else:  # a dead worker's members were failed (and are asked again): this one runs
+                    raise SearchError(
+                        f"study {self.study.study_name!r}: generation {generation} is being evaluated by another "
+                        "worker; an evosax strategy runs one worker per study"
+                    )
             missing = [m for m in range(len(z)) if m not in members]
             if (missing or jobs) and self._out_of_time():  # a stored generation replays at no cost
                 break

@@ -1,0 +1,215 @@
+"""Several worker processes on one study (jaco.search with one storage and study_name): they share
+the trials, stop at ``trials`` finished (at most one batch more per other worker), leave nothing
+RUNNING, never evaluate a trial twice, and take a killed worker's trials over exactly once."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import pytest
+
+pytest.importorskip("optuna")
+
+from postgres import postgres_url  # noqa: E402,F401  (a session fixture: a real server)
+
+import jaco  # noqa: E402
+
+#: One worker: logs every trial it evaluated (after the evaluation) to evals-PID.jsonl; with
+#: JACO_TEST_HANG it marks its first batch as asked and hangs there (to be killed mid-batch);
+#: with JACO_TEST_HOST it claims another host name (no process check: only heartbeats tell).
+WORKER = textwrap.dedent("""
+    import json, os, socket, sys, time
+    import jaco
+    from jaco.research import search as S
+
+    if os.environ.get("JACO_TEST_HOST"):
+        socket.gethostname = lambda: os.environ["JACO_TEST_HOST"]
+    storage, name, sampler, trials, batch, worker = sys.argv[1:7]
+    real = S.Evaluator.__call__
+
+    def logged(self, jobs):
+        if os.environ.get("JACO_TEST_HANG"):
+            with open(f"hung-{os.getpid()}.json", "w") as f:
+                json.dump([j["trial"].number for j in jobs], f)
+            time.sleep(600)
+        out = real(self, jobs)
+        with open(f"evals-{os.getpid()}.jsonl", "a") as f:
+            for j in jobs:
+                f.write(json.dumps({"number": j["trial"].number, "values": j["own"]}) + "\\n")
+        return out
+
+    S.Evaluator.__call__ = logged
+    grid = jaco.maps.named("demo")
+    jaco.search(grid, grid.meta["start"], grid.meta["goal"], {"beta": (1.0, 8.0), "rho": (0.05, 0.5)},
+                planner="as", trials=int(trials), batch=int(batch), seeds=2, n_ants=4, n_iters=5,
+                sampler=sampler, storage=storage, study_name=name, worker=int(worker),
+                heartbeat_interval=0.5, grace_period=3.0, progress=False)
+""")
+
+
+def _start(tmp_path, storage, worker, *, name="s", sampler="tpe", trials=8, batch=2, env=None):
+    script = tmp_path / "worker.py"
+    script.write_text(WORKER)
+    args = [sys.executable, str(script), storage, name, sampler, str(trials), str(batch), str(worker)]
+    return subprocess.Popen(args, cwd=tmp_path, env={**os.environ, **(env or {})}, stderr=subprocess.PIPE, text=True)
+
+
+def _wait(procs, timeout=300):
+    for p in procs:
+        _, err = p.communicate(timeout=timeout)
+        assert p.returncode == 0, err[-2000:]
+
+
+def _evaluations(tmp_path) -> list[dict]:
+    return [json.loads(line) for f in sorted(tmp_path.glob("evals-*.jsonl")) for line in f.read_text().splitlines()]
+
+
+def _check_shared(tmp_path, storage, *, trials, batch, workers, name="s"):
+    """Exactly what the docs promise of a finished multi-worker study."""
+    study = jaco.load_study(storage, name).study
+    states = [t.state.name for t in study.trials]
+    done = states.count("COMPLETE")
+    assert trials <= done <= trials + batch * (workers - 1)  # at most one batch more per other worker
+    assert "RUNNING" not in states
+    evals = _evaluations(tmp_path)
+    numbers = [e["number"] for e in evals]
+    assert len(numbers) == len(set(numbers))  # no trial evaluated twice
+    complete = {t.number: t for t in study.trials if t.state.name == "COMPLETE"}
+    assert sorted(numbers) == sorted(complete)  # every finished trial evaluated once, by some worker
+    points = [tuple(sorted(t.params.items())) for t in complete.values()]
+    assert len(set(points)) == len(points)  # and no two with one configuration (the same seeds)
+    return study
+
+
+def test_two_local_workers_share_one_sqlite_study(tmp_path):
+    storage = str(tmp_path / "s.db")
+    procs = [_start(tmp_path, storage, w) for w in range(2)]
+    _wait(procs)
+    study = _check_shared(tmp_path, storage, trials=8, batch=2, workers=2)
+    owners = {t.user_attrs["jaco_trial"]["owner"] for t in study.trials}
+    assert len(owners) >= 1 and all(o.count(":") >= 2 for o in owners)  # host:pid:token of a worker
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sampler", ["tpe", "cmaes"])
+@pytest.mark.parametrize("kind", ["sqlite", "journal", "postgres"])
+def test_three_workers_on_each_storage(tmp_path, kind, sampler, request):
+    storage = {
+        "sqlite": f"sqlite:///{tmp_path / 's.db'}",
+        "journal": str(tmp_path / "s.journal"),
+        "postgres": None,
+    }[kind]
+    name = "s"
+    if kind == "postgres":  # one server for the session: a study per test
+        storage, name = request.getfixturevalue("postgres_url"), f"s_{sampler}"
+    procs = [_start(tmp_path, storage, w, name=name, sampler=sampler, trials=12, batch=3) for w in range(3)]
+    _wait(procs)
+    _check_shared(tmp_path, storage, trials=12, batch=3, workers=3, name=name)
+
+
+def _complete(db) -> int:
+    import sqlite3
+
+    try:
+        with sqlite3.connect(db, timeout=0.1) as con:
+            return con.execute("SELECT COUNT(*) FROM trials WHERE state = 'COMPLETE'").fetchone()[0]
+    except sqlite3.Error:  # not created yet, or busy
+        return 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("other_host", [False, True])
+def test_a_killed_workers_trials_are_retried_exactly_once(tmp_path, other_host):
+    """Worker 0 hangs in its first batch and is SIGKILLed there while worker 1, having finished
+    the rest, waits. On this host the dead process is seen at once; from another host only its
+    heartbeat stops, and its trials wait out the grace period (3 s here) before worker 1 retries
+    them, each exactly once, as new trials with the same parameters."""
+    db = tmp_path / "s.db"
+    env = {"JACO_TEST_HANG": "1", **({"JACO_TEST_HOST": "elsewhere"} if other_host else {})}
+    hung = _start(tmp_path, str(db), 0, env=env)
+    other = _start(tmp_path, str(db), 1)
+    deadline = time.time() + 240
+    while not (list(tmp_path.glob("hung-*.json")) and _complete(db) >= 6):  # worker 1 now waits for worker 0
+        assert hung.poll() is None and other.poll() is None and time.time() < deadline
+        time.sleep(0.2)
+    killed_at = time.time()
+    os.kill(hung.pid, signal.SIGKILL)
+    hung.wait()
+    (mark,) = tmp_path.glob("hung-*.json")
+    killed = json.loads(mark.read_text())
+    _wait([other])
+    study = _check_shared(tmp_path, str(db), trials=8, batch=2, workers=2)
+    by_number = {t.number: t for t in study.trials}
+    for n in killed:
+        assert by_number[n].state.name == "FAIL"
+        again = [t for t in study.trials if t.user_attrs["jaco_trial"].get("retry_of") == n]
+        assert len(again) == 1 and again[0].state.name == "COMPLETE" and again[0].params == by_number[n].params
+        after = again[0].datetime_start.timestamp() - killed_at
+        if other_host:  # its last heartbeat was at most 0.5 s before the kill
+            assert after >= 3.0 - 0.6
+        else:
+            assert after < 3.0
+
+
+# -- jaco search --workers N ----------------------------------------------------------------------
+CLI = ["search", "demo", "--planner", "as", "--param", "beta=1:8", "--param", "rho=0.05:0.5", "--trials", "8",
+       "--batch", "2", "--seeds", "2", "--ants", "4", "--iters", "5"]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    "extra, match",
+    [
+        ([], "--workers N shares one study between processes: give --storage"),
+        (["--storage", "s.db", "--sampler", "evosax:SNES"], "an evosax strategy runs one worker per study"),
+    ],
+)
+def test_cli_workers_need_a_storage_before_anything_compiles(extra, match, capsys, monkeypatch, tmp_path):
+    from jaco.cli import main
+    from jaco.research import sweeps
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sweeps.Runner, "__init__", lambda *a, **k: pytest.fail("compiled"))
+    assert main([*CLI, "--workers", "2", *extra]) == 2
+    err = capsys.readouterr().err.strip()
+    assert match in err and "\n" not in err
+
+
+@pytest.mark.slow
+def test_cli_workers_share_the_study_and_sigterm_stops_them_all(tmp_path):
+    """Two workers finish the study; a second command, stopped by SIGTERM, stops its workers too
+    (exit 143), leaves nothing evaluated twice, and the same command again finishes the study."""
+    db = tmp_path / "c.db"
+    cmd = [sys.executable, "-m", "jaco.cli", *CLI, "--storage", str(db), "--workers", "2", "--grace-period", "2",
+           "--heartbeat-interval", "0.5"]  # fmt: skip
+    done = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "2 workers" in done.stdout
+    study = jaco.load_study(str(db)).study
+    assert 8 <= sum(t.state.name == "COMPLETE" for t in study.trials) <= 10 and len(study.trials) <= 10
+    big = [*cmd]
+    big[big.index("--trials") + 1] = "400"
+    proc = subprocess.Popen(big, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while sum(t.state.name == "COMPLETE" for t in jaco.load_study(str(db)).study.trials) < 14:
+        assert proc.poll() is None and time.time() < deadline
+        time.sleep(0.5)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=180)
+    assert proc.returncode == 143 and "terminated" in err
+    beats = {k: v for k, v in jaco.load_study(str(db)).study.user_attrs.items() if k.startswith("jaco_worker:")}
+    assert beats and all(v == 0 for v in beats.values())  # every worker stopped and said so
+    again = [*cmd]
+    again[again.index("--trials") + 1] = "30"
+    done = subprocess.run(again, cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    trials = jaco.load_study(str(db)).study.trials
+    assert "RUNNING" not in {t.state.name for t in trials}
+    retried = [t.user_attrs["jaco_trial"].get("retry_of") for t in trials if "jaco_trial" in t.user_attrs]
+    failed = [t.number for t in trials if t.state.name == "FAIL" and "jaco_trial" in t.user_attrs]
+    assert sorted(r for r in retried if r is not None) == sorted(failed)  # each stopped trial retried once
