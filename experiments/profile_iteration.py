@@ -13,7 +13,8 @@ jitted and timed alone (process CPU time and wall time, best of ``reps``), once 
 * weights: τ^α η^β for every move (:func:`jaco.engine.colony.move_weights`);
 * walk: the ants' walks alone — the C++ kernel (:func:`jaco.engine.native.walk`) or the JAX walk
   (:func:`jaco.engine.walk.jax_walk`), the same moves;
-* tours: step lengths, path lengths and the pheromone element of every step;
+* tours: step lengths, path lengths and the pheromone element of every step (the walk gives the
+  latter as its edges: what remains is the lengths);
 * pheromone update: evaporation and the ant-cycle deposit (the kernel's deposit with the native
   walk, XLA's scatter-add with the JAX walk);
 * whole iteration: the mean over a 20-iteration run, everything in one compiled program.
@@ -97,7 +98,7 @@ def measure(cfg) -> dict:
 
             def tours_of(walks):
                 t = _tours(*walks)
-                return t, step_targets("moves", t.cells, t.moves, prob.start, n)
+                return t, step_targets("moves", t.cells, t.moves, prob.start, n, t.edges)
 
             tours = jax.jit(jax.vmap(tours_of))
             t, targets = tours(out)

@@ -32,11 +32,6 @@ inline float int_power(float x, int32_t k) {
   return out;
 }
 
-// How many ants ahead the walk prefetches: one ant's step is several dependent cache misses (its
-// cell's row, tabu bytes and pheromone, at random places of large maps), which the CPU cannot
-// overlap with the next ant's on its own; measured on Berlin_1_256 (256x256).
-constexpr int64_t kAhead = 2;
-
 ffi::Error BacktrackImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> tau_in, ffi::Buffer<ffi::F32> rows,
                          ffi::Buffer<ffi::F32> factors, ffi::Buffer<ffi::U32> words, ffi::Buffer<ffi::S32> start, ffi::Buffer<ffi::S32> goal,
                          ffi::Buffer<ffi::F32> scalars, ffi::Buffer<ffi::S32> offsets, ffi::Buffer<ffi::S32> tables,
@@ -103,15 +98,6 @@ ffi::Error BacktrackImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> tau_in, ffi
         bool any_running = false;
         s->touched.clear();
         for (int64_t a = 0; a < A; ++a) {
-          if (a + kAhead < A) {  // the rows of an ant further on: their loads overlap this ant's work
-            const int32_t ahead = s->cur[a + kAhead];
-            __builtin_prefetch(R + int64_t(ahead) * 8);
-            for (int dr = -1; dr <= 1; ++dr) {  // the tabu bytes and pheromone of its 3x3 neighbourhood
-              const int64_t at = int64_t(ahead) + (dr == 0 ? 0 : off[dr < 0 ? 0 : 2]);  // moves 0, 2: a row up, down
-              __builtin_prefetch(s->tabu.data() + (a + kAhead) * N + std::clamp<int64_t>(at, 0, N - 1));
-              __builtin_prefetch(tau + std::clamp<int64_t>(at, 0, N - 1));
-            }
-          }
           if (!s->running[a]) continue;
           any_running = true;
           uint8_t* tabu = s->tabu.data() + a * N;
