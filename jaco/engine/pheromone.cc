@@ -88,4 +88,4 @@ XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoDeposit, DepositImpl,
                                   .Arg<ffi::Buffer<ffi::F32>>()   // tau (..., M)
                                   .Arg<ffi::Buffer<ffi::S32>>()   // targets (..., R, C)
                                   .Arg<ffi::Buffer<ffi::F32>>()   // amounts (..., K): K = 1, C or R·C
-                                  .Ret<ffi::Buffer<ffi::F32>>()); // tau (..., M), aliasing the input
+                                  .Ret<ffi::Buffer<ffi::F32>>()); // tau (..., M), a new buffer (aliased, XLA copied it back into its loop)
