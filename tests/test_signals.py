@@ -291,3 +291,34 @@ def test_a_stop_signal_whose_exception_python_ignored_is_delivered_again(sig):
     finally:
         signal.signal(signal.SIGINT, previous)
     assert sys.unraisablehook is hook and signal.getsignal(signal.SIGTERM) is not jaco.cli._terminate
+
+
+def test_without_a_cpu_backend_runs_skip_the_host_callback_and_say_so(monkeypatch):
+    """``JAX_PLATFORMS=cuda`` alone leaves jax without the CPU backend that host callbacks need:
+    the JAX walk's stop check must then trace to a constant (not a callback that fails at run
+    time) and warn once that interrupts land between calls."""
+    import jax
+    import jax.numpy as jnp
+
+    from jaco.engine import native
+
+    def jaxpr_of():  # a new function each time: jax caches a function's trace
+        return str(jax.make_jaxpr(lambda t: native._host_stopped(t))(jnp.int32(0)))
+
+    monkeypatch.delitem(native._state, "host_callbacks", raising=False)
+    assert "pure_callback" in jaxpr_of()  # this machine has its CPU backend
+
+    real = jax.devices
+
+    def devices(backend=None):
+        if backend == "cpu":
+            raise RuntimeError("Unknown backend cpu")
+        return real(backend)
+
+    monkeypatch.setattr(jax, "devices", devices)
+    monkeypatch.delitem(native._state, "host_callbacks")
+    with pytest.warns(UserWarning, match="no CPU backend"):
+        text = jaxpr_of()
+    assert "pure_callback" not in text and "cond" not in text
+    assert not bool(jax.jit(lambda t: native._host_stopped(t))(jnp.int32(0)))
+    monkeypatch.delitem(native._state, "host_callbacks")  # the next test asks again

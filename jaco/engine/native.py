@@ -23,6 +23,7 @@ import ctypes
 import importlib.util
 import os
 import threading
+import warnings
 from typing import Any, Callable
 
 import jax
@@ -218,7 +219,27 @@ def _kernel_stopped(t: jax.Array) -> jax.Array:
     return jax.ffi.ffi_call("jaco_stopped", jax.ShapeDtypeStruct((), jnp.bool_))(t)
 
 
+def _host_can_call_back() -> bool:
+    """Whether jax has its CPU backend, which host callbacks need (``JAX_PLATFORMS=cuda`` alone
+    leaves it out); without it a run cannot ask the host and is interrupted between calls only."""
+    if "host_callbacks" not in _state:
+        try:
+            jax.devices("cpu")
+            _state["host_callbacks"] = True
+        except RuntimeError:
+            _state["host_callbacks"] = False
+            warnings.warn(
+                "jax has no CPU backend (JAX_PLATFORMS lists no 'cpu'): an interrupted run stops at the end "
+                "of its compiled call, not at its next iteration; add cpu to JAX_PLATFORMS (e.g. 'cuda,cpu')",
+                stacklevel=3,
+            )
+    return _state["host_callbacks"]
+
+
 def _host_stopped(t: jax.Array) -> jax.Array:
+    if not _host_can_call_back():
+        return jnp.bool_(False)
+
     def asked():
         return np.bool_(_STOP.is_set())
 

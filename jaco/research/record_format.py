@@ -29,7 +29,7 @@ import numpy as np
 from ..errors import JacoError, ProblemError
 from ..outputs import check_output, write_text
 from .record_errors import RecordError, RecordWarning
-from .record_json import _cells, _num, _write_json
+from .record_json import _cells, json_number, _write_json
 from .record_map import EMBED_ROWS_MAX, grid_from_entry, map_entry, map_hash
 from .record_schema import check_record
 from .record_versions import CHECKED_VERSIONS, FORMAT, FORMAT_VERSION, _header, version_warnings, versions
@@ -102,13 +102,13 @@ def save_run(result: Any, path: Any) -> Path:
     doc["result"] = {
         "success": bool(result.success),
         "path": np.asarray(result.path, np.int64).tolist(),
-        "length": _num(result.length),
-        "cost": _num(result.cost),
-        "optimal": _num(result.optimal),
-        "gap": _num(result.gap),
+        "length": json_number(result.length),
+        "cost": json_number(result.cost),
+        "optimal": json_number(result.optimal),
+        "gap": json_number(result.gap),
         "best_iteration": int(result.best_iteration),
-        "coverage": _num(result.coverage),
-        "history": {k: [_num(x) for x in np.asarray(v)] for k, v in result.history.items()},
+        "coverage": json_number(result.coverage),
+        "history": {k: [json_number(x) for x in np.asarray(v)] for k, v in result.history.items()},
         "history_dtype": {k: str(np.asarray(v).dtype) for k, v in result.history.items()},
         "pheromone_sha256": None if pher is None else hashlib.sha256(np.ascontiguousarray(pher).tobytes()).hexdigest(),
     }
@@ -163,10 +163,10 @@ def save_path(result: Any, path: Any, frame: str | None = None, format: str | No
         "resolution": None if grid.resolution is None else float(grid.resolution),
         "origin": None if grid.origin is None else [float(v) for v in grid.origin],
         "success": bool(result.success),
-        "length": _num(result.length),
+        "length": json_number(result.length),
         "cells": cells.tolist(),
     }
     if xy is not None:
-        doc["length_m"] = _num(result.length / grid.cell_size * grid.resolution)
+        doc["length_m"] = json_number(result.length / grid.cell_size * grid.resolution)
         doc["xy"] = [[_metres(x), _metres(y)] for x, y in xy]
     return _write_json(doc, path, "path file")

@@ -13,16 +13,40 @@ from ..outputs import check_output, write_text
 from .record_errors import RecordError
 
 
-def _num(x):
-    """A float for JSON: finite as is (repr round-trips), +inf as null, -inf/nan as strings."""
+def json_number(x):
+    """jaco's one JSON encoding of a float (records, study results, ``--json`` output): finite as
+    is (repr round-trips), +inf (a failed run's length) as null, -inf and nan as the strings
+    ``"-inf"`` and ``"nan"``; :func:`number_from_json` reads it back."""
     x = float(x)
     if math.isfinite(x):
         return x
     return None if x == math.inf else str(x)
 
 
-def _unnum(x) -> float:
+def number_from_json(x) -> float:
+    """The float :func:`json_number` wrote."""
     return math.inf if x is None else float(x)
+
+
+def plain_json(x):
+    """``x`` as plain JSON values: mappings (keys as strings), sequences and numpy arrays as
+    lists, numpy scalars as Python ones, floats by :func:`json_number`; anything else as its
+    string."""
+    if isinstance(x, dict):
+        return {str(k): plain_json(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [plain_json(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return plain_json(x.tolist())
+    if isinstance(x, (bool, np.bool_)):
+        return bool(x)
+    if isinstance(x, (int, np.integer)):
+        return int(x)
+    if isinstance(x, (float, np.floating)):
+        return json_number(x)
+    if x is None or isinstance(x, str):
+        return x
+    return str(x)
 
 
 def _dumps(x, indent: int = 0) -> str:

@@ -17,7 +17,7 @@ def _is_num(v) -> bool:
 
 
 def _is_float_entry(v) -> bool:
-    """A float as :func:`_num` writes it: a number, null (+inf) or "-inf" / "nan"."""
+    """A float as :func:`jaco.research.record_json.json_number` writes it: a number, null (+inf) or "-inf" / "nan"."""
     return v is None or _is_num(v) or v in ("-inf", "nan", "inf")
 
 

@@ -45,7 +45,7 @@ from ..metrics import gap
 from ..outputs import as_path, atomic_paths, check_output, write_text
 from .record_errors import RecordError, RecordWarning
 from .record_format import recordable_name, save_path, save_run
-from .record_json import _cells, _json_text, _uncells, _unnum
+from .record_json import _cells, _json_text, _uncells, number_from_json
 from .record_map import EMBED_ROWS_MAX, grid_from_entry, map_entry, map_hash
 from .record_schema import check_record
 from .record_versions import CHECKED_VERSIONS, FORMAT, FORMAT_VERSION, _header, version_warnings, versions
@@ -183,21 +183,21 @@ class RunRecord:
 def _result_from(doc: dict, grid: Grid):
     c, r = doc["call"], doc["result"]
     history = {
-        k: np.array([_unnum(x) for x in v], dtype=np.dtype(r.get("history_dtype", {}).get(k, "float32")))
+        k: np.array([number_from_json(x) for x in v], dtype=np.dtype(r.get("history_dtype", {}).get(k, "float32")))
         for k, v in r["history"].items()
     }
-    length, optimal = _unnum(r["length"]), _unnum(r["optimal"])
+    length, optimal = number_from_json(r["length"]), number_from_json(r["optimal"])
     res = Result(
         variant=c["variant"],
         path=np.asarray(r["path"], np.int64).reshape(-1, 2),
         length=length,
         success=bool(r["success"]),
-        cost=_unnum(r["cost"]),
+        cost=number_from_json(r["cost"]),
         optimal=optimal,
-        gap=_unnum(r["gap"]) if "gap" in r else gap(length, optimal),
+        gap=number_from_json(r["gap"]) if "gap" in r else gap(length, optimal),
         best_iteration=int(r["best_iteration"]),
         history=history,
-        coverage=_unnum(r["coverage"]),
+        coverage=number_from_json(r["coverage"]),
         seed=int(c["seed"]),
         params=dict(c["params"]),
         n_ants=int(c["n_ants"]),
