@@ -1,7 +1,7 @@
 """The front door: :func:`solve` and :func:`make_run` as ``jaco.solve`` / ``jaco.make_run``.
 
 They take a planner by name or as a :class:`~jaco.engine.planner.Planner`, resolve the name
-through the registry (:mod:`jaco.planners.registry`) and hand the variant to the engine:
+through the registry (:mod:`jaco.planners.registry`) and hand the planner to the engine:
 :func:`jaco.engine.run.solve` for one run, :func:`jaco.waypoints.solve_waypoints` when there are
 waypoints. This is the one place where the engine, the registry and the waypoints meet, so the
 engine never imports the planners and the waypoints sit above the single run.

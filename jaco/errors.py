@@ -9,6 +9,7 @@ from __future__ import annotations
 import difflib
 import functools
 import inspect
+import warnings
 from collections.abc import Callable, Iterable
 from typing import Any, TypeVar, cast
 
@@ -61,11 +62,13 @@ KEYWORD_ALIASES = {"variant": "planner"}
 
 
 def resolve_aliases(kwargs: dict) -> dict:
-    """``kwargs`` with each former keyword (:data:`KEYWORD_ALIASES`) under its new name."""
+    """``kwargs`` with each former keyword (:data:`KEYWORD_ALIASES`) under its new name, with a
+    DeprecationWarning that names the new one."""
     for old, new in KEYWORD_ALIASES.items():
         if old in kwargs:
             if new in kwargs:
                 raise JacoError(f"{old}= and {new}= are the same argument ({old} is its former name): give one")
+            warnings.warn(f"{old}= is the former name of {new}=; write {new}=", DeprecationWarning, stacklevel=3)
             kwargs[new] = kwargs.pop(old)
     return kwargs
 

@@ -1,9 +1,9 @@
 """Several targets (the chaos-ACO paper; docs/algorithms.md §7): visit waypoints in order, then
 the goal.
 
-``jaco.solve(grid, start, goal, variant, waypoints=[(r, c), ...])`` works with every variant.
+``jaco.solve(grid, start, goal, planner, waypoints=[(r, c), ...])`` works with every planner.
 The trip start → w₀ → w₁ → … → goal is cut into legs; each leg is an ordinary run of the
-variant from one target to the next (its ants start with a fresh tabu list, and the leg has its
+planner from one target to the next (its ants start with a fresh tabu list, and the leg has its
 own pheromone, started afresh). All legs are problems of one map shape, so they are stacked
 (:func:`jaco.engine.problem.stack`) and run as ONE jitted call, vmapped over (key, problem) pairs:
 repeated calls with the same number of legs, sizes and map shape reuse the compiled function.
@@ -86,23 +86,23 @@ def leg_keys(seed: int, n_legs: int) -> jax.Array:
     return jnp.stack([base] + [jax.random.fold_in(base, i) for i in range(1, n_legs)])
 
 
-def compiled_legs(variant: Planner, shape: RunShape) -> Any:
+def compiled_legs(planner: Planner, shape: RunShape) -> Any:
     """``jit(vmap(run))`` over (key, problem) pairs with shared params, cached like
-    :func:`jaco.engine.run.compiled_run` (by the variant and :attr:`RunShape.program`)."""
+    :func:`jaco.engine.run.compiled_run` (by the planner and :attr:`RunShape.program`)."""
 
     def build():
-        run = make_run(variant, **shape.sizes, keep_pheromone=shape.keep_pheromone)
+        run = make_run(planner, **shape.sizes, keep_pheromone=shape.keep_pheromone)
         return jax.jit(jax.vmap(run, in_axes=(0, 0, None)))
 
-    return cached(("legs", variant, *shape.program), build)
+    return cached(("legs", planner, *shape.program), build)
 
 
-def run_legs(grid: Grid, points: list, variant: Planner, *, seed: int, shape: RunShape, values: dict) -> list[Result]:
+def run_legs(grid: Grid, points: list, planner: Planner, *, seed: int, shape: RunShape, values: dict) -> list[Result]:
     """One :class:`Result` per leg ``points[i] → points[i+1]``, all legs in one batched call.
     ``points`` come from :func:`check_waypoints`; ``values`` are validated parameter values."""
     legs = list(zip(points[:-1], points[1:]))
     problems = [make_problem(grid, a, b, connectivity=shape.connectivity) for a, b in legs]
-    run = compiled_legs(variant, shape)
+    run = compiled_legs(planner, shape)
     out = run_interruptibly(
         lambda: jax.device_get(run(leg_keys(seed, len(legs)), stack(problems), params_from(values)))
     )
@@ -110,7 +110,7 @@ def run_legs(grid: Grid, points: list, variant: Planner, *, seed: int, shape: Ru
         to_result(
             jax.tree.map(lambda x, i=i: x[i], out),
             grid=grid,
-            variant=variant,
+            variant=planner,
             start=a,
             goal=b,
             optimal=problems[i].optimal,
@@ -152,7 +152,7 @@ def solve_waypoints(
     grid: Grid,
     start: Any,
     goal: Any,
-    variant: Planner,
+    planner: Planner,
     waypoints: Any,
     *,
     seed: int,
@@ -169,7 +169,7 @@ def solve_waypoints(
     points = check_waypoints(grid, start, goal, waypoints, connectivity=connectivity)
     steplimit, values = prepare(
         grid,
-        variant,
+        planner,
         seed=seed,
         n_ants=n_ants,
         n_iters=n_iters,
@@ -179,7 +179,7 @@ def solve_waypoints(
         keep_pheromone=keep_pheromone,
     )
     shape = RunShape(n_ants, n_iters, steplimit, connectivity, keep_pheromone)
-    legs = run_legs(grid, points, variant, seed=seed, shape=shape, values=values)
+    legs = run_legs(grid, points, planner, seed=seed, shape=shape, values=values)
     return dataclasses.replace(combine(legs), waypoints=tuple(tuple(p) for p in points[1:-1]))
 
 

@@ -639,11 +639,17 @@ def test_keyword_checks_keep_the_signature():
 
 def test_the_former_keyword_variant_is_the_planner_keyword():
     """``variant=`` (the keyword's name before planners had one name) still works everywhere a
-    planner is named, and giving both is one clear error."""
+    planner is named, with a DeprecationWarning at the caller's line, and giving both is one
+    clear error."""
     a = jaco.solve(GRID, (0, 0), (3, 5), planner="as", seed=2, **SMALL)
-    b = jaco.solve(GRID, (0, 0), (3, 5), variant="as", seed=2, **SMALL)
+    with pytest.warns(DeprecationWarning, match="variant= is the former name of planner=") as caught:
+        b = jaco.solve(GRID, (0, 0), (3, 5), variant="as", seed=2, **SMALL)
+    assert caught[0].filename == __file__
     assert a.path.tolist() == b.path.tolist() and a.variant == b.variant == "as"
-    t = jaco.sweep(GRID, (0, 0), (3, 5), variant=["as", "acs"], seeds=1, **SMALL)
+    with pytest.warns(DeprecationWarning, match="write planner="):
+        assert jaco.planners.registry.with_cost(variant="as").name == "as+multi"
+    with pytest.warns(DeprecationWarning):
+        t = jaco.sweep(GRID, (0, 0), (3, 5), variant=["as", "acs"], seeds=1, **SMALL)
     assert list(t["planner"]) == ["as", "acs"]  # the table's column is "planner" (docs/records.md)
     with pytest.raises(jaco.JacoError, match="variant= and planner= are the same argument"):
         jaco.sweep(GRID, (0, 0), (3, 5), variant="as", planner="acs", seeds=1, **SMALL)

@@ -1,8 +1,8 @@
 """One iteration's construction step: the candidate paths a colony offers to the pheromone rule.
 
-A variant's ``construct`` is a pure function
-``(variant, problem, trail, params, t, n_iters, key, *, n_ants, steplimit) -> (trail, Colony)``.
-The default, :func:`single_colony`, walks one colony from start to goal; variants with two
+A planner's ``construct`` is a pure function
+``(planner, problem, trail, params, t, n_iters, key, *, n_ants, steplimit) -> (trail, Colony)``.
+The default, :func:`single_colony`, walks one colony from start to goal; planners with two
 colonies and path crossover, or with backtracking ants that update the pheromone while they walk,
 provide their own. Everything after construction (best-so-far, pheromone rule, history) is shared.
 """
@@ -49,12 +49,12 @@ class Colony(NamedTuple):
 _TINY = float(jnp.finfo(jnp.float32).tiny)
 
 
-def eta_factor(variant: Any, trail: Trail, problem: Any, params: Params, t: Any, n_iters: int) -> jax.Array:
+def eta_factor(planner: Any, trail: Trail, problem: Any, params: Params, t: Any, n_iters: int) -> jax.Array:
     """log(η^β) of every move ``(N, 8)``: the part of a move's weight besides the pheromone, for
-    a variant whose ``heuristic`` is an η table (thesis eq. 2-1). Planners whose weights have
+    a planner whose ``heuristic`` is an η table (thesis eq. 2-1). Planners whose weights have
     more factors (angle guidance, selection shares, potential fields) provide their own."""
     valid = problem.nbr >= 0
-    return params.beta * jnp.log(jnp.where(valid, variant.heuristic(problem, params, t, n_iters), 1.0))
+    return params.beta * jnp.log(jnp.where(valid, planner.heuristic(problem, params, t, n_iters), 1.0))
 
 
 def scaled(log_w: jax.Array, valid: jax.Array) -> jax.Array:
@@ -69,23 +69,23 @@ def scaled(log_w: jax.Array, valid: jax.Array) -> jax.Array:
     return jnp.where(valid, jnp.clip(jnp.exp(log_w - top), 1e-30, 1.0), 0.0)
 
 
-def move_tau(variant: Any, trail: Trail, problem: Any) -> jax.Array:
+def move_tau(planner: Any, trail: Trail, problem: Any) -> jax.Array:
     """The pheromone of every move ``(N, 8)``: τ_ij, or τ_j of the cell it enters."""
-    if variant.pheromone_on == "cells":
+    if planner.pheromone_on == "cells":
         return trail.tau[jnp.where(problem.nbr >= 0, problem.nbr, 0)]
     return trail.tau.reshape(problem.nbr.shape)
 
 
-def move_weights(variant: Any, trail: Trail, problem: Any, params: Params, t: Any, n_iters: int) -> jax.Array:
-    """The roulette weights ``(N, 8)``: τ^α times the variant's factor (``variant.factor``, by
+def move_weights(planner: Any, trail: Trail, problem: Any, params: Params, t: Any, n_iters: int) -> jax.Array:
+    """The roulette weights ``(N, 8)``: τ^α times the planner's factor (``planner.factor``, by
     default η^β), :func:`scaled` per cell.
 
     Computed in log space, α·log τ + log factor: XLA:CPU's ``pow`` costs eight times as much, and
     a factor that does not change between iterations is computed once per run (XLA hoists it
     out of the iteration loop). τ = 0 counts as the smallest normal float."""
-    tau = move_tau(variant, trail, problem)
-    log_w = params.alpha * jnp.log(jnp.maximum(tau, _TINY)) + variant.factor(
-        variant, trail, problem, params, t, n_iters
+    tau = move_tau(planner, trail, problem)
+    log_w = params.alpha * jnp.log(jnp.maximum(tau, _TINY)) + planner.factor(
+        planner, trail, problem, params, t, n_iters
     )
     return scaled(log_w, problem.nbr >= 0)
 
@@ -105,7 +105,7 @@ def step_targets(
 
 
 def single_colony(
-    variant: Any,
+    planner: Any,
     problem: Any,
     trail: Trail,
     params: Params,
@@ -117,22 +117,22 @@ def single_colony(
     steplimit: int,
 ) -> tuple[Trail, Colony]:
     """One colony walks start → goal with the random-proportional (or q0) rule; dead ants fail."""
-    weights = move_weights(variant, trail, problem, params, t, n_iters)
-    return trail, walk_colony(variant, problem, weights, params, key, n_ants=n_ants, steplimit=steplimit)
+    weights = move_weights(planner, trail, problem, params, t, n_iters)
+    return trail, walk_colony(planner, problem, weights, params, key, n_ants=n_ants, steplimit=steplimit)
 
 
 def walk_colony(
-    variant: Any, problem: Any, weights: jax.Array, params: Params, key: jax.Array, *, n_ants: int, steplimit: int
+    planner: Any, problem: Any, weights: jax.Array, params: Params, key: jax.Array, *, n_ants: int, steplimit: int
 ) -> Colony:
     """The :class:`Colony` of ``n_ants`` ants walking start → goal on the move weights ``weights``
-    (``(N, 8)``, 0 exactly on forbidden moves), with the variant's transition rule and cost."""
-    exploit = variant.transition == "pseudo-random"
+    (``(N, 8)``, 0 exactly on forbidden moves), with the planner's transition rule and cost."""
+    exploit = planner.transition == "pseudo-random"
     # q0 is read only by the q0 rule (a roulette planner has no q0; the walk ignores the value then)
     tours = walk(
         problem, weights, key, params.q0 if exploit else 0.0, n_ants=n_ants, steplimit=steplimit, exploit=exploit
     )
-    cost = jnp.where(tours.arrived, variant.cost(tours, problem, params), jnp.inf)
+    cost = jnp.where(tours.arrived, planner.cost(tours, problem, params), jnp.inf)
     targets = step_targets(
-        variant.pheromone_on, tours.cells, tours.moves, problem.start, problem.nbr.shape[0], tours.edges
+        planner.pheromone_on, tours.cells, tours.moves, problem.start, problem.nbr.shape[0], tours.edges
     )
     return Colony(tours.cells, targets, tours.step_len, cost, tours.length, tours.n_steps, tours.visited)

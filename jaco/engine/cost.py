@@ -2,7 +2,7 @@
 
 The default is the path length (thesis eq. 3-2). The multi-objective cost
 J = kL·L + kS·S + kE·E of Miao et al. 2021 (its §3.4; ``docs/algorithms.md`` §5) weighs in the
-safety cost S and the heading change E; IAACO uses it, and any variant can
+safety cost S and the heading change E; IAACO uses it, and any planner can
 (``jaco.planners.registry.with_cost("acs", "multi")``). S and E are computed by the same formulas as
 :func:`jaco.metrics.safety_cost` and :func:`jaco.metrics.heading_change`, so a run's cost and the
 metrics of its path never disagree.
@@ -65,7 +65,7 @@ def energy(tours: Tours, problem: Any, params: Params) -> jax.Array:
 
 def multi_objective(tours: Tours, problem: Any, params: Params) -> jax.Array:
     """J = kL·L + kS·S + kE·E (Miao et al. 2021, §3.4; ``docs/algorithms.md`` §5): L the path
-    length (cells), S :func:`safety`, E :func:`energy`; a ``Planner.cost`` for any variant."""
+    length (cells), S :func:`safety`, E :func:`energy`; a ``Planner.cost`` for any planner."""
     return (
         params.k_len * tours.length
         + params.k_safe * safety(tours, problem, params)

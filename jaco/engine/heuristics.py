@@ -2,7 +2,7 @@
 
 A heuristic is a pure function ``(problem, params, t, n_iters) -> eta`` with ``eta > 0`` on
 allowed moves (the engine masks the rest). ``t`` is the iteration (traced), so adaptive
-heuristics of later variants are plain functions of it.
+heuristics of later planners are plain functions of it.
 """
 
 from __future__ import annotations

@@ -3,8 +3,8 @@
 The ACO literature applies a local search to the ants' solutions inside the loop, so that the
 colony learns from the improved solutions: MMAS and ACS with 2-opt/3-opt on the TSP (Stützle &
 Hoos 2000; Dorigo & Gambardella 1997), the "daemon actions" of Dorigo & Stützle 2004. Here a
-variant's ``local_search`` (:class:`~jaco.engine.planner.Planner`) is a function
-``(variant, problem, colony, params) -> colony`` that the run (:mod:`jaco.engine.run`) calls
+planner's ``local_search`` (:class:`~jaco.engine.planner.Planner`) is a function
+``(planner, problem, colony, params) -> colony`` that the run (:mod:`jaco.engine.run`) calls
 after the construct step of every iteration: what it returns is what the pheromone rule deposits
 and what the best-so-far is chosen from. ``None`` (every published planner) calls nothing.
 
@@ -56,13 +56,13 @@ if TYPE_CHECKING:
 
 class ShortcutSearch(Protocol):
     """What :func:`shortcut_search` returns: a ``Planner.local_search`` that also carries its
-    static choices as attributes, for whoever inspects a variant."""
+    static choices as attributes, for whoever inspects a planner."""
 
     window: int
     passes: int
     best: int | None
 
-    def __call__(self, variant: Any, problem: Any, colony: Colony, params: Any) -> Colony: ...
+    def __call__(self, planner: Any, problem: Any, colony: Colony, params: Any) -> Colony: ...
 
 
 #: ``MOVE_OF[(dr + 1)·3 + (dc + 1)]``: the index of the move (dr, dc) in :data:`jaco.moves.MOVES`, -1 for (0, 0).
@@ -315,9 +315,9 @@ def shortcut_search(*, window: int, passes: int, best: int | None) -> ShortcutSe
     """A ``Planner.local_search``: the octile shortcut (``window`` path cells ahead, at most
     ``passes`` passes) of the ``best`` lowest-cost successful candidates of each iteration
     (``None``: every candidate). A candidate takes its shortened path where its cost (the
-    variant's ``cost``) is not higher: always with the length as the cost."""
+    planner's ``cost``) is not higher: always with the length as the cost."""
 
-    def local_search(variant, problem, colony: Colony, params) -> Colony:
+    def local_search(planner, problem, colony: Colony, params) -> Colony:
         c = colony.cost.shape[0]
         pick = (
             jnp.arange(c) if best is None or best >= c else jnp.argsort(colony.cost)[:best]
@@ -333,9 +333,9 @@ def shortcut_search(*, window: int, passes: int, best: int | None) -> ShortcutSe
             passes=passes,
         )
         tours = path_tours(problem, cells, arrived, colony.n_steps[pick], colony.visited)
-        cost = variant.cost(tours, problem, params)
+        cost = planner.cost(tours, problem, params)
         keep = arrived & (cost <= colony.cost[pick])
-        targets = step_targets(variant.pheromone_on, cells, tours.moves, problem.start, problem.nbr.shape[0])
+        targets = step_targets(planner.pheromone_on, cells, tours.moves, problem.start, problem.nbr.shape[0])
 
         def put(old, new):
             mine = old[..., pick]

@@ -62,21 +62,21 @@ class Heuristic(Protocol):
 
 
 class Factor(Protocol):
-    """``factor(variant, trail, problem, params, t, n_iters) -> (N, 8)``: the log of a move's weight
+    """``factor(planner, trail, problem, params, t, n_iters) -> (N, 8)``: the log of a move's weight
     besides τ^α (by default β·log η, :func:`jaco.engine.colony.eta_factor`)."""
 
     def __call__(
-        self, variant: "Planner", trail: Trail, problem: Any, params: Params, t: Any, n_iters: int
+        self, planner: "Planner", trail: Trail, problem: Any, params: Params, t: Any, n_iters: int
     ) -> jax.Array: ...
 
 
 class Construct(Protocol):
-    """``construct(variant, problem, trail, params, t, n_iters, key, *, n_ants, steplimit) ->
+    """``construct(planner, problem, trail, params, t, n_iters, key, *, n_ants, steplimit) ->
     (trail, Colony)``: an iteration's candidate paths (:mod:`jaco.engine.colony`)."""
 
     def __call__(
         self,
-        variant: "Planner",
+        planner: "Planner",
         problem: Any,
         trail: Trail,
         params: Params,
@@ -102,10 +102,10 @@ class Cost(Protocol):
 
 
 class LocalSearch(Protocol):
-    """``local_search(variant, problem, colony, params) -> colony``: improves an iteration's
+    """``local_search(planner, problem, colony, params) -> colony``: improves an iteration's
     candidates before the pheromone update (:mod:`jaco.engine.local_search`)."""
 
-    def __call__(self, variant: "Planner", problem: Any, colony: Any, params: Params) -> Any: ...
+    def __call__(self, planner: "Planner", problem: Any, colony: Any, params: Params) -> Any: ...
 
 
 class Planner(NamedTuple):

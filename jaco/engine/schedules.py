@@ -1,6 +1,6 @@
 """Parameter schedules: branch-free functions ``(params, t, n_iters) -> params``.
 
-A variant's ``schedule`` is called once per iteration with the engine's iteration counter ``t``
+A planner's ``schedule`` is called once per iteration with the engine's iteration counter ``t``
 (0-based, traced) and the static iteration budget ``n_iters``; it returns the :class:`Params`
 that iteration uses. Every schedule here is written with ``jnp.where``/``jnp.maximum`` and never
 branches in Python on a value, so its own parameters (slopes, break points, floors) are traced

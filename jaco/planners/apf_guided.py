@@ -50,7 +50,7 @@ def apf_eta(problem: Any, r: jax.Array, t: Any, n_iters: int) -> jax.Array:
 def _heuristic(table):
     def heuristic(problem, params, t, n_iters):
         """Eq. (10) with the table computed on the spot (for tools that want one (N, 8) table;
-        the variants' weights read the table computed once per run instead)."""
+        the planners' weights read the table computed once per run instead)."""
         return apf_eta(problem, table(problem, params), t, n_iters)
 
     return heuristic
@@ -89,7 +89,7 @@ def deposit_best_half() -> ph.Rule:
     return ph.Rule(ph.keep_init, update)
 
 
-def apf_factor(variant: Planner, trail: ph.Trail, problem: Any, params: Params, t: Any, n_iters: int) -> jax.Array:
+def apf_factor(planner: Planner, trail: ph.Trail, problem: Any, params: Params, t: Any, n_iters: int) -> jax.Array:
     """The factor of rule (6) besides τ^α, in log space: ``β·log η`` ``(N, 8)`` with η of eq. (10)
     from the table the heuristic's init stored in the trail (its state ``"apf"``, once per run). The
     engine scales each cell's weights to a top of 1, so large β cannot underflow."""

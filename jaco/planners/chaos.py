@@ -93,7 +93,7 @@ def selection(problem: Any) -> jax.Array:
 
 
 def selection_factor(
-    variant: Planner, trail: ph.Trail, problem: Any, params: Params, t: Any, n_iters: int
+    planner: Planner, trail: ph.Trail, problem: Any, params: Params, t: Any, n_iters: int
 ) -> jax.Array:
     """The factor of transition rule (11) besides τ^α, in log space: ``β·log η + γ·log(P_free·P_θ)``
     ``(N, 8)``.
@@ -106,7 +106,7 @@ def selection_factor(
     shares = jnp.where(  # γ·log sel, with 0^γ = 0 for γ > 0 and 1 for γ = 0
         sel > 0, params.gamma * jnp.log(jnp.where(sel > 0, sel, 1.0)), jnp.where(params.gamma > 0, -jnp.inf, 0.0)
     )
-    return eta_factor(variant, trail, problem, params, t, n_iters) + shares
+    return eta_factor(planner, trail, problem, params, t, n_iters) + shares
 
 
 # -- Logistic-chaos pheromone update (eqs. 14, 15) ------------------------------------------
@@ -219,7 +219,7 @@ CHAOS_ACO = compose(heuristic="chaos", rule="chaos").named(
     "after each iteration the paths above the mean length get their pheromone re-drawn by i_c steps "
     "of the Logistic map (μ = 4) between the smallest and largest pheromone on those paths, then "
     "τ ← (1−ρ)τ + Σ Q/L_k over the paths at or below the mean. η = 1/(distance to the goal) "
-    "(thesis eq. 3-7) as for the classic variants; pheromone on moves (τ_ij). See docs/planners.md.",
+    "(thesis eq. 3-7) as for the classic planners; pheromone on moves (τ_ij). See docs/planners.md.",
     alpha=1.0,
     beta=8.0,
     rho=0.3,

@@ -146,7 +146,7 @@ def assemble(
 
 
 def _candidates(cells, moves, arrived, n_steps, visited) -> Tours:
-    """A :class:`Tours` record of assembled paths (so the variant's cost function applies)."""
+    """A :class:`Tours` record of assembled paths (so the planner's cost function applies)."""
     took = moves >= 0
     lengths = jnp.asarray(np.hypot(MOVES[:, 0], MOVES[:, 1]), jnp.float32)
     return Tours(
@@ -188,7 +188,7 @@ class Crossed(NamedTuple):
 
 
 def double_walk(
-    variant: Planner,
+    planner: Planner,
     problem: Any,
     trail: ph.Trail,
     params: Params,
@@ -204,11 +204,11 @@ def double_walk(
     Colony 2 walks the problem with start and goal swapped, so a heuristic must read the goal
     from ``problem.goal`` (as :mod:`jaco.engine.heuristics` does); the precomputed ``goal_dist`` table
     still refers to the original goal and must not be used by a double-colony heuristic."""
-    exploit = variant.transition == "pseudo-random"
+    exploit = planner.transition == "pseudo-random"
 
     def colony(start, goal, k):
         prob = dataclasses.replace(problem, start=start, goal=goal)
-        weights = move_weights(variant, trail, prob, params, t, n_iters)
+        weights = move_weights(planner, trail, prob, params, t, n_iters)
         return walk(
             prob, weights, k, params.q0 if exploit else 0.0, n_ants=n_ants, steplimit=steplimit, exploit=exploit
         )
@@ -236,12 +236,12 @@ def double_walk(
     # engine's step count measures throughput whatever population wins.
     walked = tours1.n_steps + tours2.n_steps
     cand = _candidates(cells, moves, arrived, jnp.tile(walked, 3), tours1.visited | tours2.visited)
-    cost = jnp.where(arrived, variant.cost(cand, problem, params), jnp.inf).reshape(3, n_ants)
+    cost = jnp.where(arrived, planner.cost(cand, problem, params), jnp.inf).reshape(3, n_ants)
     return Crossed(tours1, tours2, sp, cand, cost, best_population(cost))
 
 
 def double_colony(
-    variant: Planner,
+    planner: Planner,
     problem: Any,
     trail: ph.Trail,
     params: Params,
@@ -258,11 +258,11 @@ def double_colony(
     population as a :class:`~jaco.engine.colony.Colony` of ``n_ants`` paths in a ``(2·S, n_ants)``
     buffer; ``n_steps`` counts the steps of both colonies; ``visited`` the cells either entered.
     """
-    x = double_walk(variant, problem, trail, params, t, n_iters, key, n_ants=n_ants, steplimit=steplimit)
+    x = double_walk(planner, problem, trail, params, t, n_iters, key, n_ants=n_ants, steplimit=steplimit)
     c = x.candidates
     pick = lambda v: jax.lax.dynamic_slice_in_dim(v, x.population * n_ants, n_ants, axis=v.ndim - 1)  # noqa: E731
     cells, moves = pick(c.cells), pick(c.moves)
-    targets = step_targets(variant.pheromone_on, cells, moves, problem.start, problem.nbr.shape[0])
+    targets = step_targets(planner.pheromone_on, cells, moves, problem.start, problem.nbr.shape[0])
     cost = x.cost[x.population]
     return trail, Colony(cells, targets, pick(c.step_len), cost, pick(c.length), pick(c.n_steps), c.visited)
 

@@ -2,7 +2,7 @@
 
 Source: Miao, Chen, Yan et al., *Path planning optimization of indoor mobile robot based on
 adaptive ant colony algorithm*, Computers & Industrial Engineering 156 (2021) 107230. The
-multi-objective cost (:func:`jaco.engine.cost.multi_objective`) is open to every variant through
+multi-objective cost (:func:`jaco.engine.cost.multi_objective`) is open to every planner through
 ``jaco.planners.registry.with_cost``.
 
 Equations: docs/algorithms.md §5; every interpretation and the defaults: docs/planners.md, "IAACO".
@@ -128,8 +128,8 @@ def guided_factor(mu: Callable[[Any, Params], jax.Array]) -> Factor:
     η^β stay away from float32's limits, and a move with ξ = 0 weighs 1e-30 (taken only when
     nothing else is allowed)."""
 
-    def factor(variant, trail, problem, params, t, n_iters):
-        eta = variant.heuristic(problem, params, t, n_iters)
+    def factor(planner, trail, problem, params, t, n_iters):
+        eta = planner.heuristic(problem, params, t, n_iters)
         xi = obstacle_exclusion(problem, params)
         return (
             params.beta * jnp.log(eta)

@@ -387,7 +387,7 @@ def infeasible_cells(stack: jax.Array, arrived: jax.Array, tabu: jax.Array) -> j
 
 
 def backtrack_colony(
-    variant: Planner,
+    planner: Planner,
     problem: Any,
     trail: ph.Trail,
     params: Params,
@@ -402,17 +402,17 @@ def backtrack_colony(
     update (4-2..4-4), then the infeasible-path update (4-6); returns the updated trail and the
     final stacks as a :class:`~jaco.engine.colony.Colony` (the rule's update follows). With IACA's
     heuristic (``per_step``) a move weighs τ_j^α·η^β of eq. (4-5) over the ant's allowed moves;
-    with another one, τ_j^α times the variant's ``factor`` (once per iteration, each cell's factors
+    with another one, τ_j^α times the planner's ``factor`` (once per iteration, each cell's factors
     scaled to a top of 1). Pheromone on cells."""
-    if getattr(variant.heuristic, "per_step", False):
+    if getattr(planner.heuristic, "per_step", False):
         factors = None
     else:
-        factors = scaled(variant.factor(variant, trail, problem, params, t, n_iters), problem.nbr >= 0)
-    return _backtrack(variant, problem, trail, params, key, factors, n_ants=n_ants, steplimit=steplimit)
+        factors = scaled(planner.factor(planner, trail, problem, params, t, n_iters), problem.nbr >= 0)
+    return _backtrack(planner, problem, trail, params, key, factors, n_ants=n_ants, steplimit=steplimit)
 
 
-def _backtrack(variant, problem, trail, params, key, factors, *, n_ants: int, steplimit: int):
-    exploit = variant.transition == "pseudo-random"
+def _backtrack(planner, problem, trail, params, key, factors, *, n_ants: int, steplimit: int):
+    exploit = planner.transition == "pseudo-random"
     walks = backtrack_walk(
         problem, trail, params, key, n_ants=n_ants, steplimit=steplimit, exploit=exploit, factors=factors
     )
@@ -420,7 +420,7 @@ def _backtrack(variant, problem, trail, params, key, factors, *, n_ants: int, st
         walks.infeasible, jnp.clip(infeasible_update(walks.tau, params), trail.lo, trail.hi), walks.tau
     )  # Eq. (4-6)
     tours = stack_tours(problem, walks)
-    cost = jnp.where(walks.arrived, variant.cost(tours, problem, params), jnp.inf)
+    cost = jnp.where(walks.arrived, planner.cost(tours, problem, params), jnp.inf)
     targets = step_targets("cells", tours.cells, tours.moves, problem.start, problem.nbr.shape[0])
     colony = Colony(tours.cells, targets, tours.step_len, cost, tours.length, tours.n_steps, tours.visited)
     return trail._replace(tau=tau), colony

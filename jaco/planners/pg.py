@@ -112,14 +112,14 @@ def _unit(params):
 
 
 def make_pg_colony(optimizer: optax.GradientTransformation, baseline: str = "all") -> Construct:
-    """The construct step of a policy-gradient variant with this optax optimiser (lr 1) and
+    """The construct step of a policy-gradient planner with this optax optimiser (lr 1) and
     baseline (see :func:`advantages`)."""
 
-    def pg_colony(variant, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
+    def pg_colony(planner, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
         """Walk one colony with policy (1), then one REINFORCE step (3)–(4) on the logits."""
         p1 = _unit(params)
-        trail, colony = single_colony(variant, problem, trail, p1, t, n_iters, key, n_ants=n_ants, steplimit=steplimit)
-        weights = move_weights(variant, trail, problem, p1, t, n_iters)
+        trail, colony = single_colony(planner, problem, trail, p1, t, n_iters, key, n_ants=n_ants, steplimit=steplimit)
+        weights = move_weights(planner, trail, problem, p1, t, n_iters)
         n = problem.nbr.shape[0]
         took = colony.targets < 8 * n
         moves = jnp.where(took, colony.targets % 8, -1)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from ..engine.cost import COSTS, MULTI_PARAMS
 from ..engine.planner import FrozenMap, Planner
-from ..errors import JacoError, ParamError, did_you_mean
+from ..errors import JacoError, ParamError, accepts_aliases, did_you_mean
 from . import (
     apf_guided,  # APF-ACO and its PF-ACO baseline (Dong & Zhao 2021)
     chaos,  # chaos ACO (the Xi'an Technological University paper)
@@ -33,7 +33,8 @@ PLANNERS: dict[str, Planner] = {
 VARIANTS = PLANNERS
 
 
-def get_planner(variant: str | Planner) -> Planner:
+@accepts_aliases
+def get_planner(planner: str | Planner) -> Planner:
     """A :class:`Planner` as it is, or one by name: a registered planner, a composition's name
     (``compose(construct=..., ...)``, :func:`jaco.planners.compose.compose`), or either with
     another cost (``"acs+multi"``, :func:`with_cost`) or a local search (``"iaca+shortcut"``,
@@ -43,16 +44,16 @@ def get_planner(variant: str | Planner) -> Planner:
     resolves a name: in any case (``"IACA"`` is ``iaca``, ``"IACA+Shortcut"`` is ``iaca+shortcut``);
     an unknown name raises :class:`~jaco.errors.JacoError` with the closest names ("did you mean
     'iaca'?", difflib) before the registered list."""
-    if isinstance(variant, Planner):
-        return variant
-    if isinstance(variant, str):
-        found = _registered(variant)
+    if isinstance(planner, Planner):
+        return planner
+    if isinstance(planner, str):
+        found = _registered(planner)
         if found is not None:
             return found
-        composed = parse(variant)
+        composed = parse(planner)
         if composed is not None:
             return composed
-        base, _, suffix = variant.rpartition("+")
+        base, _, suffix = planner.rpartition("+")
         suffix = suffix.strip().lower()
         if base and (suffix in COSTS or (suffix in LOCAL_SEARCHES and suffix != "none")):
             try:
@@ -61,17 +62,17 @@ def get_planner(variant: str | Planner) -> Planner:
                 found = None
             if found is not None:
                 return with_cost(found, suffix) if suffix in COSTS else with_local_search(found, suffix)
-    if not isinstance(variant, str):
+    if not isinstance(planner, str):
         several = (
-            " (several planners are a sweep axis: jaco.sweep(..., variant=[...]))"
-            if isinstance(variant, (list, tuple))
+            " (several planners are a sweep axis: jaco.sweep(..., planner=[...]))"
+            if isinstance(planner, (list, tuple))
             else ""
         )
         raise JacoError(
-            f"a planner must be a name (str) or a Planner, got {type(variant).__name__} {variant!r}{several}"
+            f"a planner must be a name (str) or a Planner, got {type(planner).__name__} {planner!r}{several}"
         )
     raise JacoError(
-        f"unknown planner {variant!r}{_did_you_mean(variant)}; registered: {', '.join(sorted(PLANNERS))} "
+        f"unknown planner {planner!r}{_did_you_mean(planner)}; registered: {', '.join(sorted(PLANNERS))} "
         "(or a composition: compose(construct=..., heuristic=..., rule=...); a suffix adds a cost or a local "
         f"search: +{', +'.join(sorted(COSTS))}, +{', +'.join(k for k in LOCAL_SEARCHES if k != 'none')})"
     )
@@ -95,29 +96,31 @@ def _did_you_mean(name: str) -> str:
     return did_you_mean(name.strip().casefold(), [c.casefold() for c in candidates])
 
 
-def register(variant: Planner) -> Planner:
+@accepts_aliases
+def register(planner: Planner) -> Planner:
     """Add a planner defined outside :mod:`jaco.planners` to :data:`PLANNERS` (so it is found by
     name, recorded and rerun like the built-in ones); returns it. Registering the same object
-    twice is harmless; another variant under a taken name is an error."""
-    if not isinstance(variant, Planner):
-        raise JacoError(f"only a Planner can be registered, got {type(variant).__name__}")
-    taken = PLANNERS.get(variant.name)
-    if taken is not None and taken is not variant:
-        raise JacoError(f"a different variant is already registered as {variant.name!r}")
-    PLANNERS[variant.name] = variant
-    return variant
+    twice is harmless; another planner under a taken name is an error."""
+    if not isinstance(planner, Planner):
+        raise JacoError(f"only a Planner can be registered, got {type(planner).__name__}")
+    taken = PLANNERS.get(planner.name)
+    if taken is not None and taken is not planner:
+        raise JacoError(f"a different planner is already registered as {planner.name!r}")
+    PLANNERS[planner.name] = planner
+    return planner
 
 
 _WITH_COST: dict = {}
 
 
-def with_cost(variant: str | Planner, cost: str = "multi") -> Planner:
-    """``variant`` (a name or a :class:`Planner`) with another cost: ``"multi"``
+@accepts_aliases
+def with_cost(planner: str | Planner, cost: str = "multi") -> Planner:
+    """``planner`` (a name or a :class:`Planner`) with another cost: ``"multi"``
     (:func:`jaco.engine.cost.multi_objective`, and its weights become sweepable parameters) or
     ``"length"``.
 
     Cached: the same arguments return the same object, so repeated runs never recompile.
-    The new variant is named ``"<name>+<cost>"``.
+    The new planner is named ``"<name>+<cost>"``.
 
     >>> import jaco
     >>> v = jaco.planners.registry.with_cost("acs", "multi")
@@ -126,7 +129,7 @@ def with_cost(variant: str | Planner, cost: str = "multi") -> Planner:
     """
     if cost not in COSTS:
         raise ParamError(f"unknown cost {cost!r}; valid: {', '.join(sorted(COSTS))}")
-    base = get_planner(variant)
+    base = get_planner(planner)
     key = (base, cost)
     hit = _WITH_COST.get(key)
     if hit is None:
@@ -144,11 +147,12 @@ def with_cost(variant: str | Planner, cost: str = "multi") -> Planner:
 _WITH_SEARCH: dict = {}
 
 
-def with_local_search(variant: str | Planner, local_search: str = "shortcut") -> Planner:
-    """``variant`` (a name or a :class:`Planner`) with a local search of the compose vocabulary
+@accepts_aliases
+def with_local_search(planner: str | Planner, local_search: str = "shortcut") -> Planner:
+    """``planner`` (a name or a :class:`Planner`) with a local search of the compose vocabulary
     (:data:`jaco.planners.compose.LOCAL_SEARCHES`, :mod:`jaco.engine.local_search`), named
     ``"<name>+<local search>"``; a composition gets its own name's ``local_search=...`` instead
-    (``compose(..., local_search="shortcut")``). ``"none"`` gives the variant without one.
+    (``compose(..., local_search="shortcut")``). ``"none"`` gives the planner without one.
 
     Cached: the same arguments return the same object, so repeated runs never recompile.
 
@@ -161,7 +165,7 @@ def with_local_search(variant: str | Planner, local_search: str = "shortcut") ->
 
     if not isinstance(local_search, str) or local_search not in LOCAL_SEARCHES:
         raise JacoError(f"unknown local search {local_search!r}; valid: {', '.join(LOCAL_SEARCHES)}")
-    base = get_planner(variant)
+    base = get_planner(planner)
     key = (base, local_search)
     hit = _WITH_SEARCH.get(key)
     if hit is None:
