@@ -114,8 +114,9 @@ def parse_args(argv=None):
             jaco.planners.registry.get_planner(n)
         except jaco.JacoError as e:
             ap.error(str(e))
-    if args.local_search not in jaco.planners.compose.LOCAL_SEARCHES:
-        ap.error(f"unknown local search {args.local_search!r}; valid: {', '.join(jaco.planners.compose.LOCAL_SEARCHES)}")
+    searches = jaco.planners.compose.COMPONENTS["local_search"]
+    if args.local_search not in searches:
+        ap.error(f"unknown local search {args.local_search!r}; valid: {', '.join(searches)}")
     args.out = output_dir(args.out, args.smoke)
     return args
 

@@ -114,3 +114,72 @@ def test_registering_is_checked_and_undone():
         with pytest.raises(jaco.JacoError, match="only a Planner"):
             register("mmas")
     assert TOY.name not in jaco.PLANNERS
+
+
+# -- a transition, a local search and a cost, each defined here alone ------------------------------
+@pytest.fixture
+def own_components():
+    """Three components declared in this file only (what a notebook cell would declare): they
+    compose like the package's own, by value or by name, and the ``+<name>`` suffixes find them."""
+    import jax.numpy as jnp
+
+    from jaco.engine.colony import Q0
+    from jaco.planners.compose import component
+
+    def copy_best(planner, problem, colony, params):  # every ant takes the iteration's best path
+        b = jnp.argmin(colony.cost)
+
+        def best(x):
+            return jnp.broadcast_to(x[..., b][..., None], x.shape)
+
+        fields = ("cells", "targets", "step_len", "cost", "length", "n_steps")
+        return colony._replace(**{f: best(getattr(colony, f)) for f in fields})
+
+    declared = dict(
+        greedy=component(
+            "transition", "test-greedy", transition="pseudo-random", params=(Q0.with_default(1.0),), source="q0 = 1"
+        ),
+        copy=component("local_search", "test-copy-best", local_search=copy_best, source="copy the best path"),
+        steps=component(
+            "cost", "test-steps", cost=lambda tours, problem, params: tours.n_steps.astype(jnp.float32), source="moves"
+        ),
+    )
+    yield declared
+    for c in declared.values():
+        del COMPONENTS[c.kind][c.name]
+
+
+def test_a_transition_a_local_search_and_a_cost_defined_outside_the_package_compose(own_components):
+    grid = jaco.maps.named("demo")
+    ends = grid.meta["start"], grid.meta["goal"]
+    small = dict(seed=0, n_ants=8, n_iters=6)
+    for name in ("test-greedy", "test-copy-best", "test-steps"):  # no package file names them
+        assert not any(name in p.read_text(encoding="utf-8") for p in (ROOT / "jaco").rglob("*.py"))
+    c = own_components
+    # By value and by name: the same composition (the same object, so no recompile).
+    greedy = jaco.compose(rule="acs", transition=c["greedy"])
+    assert greedy is jaco.compose(rule="acs", transition="test-greedy")
+    assert greedy.defaults["q0"] == 1.0 and greedy.transition == "pseudo-random"
+    # q0 = 1: every ant takes the argmax move, so an iteration's ants walk one path: all arrive or
+    # none, and the mean cost is the best one.
+    h = jaco.solve(grid, *ends, greedy, **small).history
+    assert set(np.unique(h["success_rate"])) <= {0.0, 1.0}
+    arrived = h["success_rate"] == 1.0
+    assert arrived.any() and np.array_equal(h["mean"][arrived], h["iteration_best"][arrived])
+    # The local search replaces each ant's path with the best one before the update: success 1
+    # whenever one ant arrived, mean = best; as a suffix on a registered planner too.
+    plain = jaco.solve(grid, *ends, "as", **small).history
+    for planner in (jaco.compose(local_search=c["copy"]), "as+test-copy-best"):
+        h = jaco.solve(grid, *ends, planner, **small).history
+        some = plain["success_rate"] > 0
+        assert np.array_equal(h["success_rate"][some], np.ones(some.sum(), np.float32))
+        assert np.array_equal(h["mean"][some], h["iteration_best"][some])
+    # The cost counts moves: the best path's cost is its number of steps.
+    for planner in ("as+test-steps", jaco.compose(cost=c["steps"])):
+        r = jaco.solve(grid, *ends, planner, **small)
+        assert r.success and r.cost == len(r.path) - 1 and r.cost != r.length
+    # A value must be of its kind, and cannot take a declared name it is not.
+    with pytest.raises(jaco.JacoError, match="is a cost component, given as the transition"):
+        jaco.compose(transition=c["steps"])
+    with pytest.raises(jaco.JacoError, match="another local_search is declared as 'test-copy-best'"):
+        jaco.compose(local_search=c["copy"]._replace(source="another"))

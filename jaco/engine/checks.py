@@ -34,7 +34,7 @@ def default_steplimit(grid: Grid, variant: Planner | None = None) -> int:
     paths are much longer than the map is wide; 2·(free cells) is the depth-first search's bound
     (every cell entered once and left once), so where it is the limit every backtracking ant
     reaches a reachable goal (docs/compose.md, "The step limit")."""
-    if variant is not None and getattr(variant.construct, "back_steps", False):
+    if variant is not None and variant.back_steps:
         from ..exact import free_extent
 
         extent = max(grid.height + grid.width, math.ceil(free_extent(grid)))
@@ -50,7 +50,7 @@ def legacy_steplimit(grid: Grid, variant: Planner | None = None, format_version:
     if format_version >= 4:
         return default_steplimit(grid, variant)
     free, extent = grid.n_free, 4 * (grid.height + grid.width)
-    if format_version == 3 and variant is not None and getattr(variant.construct, "back_steps", False):
+    if format_version == 3 and variant is not None and variant.back_steps:
         free, extent = 2 * free, 2 * extent
     return int(max(1, min(extent, free)))
 

@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     from .params import Params
     from .walk import Tours
 
-__all__ = ["path_length", "TURN", "safety", "energy", "multi_objective", "COSTS", "COST_PARAMS", "MULTI_PARAMS"]
+__all__ = ["path_length", "TURN", "safety", "energy", "multi_objective", "COST_PARAMS", "MULTI_PARAMS"]
 
 
 def path_length(tours: Tours, problem: Any, params: Params) -> jax.Array:
@@ -73,9 +73,6 @@ def multi_objective(tours: Tours, problem: Any, params: Params) -> jax.Array:
     )
 
 
-#: Cost functions by name, for :func:`jaco.planners.registry.with_cost`.
-COSTS = {"length": path_length, "multi": multi_objective}
-#: The parameters the multi-objective cost reads.
 #: The multi-objective cost's weights and safety radius (Miao et al. 2021 §3.4).
 MULTI_PARAMS = declare(
     Param(

@@ -7,7 +7,7 @@ builds one from functions directly.
 
 from __future__ import annotations
 
-from typing import Any, Callable, Iterable, Iterator, Mapping, NamedTuple, Protocol
+from typing import Any, Iterable, Iterator, Mapping, NamedTuple, Protocol
 
 import jax
 
@@ -116,7 +116,9 @@ class Planner(NamedTuple):
     ``schedule``, ``cost`` and ``local_search`` follow the protocols above (:class:`Heuristic`,
     :class:`Factor`, :class:`Construct`, :class:`Schedule`, :class:`Cost`, :class:`LocalSearch`;
     ``local_search`` None: none, as every published planner); ``rule`` is a pheromone
-    :class:`~jaco.engine.pheromone.Rule`. Planners are built by :func:`jaco.compose` (components
+    :class:`~jaco.engine.pheromone.Rule`. ``back_steps`` and ``per_step_heuristic`` are what the
+    construct and the heuristic declare of themselves (IACA's backtracking ants and eq. 4-5): the
+    step limit and the backtracking walk read them. Planners are built by :func:`jaco.compose` (components
     by name) or :func:`make_planner` (functions given directly)."""
 
     name: str
@@ -124,16 +126,18 @@ class Planner(NamedTuple):
     doc: str
     params: tuple
     defaults: Mapping
-    heuristic: Callable
+    heuristic: Heuristic
     rule: ph.Rule
     pheromone_on: str = "moves"
     transition: str = "roulette"
-    schedule: Callable = constant
-    cost: Callable = path_length
-    construct: Callable = single_colony
-    factor: Callable = eta_factor
-    local_search: Callable | None = None
+    schedule: Schedule = constant
+    cost: Cost = path_length
+    construct: Construct = single_colony
+    factor: Factor = eta_factor
+    local_search: LocalSearch | None = None
     composition: str = ""  # the name of the composition it is (``compose(...)``), "" when built from functions
+    back_steps: bool = False  # its ants step back from dead ends, and the steps back count against the step limit
+    per_step_heuristic: bool = False  # a backtracking construct recomputes η over each step's allowed moves
 
     def default_params(self) -> Params:
         """The planner's parameters at their defaults."""

@@ -28,6 +28,10 @@ kind                  components
                       best paths before the pheromone update, :mod:`jaco.engine.local_search`)
 ====================  ========================================================================
 
+Each argument is a component's name or the :class:`Component` itself (what :func:`component`
+returns): a component defined in a notebook cell or a test composes like the sources' own, and no
+engine module names the kinds' members.
+
 Each component is declared where its equations are (:func:`component`, called by the planner
 modules and, for the engine's own pieces, below) with the parameters it reads and their defaults
 (:class:`~jaco.engine.params.Param`): the rule owns α and its own (ρ, Q, τ0, …), the heuristic β
@@ -62,17 +66,32 @@ from ..engine.params import Param, declare
 from ..engine.planner import FrozenMap, Planner, constant
 from ..errors import JacoError
 
-__all__ = ["compose", "component", "parse", "default_transition", "Component", "COMPONENTS", "KINDS", "LOCAL_SEARCHES"]
+__all__ = [
+    "compose",
+    "component",
+    "lookup",
+    "add_local_search",
+    "parse",
+    "default_transition",
+    "Component",
+    "COMPONENTS",
+    "KINDS",
+    "SEARCH",
+]
 
+#: The kinds every planner has one of, in the order its composition's name lists them.
 KINDS = ("construct", "heuristic", "rule", "transition", "schedule", "cost")
+#: The optional kind: a planner has none or one, added after the others (name: ``local_search=...``).
+SEARCH = "local_search"
 #: The order in which components are applied: a later one gives a part or a default both set.
 ORDER = ("construct", "rule", "heuristic", "transition", "schedule", "cost")
 
 
 class Component(NamedTuple):
     """One component of a planner: what it sets on the :class:`~jaco.engine.planner.Planner`
-    (``parts``: ``heuristic``, ``factor``, ``construct``, ``rule``, ``schedule``, ``cost`` or
-    ``transition``; a ``rule`` part of a non-rule component, such as a table the heuristic keeps
+    (``parts``: ``heuristic``, ``factor``, ``construct``, ``rule``, ``schedule``, ``cost``,
+    ``transition``, ``local_search``, and what a component declares of itself, ``back_steps`` and
+    ``per_step_heuristic``; a ``rule`` part of a non-rule component, such as a table the heuristic keeps
     in the trail, is chained before the pheromone rule), the parameters it reads with its
     defaults, its source in a few words, the pheromone layout it needs (``"cells"``, ``"moves"``
     or None), the parameters it sets itself (taken out of the planner's), and ``why_not(chosen)``:
@@ -92,7 +111,7 @@ class Component(NamedTuple):
 _CACHE: dict = {}  # compositions by their arguments
 
 #: Every component by kind and name, filled by :func:`component`.
-COMPONENTS: dict[str, dict[str, Component]] = {kind: {} for kind in KINDS}
+COMPONENTS: dict[str, dict[str, Component]] = {kind: {} for kind in KINDS + (SEARCH,)}
 
 
 def component(
@@ -107,12 +126,12 @@ def component(
     **parts: Any,
 ) -> Component:
     """Declare a component of ``kind`` under ``name`` (a module that defines a new heuristic, rule,
-    construct step, transition, schedule or cost calls this once, at import), so that
-    :func:`compose` finds it by name; returns it. ``params``: the
+    construct step, transition, schedule, cost or local search calls this once, at import), so
+    that :func:`compose` finds it by name; returns it (:func:`compose` takes the value too). ``params``: the
     :class:`~jaco.engine.params.Param` declarations it reads, with its defaults. Declaring the
     same name again replaces the component (a notebook cell run twice)."""
-    if kind not in KINDS:
-        raise JacoError(f"unknown kind {kind!r}; kinds: {', '.join(KINDS)}")
+    if kind not in COMPONENTS:
+        raise JacoError(f"unknown kind {kind!r}; kinds: {', '.join(COMPONENTS)}")
     if pheromone_on not in (None, "cells", "moves"):
         raise JacoError(f"pheromone_on must be None, 'cells' or 'moves', got {pheromone_on!r}")
     if not all(isinstance(p, Param) for p in params):
@@ -168,48 +187,59 @@ component(
     source="Miao et al. 2021: J = kL·L + kS·S + kE·E",
 )
 
-#: The local searches (``compose(..., local_search=...)``, ``"<planner>+<local search>"``): beyond the
-#: sources, none of them is part of a published planner. Each is a ``Planner.local_search`` with
-#: its static choices (:func:`jaco.engine.local_search.shortcut_search`; docs/compose.md says why these).
-LOCAL_SEARCHES: dict = {
-    "none": None,
-    "shortcut": ls.shortcut_search(window=ls.WINDOW, passes=ls.PASSES, best=ls.BEST),
-}
-#: Each local search's source, in a few words.
-LOCAL_SEARCH_SOURCES = {
-    "shortcut": f"octile shortcut of the {ls.BEST} best paths of each iteration, window {ls.WINDOW}, at most "
+# The local searches (``compose(..., local_search=...)``, ``"<planner>+<local search>"``): beyond the
+# sources, none of them is part of a published planner. Each is a ``Planner.local_search`` with
+# its static choices (:func:`jaco.engine.local_search.shortcut_search`; docs/compose.md says why these).
+component("local_search", "none", local_search=None, source="no local search")
+component(
+    "local_search",
+    "shortcut",
+    local_search=ls.shortcut_search(window=ls.WINDOW, passes=ls.PASSES, best=ls.BEST),
+    source=f"octile shortcut of the {ls.BEST} best paths of each iteration, window {ls.WINDOW}, at most "
     f"{ls.PASSES} passes, before the pheromone update (daemon action, Dorigo & Stützle 2004)",
-}
+)
 _NAME = re.compile(r"^compose\((.*)\)$")
 
 
-def _check(kind, value) -> str:
+def lookup(kind: str, value: "str | Component") -> Component:
+    """The component ``value`` of ``kind``: a declared name, or a :class:`Component` itself (one
+    whose name is declared must be that declaration, so that the composition's name, which
+    records store, stands for it)."""
+    if isinstance(value, Component):
+        if value.kind != kind:
+            raise JacoError(f"{value.name!r} is a {value.kind} component, given as the {kind}")
+        declared = COMPONENTS[kind].get(value.name)
+        if declared is not None and declared != value:
+            raise JacoError(f"another {kind} is declared as {value.name!r}: give this one another name")
+        return value
     if not isinstance(value, str) or value not in COMPONENTS[kind]:
-        raise JacoError(f"unknown {kind} {value!r}; {kind}s: {', '.join(COMPONENTS[kind])}")
-    return value
+        plural = "local searches" if kind == SEARCH else f"{kind}s"
+        raise JacoError(f"unknown {kind} {value!r}; {plural}: {', '.join(COMPONENTS[kind])}")
+    return COMPONENTS[kind][value]
 
 
-def default_transition(rule: str) -> str:
+def default_transition(rule: "str | Component") -> str:
     """The transition a rule brings when :func:`compose` is given none (its component's
     ``transition`` part: ``q0`` for ``acs`` and ``iaca``, ``adaptive-q0`` for ``iaaco``), else
     ``roulette``."""
-    r = COMPONENTS["rule"].get(rule)
+    r = rule if isinstance(rule, Component) else COMPONENTS["rule"].get(rule)
     return r.parts.get("default_transition", "roulette") if r is not None else "roulette"
 
 
 def compose(
-    construct: str = "dying",
-    heuristic: str = "distance",
-    rule: str = "as",
-    transition: str | None = None,
-    schedule: str = "constant",
-    cost: str = "length",
-    local_search: str = "none",
+    construct: "str | Component" = "dying",
+    heuristic: "str | Component" = "distance",
+    rule: "str | Component" = "as",
+    transition: "str | Component | None" = None,
+    schedule: "str | Component" = "constant",
+    cost: "str | Component" = "length",
+    local_search: "str | Component" = "none",
 ) -> Planner:
-    """A planner made of one component of each kind (the module docstring lists them).
+    """A planner made of one component of each kind (the module docstring lists them), each
+    given by name or as the :class:`Component` value.
 
     ``transition=None`` takes the rule's own: ``q0`` for ``acs`` and ``iaca``, ``adaptive-q0`` for
-    ``iaaco``, else ``roulette``. ``local_search``: ``"none"`` or one of :data:`LOCAL_SEARCHES`.
+    ``iaaco``, else ``roulette``. ``local_search``: ``"none"`` or a local search component.
     The same arguments return the same object (so repeated runs never recompile).
 
     >>> import jaco
@@ -219,36 +249,38 @@ def compose(
     >>> v is jaco.compose(construct="backtrack", heuristic="iaaco", rule="mmas"), v.pheromone_on
     (True, 'cells')
     """
-    c = dict(construct=construct, heuristic=heuristic, rule=rule, schedule=schedule, cost=cost)
-    for kind in ("construct", "heuristic", "rule", "schedule", "cost"):
-        _check(kind, c[kind])
-    if transition is None:
-        transition = default_transition(rule)
-    c["transition"] = _check("transition", transition)
-    if not isinstance(local_search, str) or local_search not in LOCAL_SEARCHES:
-        raise JacoError(f"unknown local_search {local_search!r}; local searches: {', '.join(LOCAL_SEARCHES)}")
-    key = tuple(c[k] for k in KINDS) + (local_search,)
+    given = dict(construct=construct, heuristic=heuristic, rule=rule, schedule=schedule, cost=cost)
+    given["transition"] = default_transition(rule) if transition is None else transition
+    given["local_search"] = local_search
+    pieces = {kind: lookup(kind, given[kind]) for kind in KINDS + (SEARCH,)}
+    key = tuple(pieces.values())
     hit = _CACHE.get(key)
     if hit is None:
-        hit = _CACHE[key] = _build(c) if local_search == "none" else _searching(compose(**c), local_search)
+        search = pieces.pop(SEARCH)
+        hit = _build(pieces) if search.name == "none" else add_local_search(compose(**pieces), search)
+        _CACHE[key] = hit
     return hit
 
 
-def _searching(base: Planner, local_search: str) -> Planner:
-    """``base`` (a composition) with a local search: its name gets ``local_search=...``."""
-    source = f"{base.source}; local_search {local_search}: {LOCAL_SEARCH_SOURCES[local_search]}"
-    name = base.name[:-1] + f", local_search={local_search})"
+def add_local_search(base: Planner, search: Component) -> Planner:
+    """``base`` with the local search component ``search``. A composition's name gets
+    ``local_search=...``, another planner's ``+<name>``."""
+    composed = base.composition == base.name
+    name = base.name[:-1] + f", local_search={search.name})" if composed else f"{base.name}+{search.name}"
     return base._replace(
         name=name,
-        composition=name,
-        source=source,
-        doc=f"{base.doc} Local search: {LOCAL_SEARCH_SOURCES[local_search]}.",
-        local_search=LOCAL_SEARCHES[local_search],
+        composition=name if composed else base.composition,
+        source=f"{base.source}; local_search {search.name}: {search.source}"
+        if composed
+        else f"{base.source}; {search.source}",
+        doc=f"{base.doc} Local search: {search.source}.",
+        local_search=search.parts["local_search"],
     )
 
 
-def _build(c: dict) -> Planner:
-    pieces = {kind: COMPONENTS[kind][c[kind]] for kind in ORDER}
+def _build(pieces: dict) -> Planner:
+    c = {kind: p.name for kind, p in pieces.items()}  # the components' names by kind
+    pieces = {kind: pieces[kind] for kind in ORDER}
     for p in pieces.values():
         why = p.why_not(c) if p.why_not is not None else None
         if why:
@@ -303,9 +335,9 @@ def parse(name: str) -> Planner | None:
     for part in filter(None, (p.strip() for p in m.group(1).split(","))):
         kind, _, value = part.partition("=")
         kind, value = kind.strip(), value.strip()
-        if kind not in KINDS + ("local_search",) or not value:
+        if kind not in KINDS + (SEARCH,) or not value:
             raise JacoError(
-                f"cannot read {name!r}: expected compose(kind=value, ...) with kinds {', '.join(KINDS)}, local_search"
+                f"cannot read {name!r}: expected compose(kind=value, ...) with kinds {', '.join(KINDS)}, {SEARCH}"
             )
         kw[kind] = value
     return compose(**kw)

@@ -76,11 +76,6 @@ def iaca_heuristic(problem: Any, params: Params, t: Any, n_iters: int) -> jax.Ar
     return eta_45(detour(problem), problem.nbr >= 0)
 
 
-# Backtracking ants see their tabu list: with this heuristic they recompute eq. (4-5) at every step
-# over the allowed moves (backtrack_colony), instead of weighing a fixed table.
-iaca_heuristic.per_step = True  # type: ignore[attr-defined]
-
-
 # -- pheromone pieces ------------------------------------------------------------------------
 def goal_closeness(problem: Any) -> jax.Array:
     """``η_goal(j) = 1 − d_jE / max_j d_jE`` over free cells (Euclidean; 4.2.3), 0 on obstacles."""
@@ -401,10 +396,10 @@ def backtrack_colony(
     """One iteration of IACA's backtracking ants (thesis 4.4, Steps 2–5): walks with the local
     update (4-2..4-4), then the infeasible-path update (4-6); returns the updated trail and the
     final stacks as a :class:`~jaco.engine.colony.Colony` (the rule's update follows). With IACA's
-    heuristic (``per_step``) a move weighs τ_j^α·η^β of eq. (4-5) over the ant's allowed moves;
+    heuristic (``per_step_heuristic``) a move weighs τ_j^α·η^β of eq. (4-5) over the ant's allowed moves;
     with another one, τ_j^α times the planner's ``factor`` (once per iteration, each cell's factors
     scaled to a top of 1). Pheromone on cells."""
-    if getattr(planner.heuristic, "per_step", False):
+    if planner.per_step_heuristic:
         factors = None
     else:
         factors = scaled(planner.factor(planner, trail, problem, params, t, n_iters), problem.nbr >= 0)
@@ -426,14 +421,11 @@ def _backtrack(planner, problem, trail, params, key, factors, *, n_ants: int, st
     return trail._replace(tau=tau), colony
 
 
-# Back-steps count against the step limit: these ants get twice the default (jaco.engine.run.default_steplimit).
-backtrack_colony.back_steps = True  # type: ignore[attr-defined]
-
-
 component(
     "construct",
     "backtrack",
     construct=backtrack_colony,
+    back_steps=True,  # back-steps count against the step limit: twice the default (jaco.engine.checks.default_steplimit)
     pheromone_on="cells",
     params=(RHO_LOCAL, Q1, Q2, Q3, RHO1, RHO2, Q_STEP),
     source="Hua Lu 2011 thesis 4.3, eqs. 4-2..4-4, 4-6",
@@ -442,6 +434,9 @@ component(
     "heuristic",
     "iaca",
     heuristic=iaca_heuristic,
+    # backtracking ants see their tabu list: they recompute eq. (4-5) at every step over the
+    # allowed moves (backtrack_colony), instead of weighing a fixed table
+    per_step_heuristic=True,
     factor=eta_factor,
     params=(BETA.with_default(8.0),),
     source="thesis eq. 4-5",

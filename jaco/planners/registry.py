@@ -2,33 +2,21 @@
 
 ``jaco.solve(..., "mmas")`` and every other entry point that takes a name resolves it here
 (:func:`get_planner`), and the contract test (``tests/test_variants.py``) runs on every entry, so
-a planner added to the folder and listed below is checked with no other edit
+a planner of a module in :data:`jaco.planners.MODULES` is checked with no other edit
 (docs/adding_a_planner.md). The registry imports the planners; no planner imports the registry.
 """
 
 from __future__ import annotations
 
-from ..engine.cost import COSTS, MULTI_PARAMS
 from ..engine.planner import FrozenMap, Planner
 from ..errors import JacoError, ParamError, accepts_aliases, did_you_mean
-from . import (
-    apf_guided,  # APF-ACO and its PF-ACO baseline (Dong & Zhao 2021)
-    chaos,  # chaos ACO (the Xi'an Technological University paper)
-    classic,  # docs/algorithms.md §2
-    double,  # thesis chapter 3
-    iaaco,  # IAACO (Miao et al. 2021)
-    iaca,  # thesis chapter 4
-    pg,  # policy-gradient ACO (Meuleau & Dorigo 2002)
-)
-from .compose import LOCAL_SEARCHES, parse
+from . import MODULES
+from .compose import COMPONENTS, add_local_search, parse
 
 __all__ = ["PLANNERS", "VARIANTS", "get_planner", "get_variant", "register", "with_cost", "with_local_search"]
 
-#: Every planner the modules define (their ``PLANNERS``), by name: the classic family, the thesis's,
-#: the papers' and pg-aco (docs/algorithms.md §2–§8).
-PLANNERS: dict[str, Planner] = {
-    v.name: v for module in (classic, double, iaca, iaaco, apf_guided, chaos, pg) for v in module.PLANNERS
-}
+#: Every planner the modules define (their ``PLANNERS``), by name, in :data:`jaco.planners.MODULES`' order.
+PLANNERS: dict[str, Planner] = {v.name: v for module in MODULES for v in module.PLANNERS}
 #: The name before planners had one name (jaco 0.1), kept because users' code types it: the same dict.
 VARIANTS = PLANNERS
 
@@ -55,13 +43,13 @@ def get_planner(planner: str | Planner) -> Planner:
             return composed
         base, _, suffix = planner.rpartition("+")
         suffix = suffix.strip().lower()
-        if base and (suffix in COSTS or (suffix in LOCAL_SEARCHES and suffix != "none")):
+        if base and suffix in _suffixes():
             try:
                 found = get_planner(base)
             except JacoError:
                 found = None
             if found is not None:
-                return with_cost(found, suffix) if suffix in COSTS else with_local_search(found, suffix)
+                return with_cost(found, suffix) if suffix in COMPONENTS["cost"] else with_local_search(found, suffix)
     if not isinstance(planner, str):
         several = (
             " (several planners are a sweep axis: jaco.sweep(..., planner=[...]))"
@@ -74,7 +62,7 @@ def get_planner(planner: str | Planner) -> Planner:
     raise JacoError(
         f"unknown planner {planner!r}{_did_you_mean(planner)}; registered: {', '.join(sorted(PLANNERS))} "
         "(or a composition: compose(construct=..., heuristic=..., rule=...); a suffix adds a cost or a local "
-        f"search: +{', +'.join(sorted(COSTS))}, +{', +'.join(k for k in LOCAL_SEARCHES if k != 'none')})"
+        f"search: +{', +'.join(_suffixes())})"
     )
 
 
@@ -91,7 +79,7 @@ def _did_you_mean(name: str) -> str:
     """``" (did you mean 'iaca'?)"`` for the registered names closest to a misspelt one (difflib, in
     any case), a name with a suffix (``"iaca+shortcutt"``) among the names with one; or ``""``."""
     base, plus, _ = name.strip().rpartition("+")
-    suffixes = [*sorted(COSTS), *(k for k in LOCAL_SEARCHES if k != "none")]
+    suffixes = _suffixes()
     candidates = [f"{k}+{s}" for k in PLANNERS for s in suffixes] if plus and base else list(PLANNERS)
     return did_you_mean(name.strip().casefold(), [c.casefold() for c in candidates])
 
@@ -115,9 +103,10 @@ _WITH_COST: dict = {}
 
 @accepts_aliases
 def with_cost(planner: str | Planner, cost: str = "multi") -> Planner:
-    """``planner`` (a name or a :class:`Planner`) with another cost: ``"multi"``
-    (:func:`jaco.engine.cost.multi_objective`, and its weights become sweepable parameters) or
-    ``"length"``.
+    """``planner`` (a name or a :class:`Planner`) with another cost component (by name: ``"multi"``,
+    :func:`jaco.engine.cost.multi_objective`, whose weights become sweepable parameters;
+    ``"length"``; or any declared with :func:`jaco.planners.compose.component`); the component's
+    parameters join the planner's.
 
     Cached: the same arguments return the same object, so repeated runs never recompile.
     The new planner is named ``"<name>+<cost>"``.
@@ -127,19 +116,21 @@ def with_cost(planner: str | Planner, cost: str = "multi") -> Planner:
     >>> v.name, v is jaco.planners.registry.with_cost("acs", "multi"), "k_safe" in v.params
     ('acs+multi', True, True)
     """
-    if cost not in COSTS:
-        raise ParamError(f"unknown cost {cost!r}; valid: {', '.join(sorted(COSTS))}")
+    if cost not in COMPONENTS["cost"]:
+        raise ParamError(f"unknown cost {cost!r}; valid: {', '.join(sorted(COMPONENTS['cost']))}")
+    chosen = COMPONENTS["cost"][cost]
     base = get_planner(planner)
-    key = (base, cost)
+    key = (base, chosen)
     hit = _WITH_COST.get(key)
     if hit is None:
-        if base.cost is COSTS[cost]:
+        fn = chosen.parts["cost"]
+        if base.cost is fn:
             new = base
         else:
-            extra = [p for p in (MULTI_PARAMS if cost == "multi" else ()) if p.name not in base.params]
+            extra = [p for p in chosen.params if p.name not in base.params]
             params = base.params + tuple(p.name for p in extra)
             defaults = FrozenMap({**base.defaults, **{p.name: p.default for p in extra}})
-            new = base._replace(name=f"{base.name}+{cost}", cost=COSTS[cost], params=params, defaults=defaults)
+            new = base._replace(name=f"{base.name}+{cost}", cost=fn, params=params, defaults=defaults)
         hit = _WITH_COST[key] = new
     return hit
 
@@ -149,8 +140,8 @@ _WITH_SEARCH: dict = {}
 
 @accepts_aliases
 def with_local_search(planner: str | Planner, local_search: str = "shortcut") -> Planner:
-    """``planner`` (a name or a :class:`Planner`) with a local search of the compose vocabulary
-    (:data:`jaco.planners.compose.LOCAL_SEARCHES`, :mod:`jaco.engine.local_search`), named
+    """``planner`` (a name or a :class:`Planner`) with a local search component (by name, as
+    declared with :func:`jaco.planners.compose.component`; :mod:`jaco.engine.local_search`), named
     ``"<name>+<local search>"``; a composition gets its own name's ``local_search=...`` instead
     (``compose(..., local_search="shortcut")``). ``"none"`` gives the planner without one.
 
@@ -161,27 +152,23 @@ def with_local_search(planner: str | Planner, local_search: str = "shortcut") ->
     >>> v.name, v is jaco.planners.registry.get_planner("iaca+shortcut"), jaco.PLANNERS["iaca"].local_search is None
     ('iaca+shortcut', True, True)
     """
-    from .compose import LOCAL_SEARCH_SOURCES, compose
+    from .compose import compose, lookup
 
-    if not isinstance(local_search, str) or local_search not in LOCAL_SEARCHES:
-        raise JacoError(f"unknown local search {local_search!r}; valid: {', '.join(LOCAL_SEARCHES)}")
+    if not isinstance(local_search, str) or local_search not in COMPONENTS["local_search"]:
+        raise JacoError(f"unknown local search {local_search!r}; valid: {', '.join(COMPONENTS['local_search'])}")
+    search = lookup("local_search", local_search)
     base = get_planner(planner)
-    key = (base, local_search)
+    key = (base, search)
     hit = _WITH_SEARCH.get(key)
     if hit is None:
         if parse(base.name) is base:  # a composition: the local search is one of its components
-            new = compose(**{**_composition_kwargs(base.name), "local_search": local_search})
+            new = compose(**{**_composition_kwargs(base.name), "local_search": search})
         elif base.local_search is not None:
             raise JacoError(f"{base.name!r} has a local search already; add one to the planner without it")
-        elif local_search == "none":
+        elif search.name == "none":
             new = base
         else:
-            new = base._replace(
-                name=f"{base.name}+{local_search}",
-                local_search=LOCAL_SEARCHES[local_search],
-                source=f"{base.source}; {LOCAL_SEARCH_SOURCES[local_search]}",
-                doc=f"{base.doc} Local search: {LOCAL_SEARCH_SOURCES[local_search]}.",
-            )
+            new = add_local_search(base, search)
         hit = _WITH_SEARCH[key] = new
     return hit
 
@@ -193,3 +180,8 @@ def _composition_kwargs(name: str) -> dict:
 
 #: The name before planners had one name (jaco 0.1), kept because users' code types it.
 get_variant = get_planner
+
+
+def _suffixes() -> list[str]:
+    """The ``+<suffix>`` a planner's name may end in: each cost, then each local search but none."""
+    return [*sorted(COMPONENTS["cost"]), *(k for k in COMPONENTS["local_search"] if k != "none")]
