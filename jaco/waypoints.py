@@ -37,7 +37,7 @@ import numpy as np
 from .engine.cache import cached
 from .engine.checks import params_from, prepare
 from .engine.planner import Planner
-from .engine.problem import _as_cell, make_problem, stack
+from .engine.problem import make_problem, stack
 from .engine.result import Result, to_result
 from .engine.run import make_run
 from .engine.shape import RunShape
@@ -69,7 +69,7 @@ def check_waypoints(
         raise ProblemError(bad)
     waypoints = items
     labels = ["start"] + [f"waypoints[{i}]" for i in range(len(waypoints))] + ["goal"]
-    points = [_as_cell(grid, p, label) for p, label in zip([start, *waypoints, goal], labels)]
+    points = [grid.check_cell(p, label) for p, label in zip([start, *waypoints, goal], labels)]
     for i in range(1, len(points)):
         dist = distance_field(grid, points[i], connectivity=connectivity)
         if not math.isfinite(dist[points[i - 1]]):

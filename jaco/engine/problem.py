@@ -29,10 +29,6 @@ IndexLike = jax.Array | np.ndarray | np.integer
 LengthLike = jax.Array | np.ndarray | np.floating
 
 
-def _as_cell(grid: Grid, cell, what: str) -> tuple[int, int]:
-    return grid.check_cell(cell, what)
-
-
 @jax.tree_util.register_dataclass
 @dataclass(frozen=True)
 class Problem:
@@ -75,8 +71,8 @@ def make_problem(grid: Grid, start: Any, goal: Any, *, connectivity: int = 8) ->
         raise ProblemError(f"connectivity must be 4 or 8 (int), got {connectivity!r}")
     if grid.n_free == 0:
         raise ProblemError(f"map {grid.name!r} has no free cell")
-    s = _as_cell(grid, start, "start")
-    g = _as_cell(grid, goal, "goal")
+    s = grid.check_cell(start, "start")
+    g = grid.check_cell(goal, "goal")
     dist = distance_field(grid, g, connectivity=connectivity)
     if not math.isfinite(dist[s]):
         raise ProblemError(

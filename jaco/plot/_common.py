@@ -5,12 +5,12 @@ from __future__ import annotations
 
 from matplotlib.figure import Figure
 
-_OBSTACLE_COLOR = "#2b2b2b"
+OBSTACLE_COLOR = "#2b2b2b"
 #: A table's planner column: ``planner``, or ``variant`` in tables written before it was renamed.
-_PLANNER_COLUMNS = ("planner", "variant")
+PLANNER_COLUMNS = ("planner", "variant")
 
 
-def _figure_axes(ax, figsize=(6.0, 6.0)):
+def figure_axes(ax, figsize=(6.0, 6.0)):
     """``(fig, ax)``: the given axes and its figure, or a new standalone figure with one axes."""
     if ax is not None:
         return ax.figure, ax
@@ -18,7 +18,7 @@ def _figure_axes(ax, figsize=(6.0, 6.0)):
     return fig, fig.add_subplot()
 
 
-def _legend_outside(ax, handles=None, labels=None, *, beside=(), **kw):
+def legend_outside(ax, handles=None, labels=None, *, beside=(), **kw):
     """A legend to the right of ``ax``, outside its data area and beyond the axes in ``beside``
     (a twin axis with its ticks and label on the right); None when there is nothing to show."""
     if handles is None:
@@ -34,8 +34,8 @@ def _legend_outside(ax, handles=None, labels=None, *, beside=(), **kw):
     return ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(x, 1.0), borderaxespad=0.0, **kw)
 
 
-def _viridis_with_bad():
+def viridis_with_bad():
     """viridis with masked cells (obstacles, values a figure leaves out) in the obstacles' colour."""
     from matplotlib import colormaps
 
-    return colormaps["viridis"].with_extremes(bad=_OBSTACLE_COLOR)
+    return colormaps["viridis"].with_extremes(bad=OBSTACLE_COLOR)

@@ -11,7 +11,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import NullLocator
 
 from ..errors import ParamError
-from ._common import _figure_axes, _legend_outside
+from ._common import figure_axes, legend_outside
 
 if TYPE_CHECKING:
     from ..research.compare import Comparison
@@ -46,7 +46,7 @@ def plot_critical_difference(comparison: Comparison, *, ax: Axes | None = None, 
     c = _comparison(comparison, "plot_critical_difference")
     names, ranks = list(c.ranks.index), c.ranks.to_numpy(float)
     k, cd = len(names), float(c.friedman["cd"])
-    fig, ax = _figure_axes(ax, figsize=(8.0, 1.6 + 0.3 * k))
+    fig, ax = figure_axes(ax, figsize=(8.0, 1.6 + 0.3 * k))
     left = (k + 1) // 2
     step = 0.45
     ax.plot([1, k], [0, 0], color="black", linewidth=1.2)
@@ -123,7 +123,7 @@ def plot_performance_profile(
     taus = profile.index.to_numpy(float)
     top = taus.max() if taus.size else 1.0
     right = top * 1.1 if top > 1 else 1.1
-    fig, ax = _figure_axes(ax, figsize=(7.0, 4.5))
+    fig, ax = figure_axes(ax, figsize=(7.0, 4.5))
     colors = _qualitative_colors(len(profile.columns))
     drawn: list[tuple[str, np.ndarray]] = []
     for n, name in enumerate(profile.columns):
@@ -163,5 +163,5 @@ def plot_performance_profile(
     ax.set_ylabel("share of pairs with ratio ≤ τ")
     ax.grid(True, linewidth=0.3)
     ax.set_title(title if title is not None else f"performance profile over {len(c.ratios)} pairs")
-    _legend_outside(ax)
+    legend_outside(ax)
     return fig

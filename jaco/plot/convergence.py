@@ -11,7 +11,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from ..errors import ParamError
-from ._common import _figure_axes, _legend_outside
+from ._common import figure_axes, legend_outside
 
 
 def _masked(values) -> np.ma.MaskedArray:
@@ -94,7 +94,7 @@ def plot_convergence(
     if not runs:
         raise ParamError("plot_convergence needs at least one history")
     labels = _run_labels(label, len(runs))
-    fig, ax = _figure_axes(ax, figsize=(7.0, 4.5))
+    fig, ax = figure_axes(ax, figsize=(7.0, 4.5))
     twin = None
     for k, (run, lab) in enumerate(zip(runs, labels)):
         if "best" not in run:
@@ -112,5 +112,5 @@ def plot_convergence(
     if twin is not None:
         h2, n2 = twin.get_legend_handles_labels()
         handles, names = handles + h2, names + n2
-    _legend_outside(ax, handles, names, beside=[twin] if twin is not None else [])
+    legend_outside(ax, handles, names, beside=[twin] if twin is not None else [])
     return fig

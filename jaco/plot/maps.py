@@ -13,7 +13,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from ..errors import ParamError, ProblemError
-from ._common import _figure_axes, _legend_outside, _viridis_with_bad
+from ._common import figure_axes, legend_outside, viridis_with_bad
 
 if TYPE_CHECKING:
     from matplotlib.animation import FuncAnimation
@@ -126,7 +126,7 @@ def plot_map(
 ) -> Figure:
     """The occupancy grid: obstacles dark, free cells light, start (green dot) and goal (red star)."""
     _check_grid(grid)
-    fig, ax = _figure_axes(ax)
+    fig, ax = figure_axes(ax)
     ax.imshow(grid.free.astype(np.uint8), cmap=_MAP_CMAP, vmin=0, vmax=1, origin="upper", interpolation="nearest")
     _cell_axes(ax, grid, title)
     _mark_ends(ax, start, goal)
@@ -163,7 +163,7 @@ def plot_paths(
             ax, path, color=colors[k], linewidth=2.0, marker=marker, markersize=5, label=label, zorder=3 + k * 0.01
         )
     if labels is not None:
-        _legend_outside(ax)
+        legend_outside(ax)
     return fig
 
 
@@ -213,7 +213,7 @@ def plot_pheromone(
     """
     per_cell = _per_cell(grid, tau)
     masked = np.ma.masked_where(~grid.free | ~np.isfinite(per_cell), per_cell)
-    cmap = _viridis_with_bad()
+    cmap = viridis_with_bad()
     norm = Normalize()
     if log:
         positive = masked.compressed()
@@ -222,7 +222,7 @@ def plot_pheromone(
             masked = np.ma.masked_where(np.ma.getmaskarray(masked) | (per_cell <= 0), per_cell)
             vmin, vmax = float(positive.min()), float(positive.max())
             norm = LogNorm(vmin=vmin, vmax=vmax if vmax > vmin else vmin * 10)
-    fig, ax = _figure_axes(ax, figsize=(7.0, 6.0))
+    fig, ax = figure_axes(ax, figsize=(7.0, 6.0))
     im = ax.imshow(masked, cmap=cmap, norm=norm, origin="upper", interpolation="nearest")
     fig.colorbar(im, ax=ax, label="pheromone" + (" (log scale)" if log else ""), shrink=0.85)
     _cell_axes(ax, grid, title)
@@ -267,7 +267,7 @@ def animate_pheromone(
         norm = Normalize(vmin=float(stack.min()), vmax=float(stack.max()))
     fig = Figure(figsize=(6.5, 6.0))
     ax = fig.add_subplot()
-    im = ax.imshow(stack[0], cmap=_viridis_with_bad(), norm=norm, origin="upper", interpolation="nearest")
+    im = ax.imshow(stack[0], cmap=viridis_with_bad(), norm=norm, origin="upper", interpolation="nearest")
     fig.colorbar(im, ax=ax, label="pheromone" + (" (log scale)" if log else ""), shrink=0.85)
     _cell_axes(ax, grid, None)
     if path is not None and len(_as_path(path)):

@@ -12,7 +12,7 @@ from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
 from ..errors import ParamError
-from ._common import _PLANNER_COLUMNS, _figure_axes, _legend_outside
+from ._common import PLANNER_COLUMNS, figure_axes, legend_outside
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -88,7 +88,7 @@ def plot_search_history(
     columns = {"trials": None, "iterations": "iterations", "time": "end_s"}
     if x not in columns:
         raise ParamError(f"x must be one of {', '.join(columns)}, got {x!r}")
-    fig, ax = _figure_axes(ax, figsize=(7.0, 4.2))
+    fig, ax = figure_axes(ax, figsize=(7.0, 4.2))
     names = {tuple(s.objectives) for s in studies.values()}
     if len(names) != 1 or len(next(iter(names))) != 1:
         raise ParamError("plot_search_history: the studies must share one objective (several: plot_pareto)")
@@ -115,7 +115,7 @@ def plot_search_history(
 
 def _planner_column(table: pd.DataFrame) -> str | None:
     """The table's planner column: ``planner``, else ``variant`` (older tables), else None."""
-    return next((c for c in _PLANNER_COLUMNS if c in table.columns), None)
+    return next((c for c in PLANNER_COLUMNS if c in table.columns), None)
 
 
 def _planner_groups(study: Study, table: pd.DataFrame, planner: Any, what: str) -> list[tuple[Any, pd.DataFrame]]:
@@ -130,7 +130,7 @@ def _planner_groups(study: Study, table: pd.DataFrame, planner: Any, what: str) 
             raise ParamError(f"{what}: planner={planner!r}, but the study's trials name no planner")
         return [(None, table)]
     present = list(table[column].dropna().drop_duplicates())
-    space = next((study.info["space"].get(c) for c in _PLANNER_COLUMNS if c in study.info["space"]), None)
+    space = next((study.info["space"].get(c) for c in PLANNER_COLUMNS if c in study.info["space"]), None)
     order = [p for p in (space if isinstance(space, list) else [space]) if p in present]
     names = order + [p for p in present if p not in order]
     if planner is not None:
@@ -196,13 +196,13 @@ def _importance_within(study: Study, numbers: Iterable[int]) -> dict[str, float]
     trials = [t for t in study.study.get_trials(deepcopy=False) if t.number in numbers and t.value is not None]
     if len(trials) < 2:
         return None
-    if not {k for t in trials for k in t.params if k not in _PLANNER_COLUMNS}:
+    if not {k for t in trials for k in t.params if k not in PLANNER_COLUMNS}:
         return {}
     with _quiet(), warnings.catch_warnings():
         warnings.simplefilter("ignore")  # "too few trials", "target and region select the same trials": handled here
         alone = optuna.create_study(direction=study.study.direction)  # the planner's trials alone
         for t in trials:
-            params = {k: v for k, v in t.params.items() if k not in _PLANNER_COLUMNS}
+            params = {k: v for k, v in t.params.items() if k not in PLANNER_COLUMNS}
             alone.add_trial(
                 optuna.trial.create_trial(
                     params=params, distributions={k: t.distributions[k] for k in params}, value=t.value
@@ -326,7 +326,7 @@ def plot_param_importance(
         effect_ax, ax = fig.subplots(2, 1, height_ratios=[1.0, max(2.0, 0.32 * rows)])
         _draw_planner_effect(effect_ax, table, name, len(groups))
     else:
-        fig, ax = _figure_axes(ax, figsize=(6.0, 0.5 * rows + 1.5))
+        fig, ax = figure_axes(ax, figsize=(6.0, 0.5 * rows + 1.5))
     notes = _draw_importances(ax, groups, shares, params, several)
     ax.set_yticks(range(len(params)), params)
     ax.set_xlim(0, 1.15)
@@ -338,7 +338,7 @@ def plot_param_importance(
     else:
         ax.set_title("parameter importance" + within + ("" if several else f" ({notes[0]})"))
     if several:
-        _legend_outside(ax, title="planner")
+        legend_outside(ax, title="planner")
     else:
         fig.tight_layout()
     return fig
@@ -369,7 +369,7 @@ def _contour_axes(n_panels: int, ax: Axes | None) -> tuple[Figure, list[Axes]]:
     """The contour's figure and axes: ``ax`` (or a new axes) for one panel; for several, a figure
     of its own with up to three panels a row on shared axes."""
     if n_panels == 1:
-        fig, ax = _figure_axes(ax, figsize=(6.2, 4.8))
+        fig, ax = figure_axes(ax, figsize=(6.2, 4.8))
         return fig, [ax]
     cols = min(n_panels, 3)
     rows = -(-n_panels // cols)
@@ -399,7 +399,7 @@ def plot_search_contour(
     study = next(iter(_studies(study).values()))
     name, table = _finished(study, "plot_search_contour")
     for c in (x, y):
-        if c not in table.columns or c in _PLANNER_COLUMNS:
+        if c not in table.columns or c in PLANNER_COLUMNS:
             raise ParamError(
                 f"{c!r} is not a searched number of this study (columns: {', '.join(map(str, table.columns))})"
             )
@@ -464,7 +464,7 @@ def plot_pareto(study: Studies, a: str, b: str, *, ax: Axes | None = None, title
     table = _by_objective(study, study.trials)
     table = table[table["state"] == "COMPLETE"]
     front = _by_objective(study, study.best_trials).sort_values(a)
-    fig, ax = _figure_axes(ax, figsize=(6.0, 4.5))
+    fig, ax = figure_axes(ax, figsize=(6.0, 4.5))
     sa, sb = (100.0 if n in ("gap", "success") else 1.0 for n in (a, b))
     ax.scatter(sa * table[a], sb * table[b], s=16, alpha=0.45, color="#7f7f7f", label="trials")
     ax.plot(sa * front[a], sb * front[b], "o-", color="#d62728", markersize=5, label="Pareto front")

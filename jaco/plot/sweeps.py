@@ -11,7 +11,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from ..errors import ParamError
-from ._common import _PLANNER_COLUMNS, _figure_axes, _legend_outside, _viridis_with_bad
+from ._common import PLANNER_COLUMNS, figure_axes, legend_outside, viridis_with_bad
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -46,7 +46,7 @@ def _tick(name, v) -> str:
     """A tick label: a planner's short name, a text value as it is, a number without float noise."""
     from ..research.tables import number, short_name
 
-    if name in _PLANNER_COLUMNS:
+    if name in PLANNER_COLUMNS:
         return short_name(v)
     return v if isinstance(v, str) else number(v)
 
@@ -109,9 +109,9 @@ def plot_sweep_heatmap(
     shown = Z * 100 if percent else Z
     integers = not percent and np.all(np.isnan(shown) | np.isinf(shown) | (shown == np.round(shown)))
     longest = max([len(_tick(x, v)) for v in xs] + [1])
-    fig, ax = _figure_axes(ax, figsize=(max(1.2, 0.09 * longest) * len(xs) + 2.5, 0.9 * len(ys) + 1.8))
+    fig, ax = figure_axes(ax, figsize=(max(1.2, 0.09 * longest) * len(xs) + 2.5, 0.9 * len(ys) + 1.8))
     masked = np.ma.masked_invalid(shown)
-    im = ax.imshow(masked, cmap=_viridis_with_bad().with_extremes(bad="#bdbdbd"), origin="lower", aspect="auto")
+    im = ax.imshow(masked, cmap=viridis_with_bad().with_extremes(bad="#bdbdbd"), origin="lower", aspect="auto")
     fig.colorbar(im, ax=ax, label=f"mean {value}" + (" (%)" if percent else ""), shrink=0.85)
     finite = shown[np.isfinite(shown)]
     middle = np.mean(finite) if finite.size else 0.0
@@ -147,7 +147,7 @@ def plot_sweep_heatmap(
 
 def _box_label(by, key, fails) -> str:
     parts = [
-        (_tick(n, k) if n in _PLANNER_COLUMNS or isinstance(k, str) else f"{n}={_tick(n, k)}") for n, k in zip(by, key)
+        (_tick(n, k) if n in PLANNER_COLUMNS or isinstance(k, str) else f"{n}={_tick(n, k)}") for n, k in zip(by, key)
     ]
     return ", ".join(parts) + (f"\n({fails} failed)" if fails else "")
 
@@ -185,14 +185,14 @@ def plot_sweep_box(
         raise ParamError("plot_sweep_box: the table is empty")
     ranked = sorted(range(len(groups)), key=lambda i: keys[i])
     groups, labels = [groups[i] for i in ranked], [labels[i] for i in ranked]
-    fig, ax = _figure_axes(ax, figsize=(max(5.0, 0.8 * len(groups) + 2.0), 4.5))
+    fig, ax = figure_axes(ax, figsize=(max(5.0, 0.8 * len(groups) + 2.0), 4.5))
     ax.boxplot([g if len(g) else [np.nan] for g in groups])
     ax.set_xticks(range(1, len(groups) + 1), labels)  # (boxplot's own label keyword was renamed in 3.9)
     if optimal is None and value != "gap" and "optimal" in table.columns and table["optimal"].nunique() == 1:
         optimal = float(table["optimal"].iloc[0])
     if optimal is not None:
         ax.axhline(float(optimal), color="black", linestyle="--", linewidth=1.0, label=f"optimum {float(optimal):.4g}")
-        _legend_outside(ax)
+        legend_outside(ax)
     ax.set_ylabel(value + (" (%)" if value == "gap" else ""))
     long = max(len(label.split("\n")[0]) for label in labels)
     ax.tick_params(axis="x", labelrotation=45 if len(groups) > 6 or long > 12 else 0, labelsize="small")
