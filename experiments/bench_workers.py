@@ -56,13 +56,14 @@ def storage_per_batch(storage, batch: int, batches: int) -> float:
     """Median seconds per batch of the storage alone (ask, attributes, tell, takeover scan)."""
     import optuna
 
-    from jaco.research import search as S
+    from jaco.research.search_storage import claim_lock, opened, quiet, storage_target
+    from jaco.research.search_workers import Workers
 
-    obj, path, _ = S._storage(storage)
+    obj, path, _ = storage_target(storage)
     times = []
-    with S._quiet(), S._opened(obj, path) as store:
+    with quiet(), opened(obj, path) as store:
         study = optuna.create_study(storage=store, sampler=optuna.samplers.RandomSampler(seed=0), study_name="b")
-        workers = S._Workers(study, store, S._claim_lock(store, path), 30.0, 90.0)
+        workers = Workers(study, store, claim_lock(store, path), 30.0, 90.0)
         for _ in range(batches):
             t0 = time.perf_counter()
             workers.running(study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.RUNNING,)))

@@ -584,7 +584,7 @@ def test_deeply_nested_record(tmp_path):
     (lambda: jaco.Grid.from_rows([1, 2]), "list of str rows"),
     (lambda: jaco.Grid.from_rows(None), "a str or a list of str rows"),
     (lambda: jaco.solve("demo", (0, 0), (1, 1)), "expected a jaco.Grid, got str"),
-    (lambda: jaco.solve(GRID, (0, 0), (3, 5), variant=["mmas"]), "a planner must be a name (str) or a Planner, got list"),
+    (lambda: jaco.solve(GRID, (0, 0), (3, 5), planner=["mmas"]), "a planner must be a name (str) or a Planner, got list"),
     (lambda: jaco.solve(GRID, (math.inf, 0), (3, 5)), "start must be a (row, col) pair of integers"),
     (lambda: jaco.solve(GRID, (0, 0), (3, 5), alpha="1"), "must be a number"),
     (lambda: jaco.solve(GRID, (0, 0), (3, 5), connectivity="8"), "connectivity must be 4 or 8"),

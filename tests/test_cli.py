@@ -450,7 +450,7 @@ def test_json_writes_each_list_on_one_line(tmp_path, capsys):
 
 
 def test_negative_zero_never_shows():
-    from jaco.cli.commands import _unsigned_zero
+    from jaco.cli.commands.sweep import _unsigned_zero
 
     assert _unsigned_zero(f"{-1e-9:.2f}") == "0.00" and _unsigned_zero(f"{-0.0:.4g}") == "0"
     assert _unsigned_zero("-0.5") == "-0.5" and _unsigned_zero("-10") == "-10"

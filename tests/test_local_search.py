@@ -340,7 +340,7 @@ def test_a_sweep_record_without_a_step_limit_reruns_with_the_default_of_its_form
     seen = []
 
     def spy(**k):  # the sweep each planner would run, without running it
-        seen.append((get_planner(k["variant"]).name, k["steplimit"]))
+        seen.append((get_planner(k["planner"]).name, k["steplimit"]))
         table = then.iloc[:0].copy()
         table.attrs["sweep"] = {}
         return table

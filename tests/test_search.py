@@ -81,7 +81,7 @@ def test_space_forms_and_conditional_parameters():
 def test_a_bad_space_is_one_line_before_anything_compiles(monkeypatch, space, variant, match):
     _no_compile(monkeypatch)
     with pytest.raises(jaco.JacoError, match=match) as e:
-        jaco.search(GRID, *ENDS, space, variant=variant, trials=4, batch=2, **SMALL)
+        jaco.search(GRID, *ENDS, space, planner=variant, trials=4, batch=2, **SMALL)
     assert "\n" not in str(e.value)
 
 
@@ -112,7 +112,7 @@ def test_a_bad_space_is_one_line_before_anything_compiles(monkeypatch, space, va
 def test_bad_search_arguments_are_one_line_before_anything_compiles(monkeypatch, kwargs, match):
     _no_compile(monkeypatch)
     with pytest.raises(jaco.JacoError, match=match):
-        jaco.search(GRID, *ENDS, SPACE, variant="acs", **{**dict(trials=4, batch=2, **SMALL), **kwargs})
+        jaco.search(GRID, *ENDS, SPACE, planner="acs", **{**dict(trials=4, batch=2, **SMALL), **kwargs})
 
 
 def test_evosax_needs_real_ranges_of_one_planner(monkeypatch):
@@ -120,7 +120,7 @@ def test_evosax_needs_real_ranges_of_one_planner(monkeypatch):
     with pytest.raises(SpaceError, match="'variant' is the planner"):
         jaco.search(GRID, *ENDS, {"variant": ["acs", "mmas"], "beta": (1.0, 8.0)}, sampler="evosax:SNES", **SMALL)
     with pytest.raises(SpaceError, match="'n_ants' is not a"):
-        jaco.search(GRID, *ENDS, {"beta": (1.0, 8.0), "n_ants": [4, 8]}, variant="acs", sampler="evosax:SNES", **SMALL)
+        jaco.search(GRID, *ENDS, {"beta": (1.0, 8.0), "n_ants": [4, 8]}, planner="acs", sampler="evosax:SNES", **SMALL)
 
 
 # -- the search ------------------------------------------------------------------------------
@@ -142,7 +142,7 @@ def test_every_trial_equals_solve_with_its_parameters_and_seeds():
 
 
 def test_best_so_far_never_worsens_and_best_params_solve():
-    study = jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=12, batch=4, sampler="tpe", seed=3, **SMALL)
+    study = jaco.search(GRID, *ENDS, SPACE, planner="acs", trials=12, batch=4, sampler="tpe", seed=3, **SMALL)
     h = study.history()
     assert len(h) == 12 and (np.diff(h["best"]) <= 0).all()
     assert h["best"].iloc[-1] == study.best_value == h["value"].min()
@@ -158,7 +158,7 @@ def test_best_so_far_never_worsens_and_best_params_solve():
 
 def test_a_seeded_sampler_proposes_the_same_trials_and_another_seed_others():
     def params(seed):
-        st = jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=8, batch=4, sampler="tpe", seed=seed, **SMALL)
+        st = jaco.search(GRID, *ENDS, SPACE, planner="acs", trials=8, batch=4, sampler="tpe", seed=seed, **SMALL)
         return st.trials[["beta", "rho"]].to_numpy()
 
     a, b, c = params(7), params(7), params(8)
@@ -166,7 +166,7 @@ def test_a_seeded_sampler_proposes_the_same_trials_and_another_seed_others():
 
 
 def test_tpe_batches_are_not_one_point_repeated():
-    study = jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=24, batch=12, sampler="tpe", **SMALL)
+    study = jaco.search(GRID, *ENDS, SPACE, planner="acs", trials=24, batch=12, sampler="tpe", **SMALL)
     second = study.trials[study.trials["generation"] == 1]
     assert second["beta"].nunique() == 12  # the constant liar spreads a batch
 
@@ -177,7 +177,7 @@ def test_a_failed_run_counts_as_the_documented_penalty_never_nan():
         GRID,
         *ENDS,
         SPACE,
-        variant="acs",
+        planner="acs",
         trials=2,
         batch=2,
         steplimit=3,
@@ -192,7 +192,7 @@ def test_a_failed_run_counts_as_the_documented_penalty_never_nan():
     assert np.allclose(t["length_penalised_mean"], worst) and np.allclose(t["gap_penalised_mean"], worst / optimal - 1)
     assert np.allclose(t["turns_penalised_mean"], 3) and t["gap_median"].isna().all()  # over successful runs: none
     given = jaco.search(
-        GRID, *ENDS, SPACE, variant="acs", trials=2, batch=2, steplimit=3, sampler="random", penalty=2.5, **SMALL
+        GRID, *ENDS, SPACE, planner="acs", trials=2, batch=2, steplimit=3, sampler="random", penalty=2.5, **SMALL
     )
     assert (given.trials["gap_penalised_mean"] == 2.5).all()
 
@@ -203,7 +203,7 @@ def test_sizes_in_the_space_and_a_pareto_front_over_gap_and_budget():
         GRID,
         *ENDS,
         {"beta": (1.0, 8.0), "n_ants": [3, 6]},
-        variant="acs",
+        planner="acs",
         trials=8,
         batch=4,
         sampler="nsga2",
@@ -227,7 +227,7 @@ def test_sizes_in_the_space_and_a_pareto_front_over_gap_and_budget():
 
 def test_turns_objective_counts_heading_changes_of_the_best_path():
     study = jaco.search(
-        GRID, *ENDS, SPACE, variant="acs", trials=2, batch=2, sampler="random", objective="turns", **SMALL
+        GRID, *ENDS, SPACE, planner="acs", trials=2, batch=2, sampler="random", objective="turns", **SMALL
     )
     frozen = study.study.trials[0]
     turns = [
@@ -239,7 +239,7 @@ def test_turns_objective_counts_heading_changes_of_the_best_path():
 
 def test_repeated_generations_and_searches_never_recompile():
     jaco.engine.cache.clear_compiled()
-    kw = dict(variant="acs", batch=4, sampler="random", **SMALL)
+    kw = dict(planner="acs", batch=4, sampler="random", **SMALL)
     first = jaco.search(GRID, *ENDS, SPACE, trials=12, **kw)  # 3 generations of 4: one program
     assert first.timings["compiles"] == 1 and first.timings["generations"] == 3
     again = jaco.search(GRID, *ENDS, SPACE, trials=6, **kw)  # 4 + 2 trials: chunks of 4 and 2 (powers of two)
@@ -264,7 +264,7 @@ def _fake_clock(monkeypatch, seconds_per_batch):
 
 def test_the_running_batch_finishes_no_new_one_starts_and_trials_may_come_first(monkeypatch):
     _fake_clock(monkeypatch, 10.0)
-    kw = dict(variant="acs", batch=2, sampler="random", **SMALL)
+    kw = dict(planner="acs", batch=2, sampler="random", **SMALL)
     study = jaco.search(GRID, *ENDS, SPACE, trials=None, timeout=25, **kw)
     # batches end at 10, 20 and 30 s: the third started before the 25 s budget passed and finished
     assert study.timings["generations"] == 3 and len(study.trials) == 6 and set(study.trials["state"]) == {"COMPLETE"}
@@ -279,7 +279,7 @@ def test_a_timeout_lets_the_running_bracket_finish(monkeypatch):
         GRID,
         *ENDS,
         SPACE,
-        variant="acs",
+        planner="acs",
         trials=None,
         timeout=5,
         batch=3,
@@ -299,7 +299,7 @@ def test_a_search_with_only_a_timeout_stops_and_stores_every_batch(tmp_path):
     db = str(tmp_path / "t.db")
     t0 = time.monotonic()
     study = jaco.search(
-        GRID, *ENDS, SPACE, variant="acs", trials=None, timeout=2.0, batch=4, sampler="random", storage=db, **SMALL
+        GRID, *ENDS, SPACE, planner="acs", trials=None, timeout=2.0, batch=4, sampler="random", storage=db, **SMALL
     )
     assert time.monotonic() - t0 >= 2.0  # with trials=None only the timeout stops it
     stored = jaco.load_study(db)
@@ -310,7 +310,7 @@ def test_a_search_with_only_a_timeout_stops_and_stores_every_batch(tmp_path):
 
 def test_a_tiny_timeout_runs_one_batch_and_a_resumed_study_gets_it_afresh(tmp_path):
     db = str(tmp_path / "t.db")
-    kw = dict(variant="acs", trials=None, timeout=1e-3, batch=4, sampler="random", storage=db, **SMALL)
+    kw = dict(planner="acs", trials=None, timeout=1e-3, batch=4, sampler="random", storage=db, **SMALL)
     first = jaco.search(GRID, *ENDS, SPACE, **kw)  # the first batch always runs
     assert first.timings["generations"] == 1 and len(first.trials) == 4
     assert first.stopped == "timeout after 0.001 s: 4 trials finished"
@@ -331,7 +331,7 @@ def test_halving_rungs_promote_the_best_third_and_rerun_at_the_larger_budget():
         GRID,
         *ENDS,
         SPACE,
-        variant="acs",
+        planner="acs",
         trials=9,
         batch=9,
         sampler="random",
@@ -359,7 +359,7 @@ def test_halving_rungs_promote_the_best_third_and_rerun_at_the_larger_budget():
 @pytest.mark.slow  # evosax strategies compile their own programs
 def test_evosax_strategy_searches_and_replays_after_an_interruption(tmp_path, monkeypatch):
     pytest.importorskip("evosax")
-    kw = dict(variant="acs", trials=12, batch=4, sampler="evosax:SNES", **SMALL)
+    kw = dict(planner="acs", trials=12, batch=4, sampler="evosax:SNES", **SMALL)
     whole = jaco.search(GRID, *ENDS, SPACE, **kw).trials[["beta", "rho", "gap_penalised_mean"]]
     assert whole["beta"].between(0.5, 12.0).all() and whole["rho"].between(0.05, 0.6).all()
     db = f"sqlite:///{tmp_path / 'es.db'}"
@@ -407,7 +407,7 @@ def test_tune_estimator_is_evosax_open_es_gradient():
 # -- durable studies -------------------------------------------------------------------------------
 def test_interrupted_batch_resumes_without_loss_or_double_evaluation(tmp_path, monkeypatch):
     db = f"sqlite:///{tmp_path / 's.db'}"
-    kw = dict(variant="acs", trials=8, batch=4, sampler="tpe", storage=db, study_name="t", **SMALL)
+    kw = dict(planner="acs", trials=8, batch=4, sampler="tpe", storage=db, study_name="t", **SMALL)
     real = S.Evaluator.__call__
     state = {"n": 0}
 
@@ -443,12 +443,12 @@ def test_interrupted_batch_resumes_without_loss_or_double_evaluation(tmp_path, m
 
 def test_a_resumed_study_must_be_the_same_search(tmp_path):
     db = str(tmp_path / "s.db")
-    jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=2, batch=2, sampler="random", storage=db, **SMALL)
+    jaco.search(GRID, *ENDS, SPACE, planner="acs", trials=2, batch=2, sampler="random", storage=db, **SMALL)
     with pytest.raises(S.SearchError, match="differs in: space"):
         jaco.search(
-            GRID, *ENDS, {"beta": (1.0, 3.0)}, variant="acs", trials=2, batch=2, sampler="random", storage=db, **SMALL
+            GRID, *ENDS, {"beta": (1.0, 3.0)}, planner="acs", trials=2, batch=2, sampler="random", storage=db, **SMALL
         )
-    more = jaco.search(GRID, *ENDS, SPACE, variant="acs", trials=4, batch=2, sampler="random", storage=db, **SMALL)
+    more = jaco.search(GRID, *ENDS, SPACE, planner="acs", trials=4, batch=2, sampler="random", storage=db, **SMALL)
     assert len(more.trials) == 4  # more trials extend the study
 
 
@@ -477,7 +477,7 @@ def test_a_stored_trial_reruns_to_its_stored_value(tmp_path):
 KILLED = textwrap.dedent("""
     import sys, jaco
     grid = jaco.Grid.from_rows({rows!r})
-    jaco.search(grid, {start}, {goal}, {space!r}, variant="acs", trials=60, batch=4, seeds=2, n_ants=6, n_iters=40,
+    jaco.search(grid, {start}, {goal}, {space!r}, planner="acs", trials=60, batch=4, seeds=2, n_ants=6, n_iters=40,
                 sampler="tpe", storage=sys.argv[1], progress=False)
 """)
 
@@ -499,7 +499,7 @@ def test_resume_after_sigkill_loses_nothing_and_duplicates_nothing(tmp_path, kil
         GRID,
         *ENDS,
         SPACE,
-        variant="acs",
+        planner="acs",
         trials=60,
         batch=4,
         seeds=2,

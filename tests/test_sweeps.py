@@ -18,7 +18,9 @@ import pytest
 import jaco
 from jaco.engine.run import TRACES
 from jaco.research import designs
-from jaco.research.sweeps import _config_table, _fit, bytes_per_run
+from jaco.research.chunks import fit_chunk
+from jaco.research.sweep_setup import config_table
+from jaco.research.sweeps import bytes_per_run
 
 ROOT = Path(__file__).resolve().parents[1]
 GRID = jaco.maps.random_map(12, 0.2, seed=3)
@@ -110,7 +112,7 @@ def test_sweep_checks_a_design_against_the_variant_before_compiling():
         jaco.sweep(GRID, *ENDS, "as", params=designs.grid(q0=[0.5]), seeds=1, **TINY)
     # relations hold row by row: every row of this design has tau_min < tau_max ...
     rows = designs.table({"tau_min": [0.5, 0.01], "tau_max": [1.0, 0.2]})
-    values, _ = _config_table(jaco.PLANNERS["idaca"], rows)
+    values, _ = config_table(jaco.PLANNERS["idaca"], rows)
     assert values["tau_min"].tolist() == [0.5, 0.01]
     # ... and one bad row is named
     bad = designs.table({"tau_min": [0.01, 0.5], "tau_max": [1.0, 0.2]})
@@ -164,9 +166,9 @@ def test_a_low_first_guess_is_corrected_by_the_compiled_memory_analysis(referenc
 
 
 def test_fit_balances_the_chunks():
-    assert _fit(budget=1000, fixed=0, per=100.0, rows_per_device=25) == 9  # 3 chunks of 9, not 10+10+5
-    assert _fit(budget=10, fixed=0, per=100.0, rows_per_device=25) == 1  # below one configuration: 1
-    assert _fit(budget=10**9, fixed=0, per=100.0, rows_per_device=25) == 25
+    assert fit_chunk(budget=1000, fixed=0, per=100.0, rows_per_device=25) == 9  # 3 chunks of 9, not 10+10+5
+    assert fit_chunk(budget=10, fixed=0, per=100.0, rows_per_device=25) == 1  # below one configuration: 1
+    assert fit_chunk(budget=10**9, fixed=0, per=100.0, rows_per_device=25) == 25
 
 
 def test_estimate_is_honest_for_single_and_double_colonies(reference):

@@ -91,9 +91,9 @@ def test_failed_runs_count_as_the_penalty():
     "kwargs, error, match",
     [
         (dict(tune=("alpha", "gamma_x")), jaco.ParamError, "unknown parameter 'gamma_x'"),
-        (dict(variant="iaca", tune=("tau_min",)), jaco.ParamError, "cannot be tuned.*tau_min < tau_max"),
+        (dict(planner="iaca", tune=("tau_min",)), jaco.ParamError, "cannot be tuned.*tau_min < tau_max"),
         (dict(tune=("q0",)), jaco.ParamError, "does not use parameter 'q0'"),
-        (dict(variant="idaca", tune=("alpha",)), jaco.ParamError, "does not use parameter 'alpha'"),
+        (dict(planner="idaca", tune=("alpha",)), jaco.ParamError, "does not use parameter 'alpha'"),
         (dict(tune=()), jaco.ParamError, "at least one"),
         (dict(tune=("beta", "beta")), jaco.ParamError, "named twice"),
         (dict(population=5), jaco.JacoError, "population must be an even integer"),
@@ -111,11 +111,11 @@ def test_failed_runs_count_as_the_penalty():
 )
 def test_bad_input_is_a_clear_error_before_compiling(kwargs, error, match):
     grid = jaco.Grid.from_rows(["....", ".##.", "...."])
-    kwargs = {"variant": "as", **kwargs}
-    variant = kwargs.pop("variant")
+    kwargs = {"planner": "as", **kwargs}
+    planner = kwargs.pop("planner")
     before = dict(TRACES)
     with pytest.raises(error, match=match):
-        jaco.tune(grid, (0, 0), (2, 3), variant, **kwargs)
+        jaco.tune(grid, (0, 0), (2, 3), planner, **kwargs)
     assert dict(TRACES) == before
 
 

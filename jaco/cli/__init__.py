@@ -20,8 +20,8 @@ import time
 
 _IMPORTED = [time.perf_counter()]  # before jax and the rest are imported: the reported time counts start-up
 
-from .args import UsageError, _one_line  # noqa: E402
-from .parser import _join_negative_xy, build_parser  # noqa: E402
+from .args import UsageError, one_line  # noqa: E402
+from .parser import build_parser, join_negative_xy  # noqa: E402
 
 __all__ = ["main", "entry", "build_parser"]
 
@@ -85,7 +85,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _main(argv, JacoError) -> int:
-    argv = _join_negative_xy(argv)
+    argv = join_negative_xy(argv)
     debug = "--debug" in argv[: argv.index("--") if "--" in argv else None]
     args = None
     try:
@@ -101,16 +101,16 @@ def _main(argv, JacoError) -> int:
             native.set_walk(args.walk)
         return args.func(args)
     except (UsageError, JacoError) as e:
-        print(f"jaco: error: {_one_line(e)}", file=sys.stderr)
+        print(f"jaco: error: {one_line(e)}", file=sys.stderr)
         return USER_ERROR
     except BrokenPipeError:  # the reader left (`jaco planners | head -3`): stop quietly, as cat does
-        from .commands import _quiet_stdout
+        from .output_flags import quiet_stdout
 
-        _quiet_stdout()
+        quiet_stdout()
         return BROKEN_PIPE
     except OSError as e:
         text = f"{e.filename}: {e.strerror}" if e.strerror and e.filename else str(e)
-        print(f"jaco: error: {_one_line(text)}", file=sys.stderr)
+        print(f"jaco: error: {one_line(text)}", file=sys.stderr)
         return USER_ERROR
     except KeyboardInterrupt:
         print(_stopped("interrupted", args), file=sys.stderr)
@@ -125,7 +125,7 @@ def _main(argv, JacoError) -> int:
             traceback.print_exc()
         else:
             print(
-                f"jaco: internal error: {type(e).__name__}: {_one_line(e)[:500]} (this is a bug in jaco: "
+                f"jaco: internal error: {type(e).__name__}: {one_line(e)[:500]} (this is a bug in jaco: "
                 "please report it with the command line; 'jaco --debug ...' prints the traceback)",
                 file=sys.stderr,
             )

@@ -10,7 +10,7 @@ class UsageError(Exception):
     """A command-line mistake: reported as one ``jaco: error: ...`` line, exit code 2."""
 
 
-class _Parser(argparse.ArgumentParser):
+class RaisingParser(argparse.ArgumentParser):
     """ArgumentParser whose errors raise :class:`UsageError` instead of printing usage and
     exiting, so that :func:`main` reports every mistake the same way and returns 2."""
 
@@ -19,7 +19,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 # -- argument types -------------------------------------------------------------------------------
-def _cell(text: str) -> tuple[int, int]:
+def parse_cell(text: str) -> tuple[int, int]:
     """``"R,C"`` -> ``(R, C)``."""
     parts = text.replace(" ", "").split(",")
     try:
@@ -30,7 +30,7 @@ def _cell(text: str) -> tuple[int, int]:
         raise argparse.ArgumentTypeError(f"expected a cell as ROW,COL (two integers, e.g. 3,7), got {text!r}") from None
 
 
-def _xy(text: str) -> tuple[float, float]:
+def parse_world_point(text: str) -> tuple[float, float]:
     """``"X,Y"`` (metres) -> ``(X, Y)``; finite numbers only."""
     parts = text.replace(" ", "").split(",")
     try:
@@ -46,7 +46,7 @@ def _xy(text: str) -> tuple[float, float]:
         ) from None
 
 
-def _int_at_least(low: int, what: str):
+def int_at_least(low: int, what: str):
     """An argparse type: an integer >= ``low``, with one clear message for both mistakes."""
 
     def parse(text: str) -> int:
@@ -61,8 +61,8 @@ def _int_at_least(low: int, what: str):
     return parse
 
 
-_nonneg_int = _int_at_least(0, "an integer >= 0")
-_pos_int = _int_at_least(1, "a positive integer")
+parse_nonnegative_int = int_at_least(0, "an integer >= 0")
+parse_positive_int = int_at_least(1, "a positive integer")
 
 
 def _bounds(text: str, what: str, cast):
@@ -86,17 +86,17 @@ def _bounds(text: str, what: str, cast):
     return lo, hi
 
 
-def _bucket(text: str):
+def parse_bucket(text: str):
     """``--bucket 80:`` -> ``(80, None)``: a bucket or an inclusive range of buckets."""
     return _bounds(text, "a bucket (an integer)", int)
 
 
-def _length(text: str):
+def parse_optimal_range(text: str):
     """``--optimal 300:400``: an inclusive range of optimal lengths."""
     return _bounds(text, "an optimal length", float)
 
 
-def _indices(text: str):
+def parse_indices(text: str):
     """``--index 3``, ``3,7,9``, ``10:19`` (inclusive) or ``800:`` (to the end): a list of
     ``(lo, hi)`` ranges of scenario positions, hi None for the end of the file."""
     out = []
@@ -110,22 +110,33 @@ def _indices(text: str):
     return out
 
 
-def _seed(text: str) -> int:
+def parse_seed(text: str) -> int:
     """A seed: an integer in [0, 2**32) (jax keys take 32 bits; a larger seed is not wrapped)."""
-    v = _nonneg_int(text)
+    v = parse_nonnegative_int(text)
     if v >= 2**32:
         raise argparse.ArgumentTypeError(f"expected a seed in [0, 2**32), got {text!r}")
     return v
 
 
-def _float(name: str, text: str) -> float:
+def parse_seconds(text: str) -> float:
+    """``--timeout``, ``--grace-period`` ...: a positive finite number of seconds."""
+    try:
+        v = float(text)
+    except ValueError:
+        v = math.nan
+    if not 0 < v < math.inf:
+        raise argparse.ArgumentTypeError(f"expected a positive finite number of seconds, got {text!r}")
+    return v
+
+
+def parse_param_number(name: str, text: str) -> float:
     try:
         return float(text)
     except ValueError:
         raise UsageError(f"--param {name}: {text!r} is not a number") from None
 
 
-def _split_params(items) -> list[tuple[str, str]]:
+def split_params(items) -> list[tuple[str, str]]:
     """``["alpha=1", ...]`` -> ``[("alpha", "1"), ...]``; duplicates and missing '=' rejected."""
     out, seen = [], set()
     for item in items or ():
@@ -143,13 +154,13 @@ def _split_params(items) -> list[tuple[str, str]]:
 def parse_params(items: list[str] | None) -> dict[str, float]:
     """``--param NAME=VALUE`` for one run: one float per name."""
     out = {}
-    for name, value in _split_params(items):
+    for name, value in split_params(items):
         if any(ch in value for ch in ",:"):
             raise UsageError(
                 f"--param {name}={value}: solve takes one value per parameter "
                 "(lists a,b,c and ranges a:b:n are for 'jaco sweep')"
             )
-        out[name] = _float(name, value)
+        out[name] = parse_param_number(name, value)
     return out
 
 
@@ -161,7 +172,7 @@ def parse_axis(name: str, value: str) -> list[float]:
         parts = value.split(":")
         if len(parts) != 3:
             raise UsageError(f"--param {name}={value}: a range is START:STOP:COUNT, e.g. 0.5:3:6")
-        a, b = _float(name, parts[0]), _float(name, parts[1])
+        a, b = parse_param_number(name, parts[0]), parse_param_number(name, parts[1])
         try:
             n = int(parts[2])
         except ValueError:
@@ -173,13 +184,15 @@ def parse_axis(name: str, value: str) -> list[float]:
         check_memory(CONFIG_BYTES * n, f"--param {name}={value} ({n} configurations)", "use fewer values")
         return [float(x) for x in np.linspace(a, b, n)]
     if "," in value:
-        return [_float(name, v) for v in value.split(",") if v.strip() != ""] or [_float(name, value)]
-    return [_float(name, value)]
+        return [parse_param_number(name, v) for v in value.split(",") if v.strip() != ""] or [
+            parse_param_number(name, value)
+        ]
+    return [parse_param_number(name, value)]
 
 
 def parse_sweep_params(items: list[str] | None) -> dict[str, list[float]]:
-    return {name: parse_axis(name, value) for name, value in _split_params(items)}
+    return {name: parse_axis(name, value) for name, value in split_params(items)}
 
 
-def _one_line(text: object) -> str:
+def one_line(text: object) -> str:
     return " ".join(str(text).split())

@@ -1,118 +1,61 @@
-"""The argument parser of ``jaco``: one sub-command per :mod:`jaco.cli.commands` function."""
+"""The argument parser of ``jaco``: one function per sub-command (``_add_solve`` ...); the options
+that several commands share are :mod:`jaco.cli.options`, one helper each."""
 
 from __future__ import annotations
 
 import argparse
 import sys
 
-from .args import _bucket, _cell, _indices, _int_at_least, _length, _nonneg_int, _Parser, _pos_int, _seed, _xy
+from .args import (
+    RaisingParser,
+    int_at_least,
+    parse_cell,
+    parse_nonnegative_int,
+    parse_positive_int,
+    parse_seconds,
+)
 from .commands import cmd_compare, cmd_demo, cmd_info, cmd_maps, cmd_planners, cmd_solve, cmd_sweep
-from .search import _seconds, cmd_rerun, cmd_search
+from .options import (
+    add_map_argument,
+    add_param_option,
+    add_plot_options,
+    add_query_options,
+    add_run_options,
+    add_seed_option,
+    add_seeds_option,
+)
+from .search import cmd_rerun, cmd_search
 
 DEMO_PLANNER = "mmas"  # on the demo map MMAS comes closer to the optimum than ACS (see --help)
-DEFAULT_ANTS = 50
-DEFAULT_ITERS = 100
-
-
-def _planner_names() -> str:
-    from ..planners.registry import PLANNERS
-
-    return ", ".join(PLANNERS)
-
-
-def _add_run_options(p, *, default_planner: str, steplimit: bool = True, several: bool = False) -> None:
-    if several:  # a sweep may run several planners, a categorical axis of the table
-        p.add_argument(
-            "--planner",
-            "--variant",
-            dest="planner",
-            action="append",
-            metavar="P",
-            help=f"ACO planner (--variant: its former name), repeatable to sweep over planners (default {default_planner}; "
-            f"one of: {_planner_names()}, or a composition 'compose(construct=..., rule=...)'; "
-            "'<name>+shortcut' adds local search)",
-        )
-        p.set_defaults(default_planner=default_planner)
-    else:
-        p.add_argument(
-            "--planner",
-            "--variant",
-            dest="planner",
-            default=default_planner,
-            metavar="P",
-            help=f"ACO planner (--variant: its former name; default {default_planner}; one of: {_planner_names()}; "
-            "'<name>+shortcut' adds local search)",
-        )
-    p.add_argument(
-        "--ants", type=_pos_int, default=DEFAULT_ANTS, metavar="N", help=f"ants per iteration (default {DEFAULT_ANTS})"
-    )
-    p.add_argument(
-        "--iters", type=_pos_int, default=DEFAULT_ITERS, metavar="N", help=f"iterations (default {DEFAULT_ITERS})"
-    )
-    if steplimit:
-        p.add_argument(
-            "--steplimit",
-            type=_pos_int,
-            default=None,
-            metavar="N",
-            help="most steps an ant may take (default 4*(H+W), at most the free cells; "
-            "for backtracking ants 8*max(H+W, the free cells' extent), at most twice the free cells)",
-        )
-
-
-def _add_query_options(p) -> None:
-    q = p.add_argument_group("start and goal (default: the named map's own)")
-    q.add_argument("--start", type=_cell, metavar="R,C", help="start cell as ROW,COL")
-    q.add_argument("--goal", type=_cell, metavar="R,C", help="goal cell as ROW,COL")
-    q.add_argument(
-        "--start-xy",
-        type=_xy,
-        metavar="X,Y",
-        help="start as a world point in metres (ROS maps: from the yaml's resolution and "
-        "origin), e.g. --start-xy -9.5,-9.5",
-    )
-    q.add_argument("--goal-xy", type=_xy, metavar="X,Y", help="goal as a world point in metres (ROS maps)")
-    q.add_argument(
-        "--scen",
-        metavar="FILE",
-        help="MovingAI .scen file (a path, or a bundled file's bare name): take start/goal from it",
-    )
-    q.add_argument(
-        "--index",
-        type=_indices,
-        action="append",
-        metavar="K",
-        help="scenario of --scen by position: K, K,L,M or LO:HI (both ends included), repeatable "
-        "(default 0 when no other selection is given)",
-    )
-    q.add_argument(
-        "--bucket",
-        type=_bucket,
-        metavar="B",
-        help="scenarios of --scen in bucket B, or LO:HI, LO: or :HI (both ends included), e.g. --bucket 80:",
-    )
-    q.add_argument(
-        "--optimal",
-        type=_length,
-        metavar="LO:HI",
-        help="scenarios of --scen whose optimal length is in LO:HI (LO: or :HI for an open end)",
-    )
-    q.add_argument(
-        "--count",
-        type=_pos_int,
-        metavar="N",
-        help="of the scenarios selected, N spread evenly over their optimal lengths",
-    )
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(
+    parser = _global_parser()
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for add in (
+        _add_demo,
+        _add_solve,
+        _add_sweep,
+        _add_search,
+        _add_compare,
+        _add_rerun,
+        _add_planners,
+        _add_maps,
+        _add_info,
+    ):
+        add(sub)
+    return parser
+
+
+def _global_parser() -> argparse.ArgumentParser:
+    """The parser with the options that come before the command."""
+    from .. import __version__
+
+    parser = RaisingParser(
         prog="jaco",
         description="Ant colony optimisation path planners on occupancy grids (JAX).",
         epilog="Run 'jaco COMMAND --help' for the options of a command.",
     )
-    from .. import __version__
-
     parser.add_argument("--version", action="version", version=f"jaco {__version__}")
     parser.add_argument(
         "--walk",
@@ -126,8 +69,10 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="on an internal error (exit code 3), print the traceback instead of one line",
     )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    return parser
 
+
+def _add_demo(sub) -> None:
     p = sub.add_parser(
         "demo",
         help="plan on the embedded demo map and plot the result",
@@ -135,54 +80,42 @@ def build_parser() -> argparse.ArgumentParser:
         f"and write a PNG of both paths. The default planner is {DEMO_PLANNER}: over 32 seeds it "
         "reached a 5.1% mean gap on this map, ACS 5.9%.",
     )
-    _add_run_options(p, default_planner=DEMO_PLANNER, steplimit=False)
-    p.add_argument("--seed", type=_seed, default=0, metavar="S", help="random seed (default 0)")
+    add_run_options(p, default_planner=DEMO_PLANNER, steplimit=False)
+    add_seed_option(p)
     p.add_argument("--out", default="demo.png", metavar="PNG", help="figure to write (default demo.png)")
     p.set_defaults(func=cmd_demo)
 
+
+def _add_solve(sub) -> None:
     p = sub.add_parser(
         "solve",
         help="plan one path on a map",
         description="Plan one path with one ACO planner and report it beside the exact optimum. "
         "When no ant reaches the goal it prints a hint of what usually helps and exits with 4.",
     )
-    p.add_argument(
-        "map",
-        metavar="MAP",
-        help="map file (.map .yaml .txt .npy .png .pgm ...), named map or a bundled file's bare name; see 'jaco maps'",
+    add_map_argument(
+        p, "map file (.map .yaml .txt .npy .png .pgm ...), named map or a bundled file's bare name; see 'jaco maps'"
     )
-    _add_query_options(p)
+    add_query_options(p)
     p.add_argument(
         "--waypoint",
         action="append",
-        type=_cell,
+        type=parse_cell,
         metavar="R,C",
         help="visit this cell on the way to the goal (repeatable, visited in the order given)",
     )
-    _add_run_options(p, default_planner="mmas")
-    p.add_argument("--seed", type=_seed, default=0, metavar="S", help="random seed (default 0)")
-    p.add_argument(
-        "--param",
-        action="append",
-        metavar="NAME=VALUE",
-        help="set a hyperparameter (repeatable), e.g. --param alpha=1.5 --param rho=0.2",
-    )
+    add_run_options(p, default_planner="mmas")
+    add_seed_option(p)
+    add_param_option(p, "NAME=VALUE", "set a hyperparameter (repeatable), e.g. --param alpha=1.5 --param rho=0.2")
     p.add_argument(
         "--json",
         metavar="OUT",
         help="write the result and its path metrics as JSON ('-': standard output, the summary then goes to stderr)",
     )
-    p.add_argument(
-        "--plot",
-        metavar="FILE",
-        help="write a figure of the map, the ACO path and the exact path "
-        "in the format its suffix names (.png, .svg, .pdf ...)",
-    )
-    p.add_argument(
-        "--plot-format",
-        metavar="FMT",
-        help="the figure format (png, svg, pdf ...) when --plot's name has none: '-' (standard output), "
-        "a device or a FIFO",
+    add_plot_options(
+        p,
+        "write a figure of the map, the ACO path and the exact path in the format its suffix names (.png, .svg, .pdf ...)",
+        "the figure format (png, svg, pdf ...) when --plot's name has none: '-' (standard output), a device or a FIFO",
     )
     p.add_argument(
         "--path-csv",
@@ -196,6 +129,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=cmd_solve)
 
+
+def _add_sweep(sub) -> None:
     p = sub.add_parser(
         "sweep",
         help="hyperparameter sweep: configurations x seeds in one compiled call",
@@ -206,21 +141,28 @@ def build_parser() -> argparse.ArgumentParser:
         "--param rho=0.1,0.3 --seeds 8 --csv sweep.csv; several planners: --planner mmas --planner acs "
         "(every --param must belong to every planner).",
     )
-    p.add_argument("map", metavar="MAP", help="map file, named map or a bundled file's bare name; see 'jaco maps'")
-    _add_query_options(p)
-    _add_run_options(p, default_planner="mmas", several=True)
-    p.add_argument(
-        "--param",
-        action="append",
-        metavar="NAME=VALUES",
-        help="a sweep axis (repeatable): NAME=a:b:n, NAME=a,b,c or NAME=x",
-    )
-    p.add_argument("--seeds", type=_pos_int, default=4, metavar="N", help="seeds 0..N-1 per configuration (default 4)")
+    add_map_argument(p)
+    add_query_options(p)
+    add_run_options(p, default_planner="mmas", several=True)
+    add_param_option(p, "NAME=VALUES", "a sweep axis (repeatable): NAME=a:b:n, NAME=a,b,c or NAME=x")
+    add_seeds_option(p, "N", "configuration")
     p.add_argument(
         "--csv",
         metavar="OUT",
         help="write the tidy table (one row per run) as CSV ('-': standard output, the summary then goes to stderr)",
     )
+    _add_sweep_store_options(p)
+    p.add_argument(
+        "--record",
+        metavar="OUT.csv",
+        help="write the table as CSV plus a JSON sidecar (OUT.json: arguments, maps, "
+        "versions) that 'jaco rerun' reproduces",
+    )
+    p.set_defaults(func=cmd_sweep)
+
+
+def _add_sweep_store_options(p) -> None:
+    """Where a sweep keeps its finished chunks, and how it cuts them."""
     p.add_argument(
         "--store",
         metavar="FILE.db",
@@ -230,7 +172,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--grace-period",
-        type=_seconds,
+        type=parse_seconds,
         default=None,
         metavar="S",
         help="with --store: a process's claim on a chunk expires after S seconds without its heartbeat, "
@@ -238,20 +180,15 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--chunk",
-        type=_pos_int,
+        type=parse_positive_int,
         default=None,
         metavar="N",
         help="at most N runs (configurations x seeds) per compiled call (default: as many as fit; "
         "with --store about a tenth of the sweep)",
     )
-    p.add_argument(
-        "--record",
-        metavar="OUT.csv",
-        help="write the table as CSV plus a JSON sidecar (OUT.json: arguments, maps, "
-        "versions) that 'jaco rerun' reproduces",
-    )
-    p.set_defaults(func=cmd_sweep)
 
+
+def _add_search(sub) -> None:
     p = sub.add_parser(
         "search",
         help="adaptive batched search over planners and parameters (Optuna / evosax samplers)",
@@ -264,50 +201,61 @@ def build_parser() -> argparse.ArgumentParser:
         "--planner acs --param beta=1:20:log --param rho=0.01:0.5 --trials 256 --batch 64 --seeds 4 --sampler tpe "
         "--storage sqlite:///study.db",
     )
-    p.add_argument("map", metavar="MAP", help="map file, named map or a bundled file's bare name; see 'jaco maps'")
-    _add_query_options(p)
-    _add_run_options(p, default_planner="mmas", several=True)
-    p.add_argument(
-        "--param",
-        action="append",
-        metavar="NAME=RANGE",
-        help="a search dimension (repeatable): NAME=LOW:HIGH[:log][:int], NAME=a,b,c or NAME=x; "
+    add_map_argument(p)
+    add_query_options(p)
+    add_run_options(p, default_planner="mmas", several=True)
+    add_param_option(
+        p,
+        "NAME=RANGE",
+        "a search dimension (repeatable): NAME=LOW:HIGH[:log][:int], NAME=a,b,c or NAME=x; "
         "n_ants and n_iters may be searched too",
     )
+    _add_search_budget_options(p)
+    _add_search_fidelity_options(p)
+    _add_search_storage_options(p)
+    _add_search_output_options(p)
+    p.set_defaults(func=cmd_search)
+
+
+def _add_search_budget_options(p) -> None:
+    """How many trials, how long, in batches of how many, and how each is sampled and scored."""
     p.add_argument(
         "--trials",
-        type=_pos_int,
+        type=parse_positive_int,
         metavar="N",
         help="finished trials to reach (default 128; with --timeout and no --trials: until the timeout)",
     )
     p.add_argument(
         "--timeout",
-        type=_seconds,
+        type=parse_seconds,
         metavar="SECONDS",
         help="wall-time budget of this command: no new batch starts after it, the running one finishes and is "
         "stored (the first batch always runs); with --trials, whichever comes first",
     )
     p.add_argument(
         "--batch",
-        type=_pos_int,
+        type=parse_positive_int,
         default=32,
         metavar="B",
         help="trials per generation, evaluated as one compiled call (default 32)",
     )
-    p.add_argument("--seeds", type=_pos_int, default=4, metavar="S", help="seeds 0..S-1 per trial (default 4)")
+    add_seeds_option(p, "S", "trial")
     p.add_argument(
         "--sampler",
         default="tpe",
         metavar="NAME",
         help="tpe (default), cmaes, random, qmc, grid, gp, nsga2, or evosax:NAME (e.g. evosax:SNES)",
     )
-    p.add_argument("--seed", type=_seed, default=0, metavar="S", help="the sampler's seed (default 0)")
+    add_seed_option(p, "the sampler's seed (default 0)")
     p.add_argument(
         "--objective",
         action="append",
         choices=("gap", "length", "turns", "success", "budget"),
         help="what to optimise (default gap; repeat for a Pareto front, e.g. --objective gap --objective turns)",
     )
+
+
+def _add_search_fidelity_options(p) -> None:
     fid = p.add_argument_group("multi-fidelity over the iterations (--iters is the largest budget)")
     fid.add_argument(
         "--halving",
@@ -320,11 +268,19 @@ def build_parser() -> argparse.ArgumentParser:
         help="Hyperband: brackets of successive halving that start at each budget in turn",
     )
     fid.add_argument(
-        "--eta", type=_int_at_least(2, "an integer >= 2"), default=3, metavar="ETA", help="promotion ratio (default 3)"
+        "--eta", type=int_at_least(2, "an integer >= 2"), default=3, metavar="ETA", help="promotion ratio (default 3)"
     )
     fid.add_argument(
-        "--min-iters", type=_pos_int, default=None, metavar="N", help="smallest budget (default --iters / eta^2)"
+        "--min-iters",
+        type=parse_positive_int,
+        default=None,
+        metavar="N",
+        help="smallest budget (default --iters / eta^2)",
     )
+
+
+def _add_search_storage_options(p) -> None:
+    """Where the study lives, and the workers that share it."""
     p.add_argument(
         "--storage",
         metavar="URL",
@@ -336,7 +292,7 @@ def build_parser() -> argparse.ArgumentParser:
     work = p.add_argument_group("several workers on one study (needs --storage)")
     work.add_argument(
         "--workers",
-        type=_pos_int,
+        type=parse_positive_int,
         default=1,
         metavar="N",
         help="start N local worker processes on the study, each on its share of the cores; one progress "
@@ -344,7 +300,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     work.add_argument(
         "--worker",
-        type=_nonneg_int,
+        type=parse_nonnegative_int,
         default=0,
         metavar="I",
         help="this process's worker index when several run the study (one per host or job-array task): its "
@@ -352,32 +308,32 @@ def build_parser() -> argparse.ArgumentParser:
     )
     work.add_argument(
         "--heartbeat-interval",
-        type=_seconds,
+        type=parse_seconds,
         default=30.0,
         metavar="SECONDS",
         help="a worker's heartbeat into the storage (default 30)",
     )
     work.add_argument(
         "--grace-period",
-        type=_seconds,
+        type=parse_seconds,
         default=None,
         metavar="SECONDS",
         help="a RUNNING trial whose worker's heartbeat is older is taken over by another worker "
         "(default 3 heartbeat intervals)",
     )
-    p.add_argument("--top", type=_pos_int, default=10, metavar="N", help="trials in the summary table (default 10)")
-    p.add_argument("--csv", metavar="OUT", help="write the trials table (one row per trial) as CSV")
+
+
+def _add_search_output_options(p) -> None:
     p.add_argument(
-        "--plot",
-        metavar="FILE",
-        help="write the optimisation history (best so far against trials, on a log axis: a failed run's "
+        "--top", type=parse_positive_int, default=10, metavar="N", help="trials in the summary table (default 10)"
+    )
+    p.add_argument("--csv", metavar="OUT", help="write the trials table (one row per trial) as CSV")
+    add_plot_options(
+        p,
+        "write the optimisation history (best so far against trials, on a log axis: a failed run's "
         "penalty is far above the gaps of the successful trials, which a linear axis would flatten; "
         "with two objectives the Pareto front) in the format its suffix names",
-    )
-    p.add_argument(
-        "--plot-format",
-        metavar="FMT",
-        help="the --plot format (png, svg, pdf ...) when FILE has no suffix: '-', a device or a pipe",
+        "the --plot format (png, svg, pdf ...) when FILE has no suffix: '-', a device or a pipe",
     )
     p.add_argument(
         "--linear",
@@ -385,8 +341,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="draw the --plot history on a linear axis instead of the default log axis "
         "(symlog, linear near 0, when a value is 0)",
     )
-    p.set_defaults(func=cmd_search)
 
+
+def _add_compare(sub) -> None:
     p = sub.add_parser(
         "compare",
         help="paired statistics on a saved results table: which planner is better, and how sure",
@@ -421,6 +378,14 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="NAME=VALUE",
         help="keep only the rows where a column has this value (repeatable), e.g. --where beta=16",
     )
+    _add_compare_statistics_options(p)
+    p.add_argument("--cd", metavar="FILE", help="write the critical-difference diagram (.png, .svg, .pdf ...)")
+    p.add_argument("--profile", metavar="FILE", help="write the performance profile (Dolan & More 2002)")
+    p.set_defaults(func=cmd_compare)
+
+
+def _add_compare_statistics_options(p) -> None:
+    """The blocks, levels and bootstrap of the comparison."""
     p.add_argument(
         "--blocks",
         choices=("run", "query"),
@@ -436,12 +401,13 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="C",
         help="confidence of the bootstrap interval of the median (default 0.95)",
     )
-    p.add_argument("--boot", type=_pos_int, default=2000, metavar="N", help="bootstrap resamples (default 2000)")
-    p.add_argument("--seed", type=_seed, default=0, metavar="S", help="seed of the bootstrap (default 0)")
-    p.add_argument("--cd", metavar="FILE", help="write the critical-difference diagram (.png, .svg, .pdf ...)")
-    p.add_argument("--profile", metavar="FILE", help="write the performance profile (Dolan & More 2002)")
-    p.set_defaults(func=cmd_compare)
+    p.add_argument(
+        "--boot", type=parse_positive_int, default=2000, metavar="N", help="bootstrap resamples (default 2000)"
+    )
+    add_seed_option(p, "seed of the bootstrap (default 0)")
 
+
+def _add_rerun(sub) -> None:
     p = sub.add_parser(
         "rerun",
         help="rerun a run or sweep record and check it bit for bit",
@@ -456,10 +422,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="run record .json, or a sweep's .csv or .json sidecar, or a "
         "search's storage (sqlite:///study.db, a .db or .journal path) with --trial",
     )
-    p.add_argument("--trial", type=_nonneg_int, metavar="N", help="rerun trial N of a stored search study")
+    p.add_argument("--trial", type=parse_nonnegative_int, metavar="N", help="rerun trial N of a stored search study")
     p.add_argument("--study", metavar="NAME", help="the study's name (when the storage holds several)")
     p.set_defaults(func=cmd_rerun)
 
+
+def _add_planners(sub) -> None:
     p = sub.add_parser(
         "planners",
         aliases=["variants"],
@@ -470,6 +438,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-v", "--verbose", action="store_true", help="also print each planner's description")
     p.set_defaults(func=cmd_planners)
 
+
+def _add_maps(sub) -> None:
     p = sub.add_parser(
         "maps",
         help="list the named maps and bundled map files",
@@ -477,6 +447,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=cmd_maps)
 
+
+def _add_info(sub) -> None:
     p = sub.add_parser(
         "info",
         help="versions, devices and the active ant walk",
@@ -484,10 +456,9 @@ def build_parser() -> argparse.ArgumentParser:
         "walk runs: the native C++ kernel or the JAX walk (and why).",
     )
     p.set_defaults(func=cmd_info)
-    return parser
 
 
-def _join_negative_xy(argv):
+def join_negative_xy(argv):
     """``--start-xy -9,-9`` -> ``--start-xy=-9,-9``: argparse would read ``-9,-9`` as an option,
     and ROS maps often have a negative origin."""
     import re

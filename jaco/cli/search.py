@@ -8,20 +8,9 @@ import math
 import time
 from typing import Any
 
-from .args import UsageError, _float, _split_params
-
-NO_PATH = 4  # as solve: no trial reached the goal
-
-
-def _seconds(text: str) -> float:
-    """``--timeout``: a positive finite number of seconds."""
-    try:
-        v = float(text)
-    except ValueError:
-        v = math.nan
-    if not 0 < v < math.inf:
-        raise argparse.ArgumentTypeError(f"expected a positive finite number of seconds, got {text!r}")
-    return v
+from .args import UsageError, parse_param_number, split_params
+from .commands.run import NO_PATH  # as solve: no trial reached the goal
+from .output_flags import check_outputs, handles_outputs
 
 
 def parse_dimension(name: str, value: str) -> Any:
@@ -33,18 +22,18 @@ def parse_dimension(name: str, value: str) -> Any:
         if len(parts) < 2 or set(tags) - {"log", "int"} or len(set(tags)) != len(tags):
             hint = " (START:STOP:COUNT is the sweep's form)" if len(parts) == 3 and parts[2].isdigit() else ""
             raise UsageError(f"--param {name}={value}: a search range is LOW:HIGH, LOW:HIGH:log or LOW:HIGH:int{hint}")
-        lo, hi = _float(name, parts[0]), _float(name, parts[1])
+        lo, hi = parse_param_number(name, parts[0]), parse_param_number(name, parts[1])
         return (lo, hi, *tags)
     if "," in value:
         items = [v.strip() for v in value.split(",") if v.strip()]
-        numbers = [_float(name, v) for v in items]
+        numbers = [parse_param_number(name, v) for v in items]
         return [int(x) if x.is_integer() and name in ("n_ants", "n_iters") else x for x in numbers]
-    x = _float(name, value)
+    x = parse_param_number(name, value)
     return int(x) if x.is_integer() and name in ("n_ants", "n_iters") else x
 
 
 def parse_space(items: list[str] | None) -> dict:
-    return {name: parse_dimension(name, value) for name, value in _split_params(items)}
+    return {name: parse_dimension(name, value) for name, value in split_params(items)}
 
 
 def _fmt(name: str, x) -> str:
@@ -55,12 +44,6 @@ def _fmt(name: str, x) -> str:
     if name in ("gap", "success", "success_rate", "gap_median", "gap_penalised_mean"):
         return f"{100 * x:.2f}%"
     return f"{x:.4g}"
-
-
-def _outputs(*flags):
-    from .commands import _outputs as outputs
-
-    return outputs(*flags)
 
 
 def _prepare(args: argparse.Namespace) -> dict:
@@ -124,14 +107,13 @@ def _prepare(args: argparse.Namespace) -> dict:
     )
 
 
-@_outputs("--csv", "--plot")
+@handles_outputs("--csv", "--plot")
 def cmd_search(args: argparse.Namespace) -> int:
     from ..research.search import search
-    from .commands import _check_outputs
 
     job = _prepare(args)
     grid, call, variants = job["grid"], job["call"], job["variants"]
-    _check_outputs(args, grid, figures=("--plot",), files=(("--csv", None),))
+    check_outputs(args, grid, figures=("--plot",), files=(("--csv", None),))
     args.kept = lambda: _search_kept(args.storage, args.study)  # what an interrupt kept (the last line says)
     trials = call["trials"]
     budget = " or ".join(([f"{trials} trials"] if trials else []) + ([f"{args.timeout:g} s"] if args.timeout else []))
@@ -356,11 +338,11 @@ def _search_kept(storage: str | None, study_name: str | None) -> str:
 
 
 def cmd_rerun(args: argparse.Namespace) -> int:
-    """``jaco rerun``: a run or sweep record (:func:`jaco.cli.commands.cmd_rerun`), or with
+    """``jaco rerun``: a run or sweep record (:func:`jaco.cli.commands.rerun.cmd_rerun`), or with
     ``--trial N [--study NAME]`` a trial of a stored search; exit 0 when it matched, 1 when not."""
     from ..research.search import load_study
-    from .commands import cmd_rerun as rerun_record
-    from .commands import report_rerun
+    from .commands.rerun import cmd_rerun as rerun_record
+    from .commands.rerun import report_rerun
 
     if args.trial is None:
         if args.study is not None:

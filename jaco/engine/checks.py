@@ -13,10 +13,10 @@ from typing import Any, cast
 
 import numpy as np
 
-from ..errors import JacoError, ParamError, ProblemError, ResourceError
+from ..errors import JacoError, ProblemError, ResourceError
 from ..grid import Grid
 from .memory import check_memory, check_run_memory
-from .params import ORDERED, Params, check_order, check_values
+from .params import Params, check_order, check_values
 from .planner import Planner
 from .shape import RunShape
 
@@ -40,6 +40,14 @@ def default_steplimit(grid: Grid, variant: Planner | None = None) -> int:
         extent = max(grid.height + grid.width, math.ceil(free_extent(grid)))
         return int(max(1, min(8 * extent, 2 * grid.n_free)))
     return int(max(1, min(4 * (grid.height + grid.width), grid.n_free)))
+
+
+def resolve_steplimit(grid: Grid, variant: Planner | None, steplimit: int | None, *, n_ants: int, n_iters: int) -> int:
+    """A run's step limit, checked with its other sizes (:func:`check_sizes`): ``steplimit`` when
+    given, else :func:`default_steplimit` of the map and planner."""
+    steplimit = default_steplimit(grid, variant) if steplimit is None else steplimit
+    check_sizes(n_ants, n_iters, steplimit)
+    return steplimit
 
 
 def legacy_steplimit(grid: Grid, variant: Planner | None = None, format_version: int = 2) -> int:
@@ -124,20 +132,6 @@ def check_shape(shape: RunShape) -> RunShape:
     return shape
 
 
-def check_relations(table: dict, names: tuple[str, ...]) -> None:
-    """The order relations (τmin < τmax, Q1 < Q2 < Q3, ρ2 < ρ1) on every row of a configuration
-    table (name -> one value per configuration) among the planner's parameter ``names``; the first
-    bad row is named."""
-    for lo, hi in ORDERED:
-        if lo in names and hi in names:
-            bad = ~(table[lo] < table[hi])
-            if bad.any():
-                i = int(np.argmax(bad))
-                raise ParamError(
-                    f"parameters need {lo} < {hi}, got {lo} = {table[lo][i]:g}, {hi} = {table[hi][i]:g} (configuration {i})"
-                )
-
-
 def resolve_params(variant: Planner, values: dict, *, where: str) -> dict:
     """Validated parameter values (numpy float arrays) over the variant's defaults."""
     merged = {k: np.asarray(variant.defaults[k], np.float64) for k in variant.params}
@@ -176,8 +170,7 @@ def prepare(
     values over the variant's defaults."""
     check_grid(grid)
     check_keep_pheromone(keep_pheromone)
-    steplimit = default_steplimit(grid, variant) if steplimit is None else steplimit
-    check_sizes(n_ants, n_iters, steplimit)
+    steplimit = resolve_steplimit(grid, variant, steplimit, n_ants=n_ants, n_iters=n_iters)
     check_seed(seed)
     check_run_memory(grid.n_cells, n_ants, n_iters, steplimit, runs=runs, keep_pheromone=keep_pheromone)
     values = resolve_params(variant, params, where=f"planner {variant.name!r}")

@@ -223,12 +223,25 @@ def check_values(values: Mapping, allowed: Iterable[str], where: str) -> dict:
     return out
 
 
-def check_order(values: Mapping, used: Iterable[str]) -> None:
-    """Relations between parameters (:data:`ORDERED`) on the merged values of a planner; values
-    may be sweep axes (checked for every combination)."""
+def ordered_pairs(used: Iterable[str]) -> list[tuple[str, str]]:
+    """The relations of :data:`ORDERED` between the parameters ``used`` (a planner's): the pairs
+    ``(lo, hi)`` that must keep ``lo < hi``."""
     used = tuple(used)
-    for lo, hi in ORDERED:
-        if lo in used and hi in used:
-            a, b = np.atleast_1d(values[lo]), np.atleast_1d(values[hi])
-            if not a.max() < b.min():  # every combination of a sweep must hold
-                raise ParamError(f"parameters need {lo} < {hi}, got {lo} = {a.max():g}, {hi} = {b.min():g}")
+    return [(lo, hi) for lo, hi in ORDERED if lo in used and hi in used]
+
+
+def check_order(values: Mapping, used: Iterable[str], *, per_row: bool = False) -> None:
+    """Relations between parameters (:data:`ORDERED`) on the merged values of a planner. Values
+    may be sweep axes, checked for every combination; with ``per_row`` they are the columns of a
+    configuration table, checked row by row, and the first bad row is named."""
+    for lo, hi in ordered_pairs(used):
+        a, b = np.atleast_1d(values[lo]), np.atleast_1d(values[hi])
+        if per_row:
+            bad = ~(a < b)
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise ParamError(
+                    f"parameters need {lo} < {hi}, got {lo} = {a[i]:g}, {hi} = {b[i]:g} (configuration {i})"
+                )
+        elif not a.max() < b.min():  # every combination of a sweep must hold
+            raise ParamError(f"parameters need {lo} < {hi}, got {lo} = {a.max():g}, {hi} = {b.min():g}")

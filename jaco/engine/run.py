@@ -72,6 +72,70 @@ class _Best(NamedTuple):
     iteration: jax.Array
 
 
+def _no_best(path_len: int, size: int, problem: Problem) -> _Best:
+    """The best before the first iteration: none yet, unless start is the goal (an ant on the goal
+    has arrived, its path empty)."""
+    trivial = problem.start == problem.goal
+    return _Best(
+        cells=jnp.full((path_len,), -1, jnp.int32),
+        targets=jnp.full((path_len,), size, jnp.int32),
+        step_len=jnp.zeros((path_len,), jnp.float32),
+        cost=jnp.where(trivial, 0.0, jnp.inf).astype(jnp.float32),
+        length=jnp.where(trivial, 0.0, jnp.inf).astype(jnp.float32),
+        iteration=jnp.where(trivial, 0, -1).astype(jnp.int32),
+    )
+
+
+def _better_best(best: _Best, col: Any, b: jax.Array, t: jax.Array) -> _Best:
+    """The colony's ant ``b`` (its cheapest) where it beats ``best``, else ``best``."""
+    better = col.cost[b] < best.cost
+    candidate = _Best(col.cells[:, b], col.targets[:, b], col.step_len[:, b], col.cost[b], col.length[b], t)
+    return jax.tree.map(lambda new, old: jnp.where(better, new, old), candidate, best)
+
+
+def _history_row(best: _Best, col: Any, b: jax.Array) -> History:
+    """One iteration's :class:`History` (mean and success rate over the ants that arrived)."""
+    ok = jnp.isfinite(col.cost)
+    count = jnp.sum(ok)
+    mean = jnp.where(count > 0, jnp.sum(jnp.where(ok, col.cost, 0.0)) / jnp.maximum(count, 1), jnp.inf)
+    return History(best.cost, col.cost[b], mean, count / col.cost.shape[0])
+
+
+def _report_iteration(t: jax.Array, report: bool | str, n_iters: int) -> None:
+    """Hand iteration ``t + 1`` to :func:`jaco.progress.report` as ``report`` asks (see :func:`make_run`)."""
+    if report == "every":  # each iteration: a sweep chunk's bar and its interrupts
+        jax.debug.callback(_progress.report, t + 1)
+    elif report:
+        k = _progress.every(n_iters)
+        jax.lax.cond((t + 1) % k == 0, lambda: jax.debug.callback(_progress.report, t + 1), lambda: None)
+
+
+def _iterate(iteration: Callable, key: jax.Array, carry: tuple, n_iters: int, snapshot_size: int | None):
+    """Run ``iteration(carry, (key_t, t)) -> (carry, (History row, snapshot))`` for ``n_iters``
+    iterations, stacking its rows; returns ``(carry, history, snapshots)`` (snapshots ``(n_iters,
+    snapshot_size)``, or None without a size)."""
+    keys = jax.random.split(key, n_iters)
+    # A while loop, as lax.scan is inside XLA, that also ends when the call is interrupted.
+    history = History(*(jnp.zeros((n_iters,), jnp.float32) for _ in History._fields))
+    outs = (history, None if snapshot_size is None else jnp.zeros((n_iters, snapshot_size), jnp.float32))
+
+    def body(state):
+        t, carry, outs = state
+        carry, out = iteration(carry, (jax.lax.dynamic_index_in_dim(keys, t, keepdims=False), t))
+        # Row t of each buffer, as lax.scan stacks its outputs (a dynamic-update-slice, also under vmap).
+        return (
+            t + 1,
+            carry,
+            jax.tree.map(lambda buf, o: jax.lax.dynamic_update_index_in_dim(buf, o, t, 0), outs, out),
+        )
+
+    def more(state):
+        return (state[0] < n_iters) & ~native.stop_requested(state[0])
+
+    _, carry, (history, snapshots) = jax.lax.while_loop(more, body, (jnp.int32(0), carry, outs))
+    return carry, history, snapshots
+
+
 def make_run(
     variant: Planner,
     *,
@@ -113,15 +177,6 @@ def make_run(
 
         # The candidates' path buffer length is the construct step's own (two colonies: longer).
         path_len = jax.eval_shape(construct, trail, jnp.int32(0), key)[2].cells.shape[0]
-        trivial = problem.start == problem.goal  # an ant on the goal has arrived, path empty
-        best = _Best(
-            cells=jnp.full((path_len,), -1, jnp.int32),
-            targets=jnp.full((path_len,), size, jnp.int32),
-            step_len=jnp.zeros((path_len,), jnp.float32),
-            cost=jnp.where(trivial, 0.0, jnp.inf).astype(jnp.float32),
-            length=jnp.where(trivial, 0.0, jnp.inf).astype(jnp.float32),
-            iteration=jnp.where(trivial, 0, -1).astype(jnp.int32),
-        )
 
         def iteration(carry, xs):
             trail, best, seen, steps = carry
@@ -130,44 +185,17 @@ def make_run(
             if variant.local_search is not None:  # the improved paths are deposited and become the best
                 col = variant.local_search(variant, problem, col, p)
             b = jnp.argmin(col.cost)
-            better = col.cost[b] < best.cost
-            candidate = _Best(col.cells[:, b], col.targets[:, b], col.step_len[:, b], col.cost[b], col.length[b], t)
-            best = jax.tree.map(lambda new, old: jnp.where(better, new, old), candidate, best)
+            best = _better_best(best, col, b, t)
             walks = Walks(col.targets, col.step_len, col.cost, best.targets, best.step_len, best.cost)
             trail = variant.rule.update(trail, walks, problem, p)
-            ok = jnp.isfinite(col.cost)
-            count = jnp.sum(ok)
-            mean = jnp.where(count > 0, jnp.sum(jnp.where(ok, col.cost, 0.0)) / jnp.maximum(count, 1), jnp.inf)
-            hist = History(best.cost, col.cost[b], mean, count / col.cost.shape[0])
+            hist = _history_row(best, col, b)
             snapshot = trail.tau if keep_pheromone == "history" else None
-            if report == "every":  # each iteration: a sweep chunk's bar and its interrupts
-                jax.debug.callback(_progress.report, t + 1)
-            elif report:
-                k = _progress.every(n_iters)
-                jax.lax.cond((t + 1) % k == 0, lambda: jax.debug.callback(_progress.report, t + 1), lambda: None)
+            _report_iteration(t, report, n_iters)
             return (trail, best, seen | col.visited, steps + jnp.sum(col.n_steps)), (hist, snapshot)
 
-        keys = jax.random.split(key, n_iters)
-        carry = (trail, best, jnp.zeros((n,), bool), jnp.int32(0))
-        # A while loop, as lax.scan is inside XLA, that also ends when the call is interrupted.
-        history = History(*(jnp.zeros((n_iters,), jnp.float32) for _ in History._fields))
-        outs = (history, jnp.zeros((n_iters, size), jnp.float32) if keep_pheromone == "history" else None)
-
-        def body(state):
-            t, carry, outs = state
-            carry, out = iteration(carry, (jax.lax.dynamic_index_in_dim(keys, t, keepdims=False), t))
-            # Row t of each buffer, as lax.scan stacks its outputs (a dynamic-update-slice, also under vmap).
-            return (
-                t + 1,
-                carry,
-                jax.tree.map(lambda buf, o: jax.lax.dynamic_update_index_in_dim(buf, o, t, 0), outs, out),
-            )
-
-        def more(state):
-            return (state[0] < n_iters) & ~native.stop_requested(state[0])
-
-        _, carry, (history, snapshots) = jax.lax.while_loop(more, body, (jnp.int32(0), carry, outs))
-        trail, best, seen, steps = carry
+        carry = (trail, _no_best(path_len, size, problem), jnp.zeros((n,), bool), jnp.int32(0))
+        snapshot_size = size if keep_pheromone == "history" else None
+        (trail, best, seen, steps), history, snapshots = _iterate(iteration, key, carry, n_iters, snapshot_size)
         return RunOutput(
             best_cells=best.cells,
             best_cost=best.cost,
@@ -182,6 +210,14 @@ def make_run(
     return run
 
 
+def batch_runs(run: Callable) -> Callable:
+    """``run(key, problem, params)`` batched as a sweep runs it: ``(keys (B,), problems (P, ...),
+    params (B,)) -> outputs (P, B, ...)``, vmapped over configurations × seeds (inner, one flat
+    axis) and problems (outer). The one batch layout of :func:`compiled_run` and the sweep's and
+    search's chunk program (:mod:`jaco.research.chunks`)."""
+    return jax.vmap(jax.vmap(run, in_axes=(0, None, 0)), in_axes=(None, 0, None))
+
+
 # -- the compiled run, cached so repeated calls of one shape never recompile -----------------
 def compiled_run(variant: Planner, shape: RunShape, batched: bool, report: bool = False) -> Callable:
     """The jitted run for these static choices (cached by the variant and
@@ -192,14 +228,12 @@ def compiled_run(variant: Planner, shape: RunShape, batched: bool, report: bool 
     the same results bit for bit).
 
     ``batched``: ``run(keys (B,), problems (P, ...), params (B,))`` vmapped over configurations
-    × seeds (inner) and problems (outer) -> outputs ``(P, B, ...)``.
+    × seeds (inner) and problems (outer) -> outputs ``(P, B, ...)`` (:func:`batch_runs`).
     """
 
     def build():
         run = make_run(variant, **shape.sizes, keep_pheromone=shape.keep_pheromone, report=report and not batched)
-        if batched:
-            run = jax.vmap(jax.vmap(run, in_axes=(0, None, 0)), in_axes=(None, 0, None))
-        return jax.jit(run)
+        return jax.jit(batch_runs(run) if batched else run)
 
     key = ("run", variant, *shape.program, batched)
     return cached(key + (("report",) if report and not batched else ()), build)

@@ -50,6 +50,16 @@ def _seed_arg(seed) -> int:
     return int(seed)
 
 
+def _check_random_map_options(p: float, method: str, max_tries: int) -> None:
+    """:func:`random_map`'s obstacle ratio, method and number of draws."""
+    if not (isinstance(p, numbers.Real) and 0.0 <= p < 0.9):
+        raise ProblemError(f"obstacle ratio p must be in [0, 0.9), got {p!r}")
+    if method not in ("resample", "carve"):
+        raise ProblemError(f"method must be 'resample' or 'carve', got {method!r}")
+    if int(max_tries) < 1:
+        raise ProblemError(f"max_tries must be >= 1, got {max_tries!r}")
+
+
 def random_map(
     size_or_hw: int | tuple[int, int],
     p: float,
@@ -98,12 +108,7 @@ def random_map(
         ``method`` and ``tries`` (draws used).
     """
     h, w = _hw(size_or_hw)
-    if not (isinstance(p, numbers.Real) and 0.0 <= p < 0.9):
-        raise ProblemError(f"obstacle ratio p must be in [0, 0.9), got {p!r}")
-    if method not in ("resample", "carve"):
-        raise ProblemError(f"method must be 'resample' or 'carve', got {method!r}")
-    if int(max_tries) < 1:
-        raise ProblemError(f"max_tries must be >= 1, got {max_tries!r}")
+    _check_random_map_options(p, method, max_tries)
     start = _cell_arg((0, 0) if start is None else start, h, w, "start")
     goal = _cell_arg((h - 1, w - 1) if goal is None else goal, h, w, "goal")
     rng = np.random.default_rng(_seed_arg(seed))

@@ -190,7 +190,7 @@ def _importance_within(study: Study, numbers: Iterable[int]) -> dict[str, float]
 
     import optuna
 
-    from ..research.search import _quiet
+    from ..research.search_storage import quiet
 
     numbers = set(numbers)
     trials = [t for t in study.study.get_trials(deepcopy=False) if t.number in numbers and t.value is not None]
@@ -198,7 +198,7 @@ def _importance_within(study: Study, numbers: Iterable[int]) -> dict[str, float]
         return None
     if not {k for t in trials for k in t.params if k not in PLANNER_COLUMNS}:
         return {}
-    with _quiet(), warnings.catch_warnings():
+    with quiet(), warnings.catch_warnings():
         warnings.simplefilter("ignore")  # "too few trials", "target and region select the same trials": handled here
         alone = optuna.create_study(direction=study.study.direction)  # the planner's trials alone
         for t in trials:

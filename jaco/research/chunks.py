@@ -21,7 +21,7 @@ from ..engine.checks import params_from
 from ..engine.memory import bytes_per_run
 from ..engine.planner import Planner
 from ..engine.problem import stack
-from ..engine.run import make_run
+from ..engine.run import batch_runs, make_run
 from ..engine.shape import RunShape
 from ..errors import JacoError
 from .queries import Queries
@@ -42,7 +42,7 @@ def _footprint(compiled) -> int | None:
 
 
 # -- devices and the compiled chunk program -------------------------------------------------
-def _devices(devices) -> list:
+def mesh_devices(devices) -> list:
     """None: every device (all processes' after ``jax.distributed.initialize``), or the one set
     by ``jax.default_device``; an int n: the first n; or a list of devices."""
     if devices is None:
@@ -72,8 +72,7 @@ def _program(variant: Planner, shape: RunShape, mesh: Mesh, paths: bool = False)
 
     def build():
         # reports every iteration: a bar inside the chunk, and an interrupt ends the chunk at once
-        run = make_run(variant, **shape.sizes, report="every")
-        batched = jax.vmap(jax.vmap(run, in_axes=(0, None, 0)), in_axes=(None, 0, None))
+        batched = batch_runs(make_run(variant, **shape.sizes, report="every"))
 
         def chunk(seeds, problems, params):
             out = batched(jax.vmap(jax.random.key)(seeds), problems, params)
@@ -137,7 +136,7 @@ def _agree(value: int) -> int:
     return int(multihost_utils.broadcast_one_to_all(np.int32(value)))
 
 
-def _fit(budget: int, fixed: int, per: float, rows_per_device: int) -> int:
+def fit_chunk(budget: int, fixed: int, per: float, rows_per_device: int) -> int:
     """Configurations per device and chunk: as many as fit, then balanced over the chunks."""
     c = int(max(1, min(rows_per_device, (budget - fixed) // max(per, 1.0))))
     n_chunks = math.ceil(rows_per_device / c)
@@ -166,7 +165,7 @@ def _plan(
     path_len = _path_len(variant, shape, batch)
     guess = bytes_per_run(batch.n_cells, shape.n_ants, shape.n_iters, shape.steplimit, path_len) * batch.nbr.shape[0]
     per = _PER_CONFIG.get(mkey, guess)
-    chunk = _agree(_fit(budget, fixed, per, rows_per_device))
+    chunk = _agree(fit_chunk(budget, fixed, per, rows_per_device))
     compiles, tried = 0, []
     while True:
         exe, new = _executable(variant, shape, mesh, batch, n_params, chunk, on_compile, paths)
@@ -180,7 +179,7 @@ def _plan(
         _PER_CONFIG[mkey] = measured
         if used <= budget or chunk == 1:
             break
-        chunk = _agree(min(chunk - 1, _fit(budget, fixed, 1.05 * measured, rows_per_device)))
+        chunk = _agree(min(chunk - 1, fit_chunk(budget, fixed, 1.05 * measured, rows_per_device)))
     info = dict(
         devices=mesh.size,
         processes=jax.process_count(),

@@ -7,7 +7,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from ..engine.checks import check_sizes, default_steplimit
+from ..engine.checks import resolve_steplimit
 from ..engine.memory import check_run_memory
 from ..engine.problem import make_problem
 from ..errors import JacoError
@@ -72,13 +72,12 @@ def prepare_queries(
 ) -> tuple[Queries, int]:
     """Validate the maps, queries and sizes (before anything compiles) and build the problems;
     returns them and the step limit (when ``steplimit`` is None, the map's default for ``variant``:
-    :func:`jaco.engine.checks.default_steplimit`)."""
+    :func:`jaco.engine.checks.resolve_steplimit`)."""
     queries = _queries(grid, start, goal)
     shapes = {g.shape for g, _, _ in queries}
     if len(shapes) != 1:
         raise JacoError(f"all maps of a sweep must have one shape, got {sorted(shapes)}")
-    steplimit = default_steplimit(queries[0][0], variant) if steplimit is None else steplimit
-    check_sizes(n_ants, n_iters, steplimit)
+    steplimit = resolve_steplimit(queries[0][0], variant, steplimit, n_ants=n_ants, n_iters=n_iters)
     # one configuration of every query must fit: the chunks are cut under memory_budget from there
     check_run_memory(queries[0][0].n_cells, n_ants, n_iters, steplimit, runs=len(queries), what="a sweep chunk")
     problems = [make_problem(g, s, t, connectivity=connectivity) for g, s, t in queries]

@@ -29,10 +29,10 @@ import numpy as np
 from ..errors import JacoError, ProblemError
 from ..outputs import check_output, write_text
 from .record_errors import RecordError, RecordWarning
-from .record_json import _cells, json_number, _write_json
+from .record_json import cells_to_json, json_number, write_json
 from .record_map import EMBED_ROWS_MAX, grid_from_entry, map_entry, map_hash
 from .record_schema import check_record
-from .record_versions import CHECKED_VERSIONS, FORMAT, FORMAT_VERSION, _header, version_warnings, versions
+from .record_versions import CHECKED_VERSIONS, FORMAT, FORMAT_VERSION, record_header, version_warnings, versions
 
 __all__ = [
     "CHECKED_VERSIONS",
@@ -83,7 +83,7 @@ def save_run(result: Any, path: Any) -> Path:
     recordable_name(result.variant)
     waypoints = getattr(result, "waypoints", None)
     pher = result.pheromone
-    doc = _header("run")
+    doc = record_header("run")
     doc["call"] = {
         "variant": result.variant,
         "seed": int(result.seed),
@@ -94,9 +94,9 @@ def save_run(result: Any, path: Any) -> Path:
         # False, True (final pheromone (M,)) or "history" (one row per iteration (n_iters, M))
         "keep_pheromone": False if pher is None else "history" if np.ndim(pher) == 2 else True,
         "params": {k: float(v) for k, v in result.params.items()},
-        "start": _cells(result.start),
-        "goal": _cells(result.goal),
-        "waypoints": _cells(list(waypoints)) if waypoints is not None and len(waypoints) else None,
+        "start": cells_to_json(result.start),
+        "goal": cells_to_json(result.goal),
+        "waypoints": cells_to_json(list(waypoints)) if waypoints is not None and len(waypoints) else None,
     }
     doc["map"] = map_entry(result.grid)
     doc["result"] = {
@@ -112,11 +112,11 @@ def save_run(result: Any, path: Any) -> Path:
         "history_dtype": {k: str(np.asarray(v).dtype) for k, v in result.history.items()},
         "pheromone_sha256": None if pher is None else hashlib.sha256(np.ascontiguousarray(pher).tobytes()).hexdigest(),
     }
-    return _write_json(doc, path)
+    return write_json(doc, path)
 
 
 # -- paths in world coordinates (ROS) -------------------------------------------------------
-def _metres(v) -> float:
+def metres(v) -> float:
     """World coordinates rounded to the nanometre: 0.475, not 0.47500000000000003."""
     return round(float(v), 9)
 
@@ -153,7 +153,7 @@ def save_path(result: Any, path: Any, frame: str | None = None, format: str | No
         for i, (r, c) in enumerate(cells):
             row = f"{int(r)},{int(c)}"
             if xy is not None:
-                row += f",{_metres(xy[i, 0])!r},{_metres(xy[i, 1])!r}"
+                row += f",{metres(xy[i, 0])!r},{metres(xy[i, 1])!r}"
             lines.append(row)
         return write_text(path, "\n".join(lines) + "\n", "path file")
     doc = {
@@ -168,5 +168,5 @@ def save_path(result: Any, path: Any, frame: str | None = None, format: str | No
     }
     if xy is not None:
         doc["length_m"] = json_number(result.length / grid.cell_size * grid.resolution)
-        doc["xy"] = [[_metres(x), _metres(y)] for x, y in xy]
-    return _write_json(doc, path, "path file")
+        doc["xy"] = [[metres(x), metres(y)] for x, y in xy]
+    return write_json(doc, path, "path file")

@@ -66,18 +66,18 @@ def _dumps(x, indent: int = 0) -> str:
     return json.dumps(x, allow_nan=False)
 
 
-def _json_text(doc: dict) -> str:
+def json_text(doc: dict) -> str:
     text = _dumps(doc) + "\n"
     json.loads(text)  # never write a file that does not read back
     return text
 
 
-def _write_json(doc: dict, path: Path, what: str = "record") -> Path:
+def write_json(doc: dict, path: Path, what: str = "record") -> Path:
     path = check_output(path, what)
-    return write_text(path, _json_text(doc), what)
+    return write_text(path, json_text(doc), what)
 
 
-def _cells(x):
+def cells_to_json(x):
     """A (row, col) pair, a list of pairs, or None, as JSON lists of ints."""
     if x is None:
         return None
@@ -87,7 +87,7 @@ def _cells(x):
     return a.astype(np.int64).tolist()
 
 
-def _uncells(x):
+def cells_from_json(x):
     if x is None:
         return None
     a = np.asarray(x, dtype=np.int64)

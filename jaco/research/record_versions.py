@@ -68,7 +68,7 @@ def version_warnings(recorded: dict, format_version: int = FORMAT_VERSION) -> li
     return out
 
 
-def _header(kind: str) -> dict:
+def record_header(kind: str) -> dict:
     return {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,

@@ -45,10 +45,10 @@ from ..metrics import gap
 from ..outputs import as_path, atomic_paths, check_output, write_text
 from .record_errors import RecordError, RecordWarning
 from .record_format import recordable_name, save_path, save_run
-from .record_json import _cells, _json_text, _uncells, number_from_json
+from .record_json import cells_from_json, cells_to_json, json_text, number_from_json
 from .record_map import EMBED_ROWS_MAX, grid_from_entry, map_entry, map_hash
 from .record_schema import check_record
-from .record_versions import CHECKED_VERSIONS, FORMAT, FORMAT_VERSION, _header, version_warnings, versions
+from .record_versions import CHECKED_VERSIONS, FORMAT, FORMAT_VERSION, record_header, version_warnings, versions
 
 __all__ = [
     "CHECKED_VERSIONS",
@@ -129,7 +129,7 @@ class RunRecord:
             **c["params"],
         )
         if c.get("waypoints"):
-            kw["waypoints"] = _uncells(c["waypoints"])
+            kw["waypoints"] = cells_from_json(c["waypoints"])
         return kw
 
     def rerun(self, *, warn: bool = True) -> Rerun:
@@ -144,7 +144,9 @@ class RunRecord:
                 warnings.warn(w, RecordWarning, stacklevel=2)
         c = self.call
         try:
-            new = solve(self.grid, _uncells(c["start"]), _uncells(c["goal"]), c["variant"], **self.solve_kwargs())
+            new = solve(
+                self.grid, cells_from_json(c["start"]), cells_from_json(c["goal"]), c["variant"], **self.solve_kwargs()
+            )
         except TypeError as e:  # e.g. a waypoints record on a jaco without waypoints
             raise RecordError(f"{self.path}: this jaco cannot rerun the recorded call ({e})") from None
         old = self.result
@@ -203,11 +205,14 @@ def _result_from(doc: dict, grid: Grid):
         n_ants=int(c["n_ants"]),
         n_iters=int(c["n_iters"]),
         steplimit=int(c["steplimit"]),
-        start=_uncells(c["start"]),
-        goal=_uncells(c["goal"]),
+        start=cells_from_json(c["start"]),
+        goal=cells_from_json(c["goal"]),
         grid=grid,
     )
-    for name, value in (("connectivity", int(c.get("connectivity", 8))), ("waypoints", _uncells(c.get("waypoints")))):
+    for name, value in (
+        ("connectivity", int(c.get("connectivity", 8))),
+        ("waypoints", cells_from_json(c.get("waypoints"))),
+    ):
         if hasattr(res, name) and value is not None:
             setattr(res, name, value)
     return res
@@ -254,59 +259,25 @@ def save_sweep(table: Any, path: Any, *args: Any, **kwargs: Any) -> Path:
     arguments give, so a wrong argument is caught here; the rest is checked by a rerun.
     """
     from ..planners.registry import get_planner
-    from . import sweeps
 
     path = check_output(path, "sweep record")
     if path.suffix.lower() != ".csv":
         raise RecordError(f"a sweep record is a .csv table plus a .json sidecar; got {path.name!r} (use a .csv name)")
     check_output(_sidecar(path), "sweep record sidecar")
-    try:
-        bound = inspect.signature(sweeps.sweep).bind(*args, **resolve_aliases(dict(kwargs)))
-    except TypeError as e:
-        raise RecordError(f"save_sweep: {e} (pass the arguments of jaco.sweep)") from None
-    bound.apply_defaults()
-    # the record's field keeps the name records have always used, "variant"
-    given = {("variant" if k == "planner" else k): v for k, v in bound.arguments.items()}
-    given.pop("progress", None)
+    given = _sweep_arguments(args, kwargs)
     several = isinstance(given["variant"], (list, tuple)) and not isinstance(given["variant"], Planner)
     variant_names = [recordable_name(get_planner(v)) for v in (given["variant"] if several else [given["variant"]])]
-    from .designs import as_design
-
-    design = as_design(given["params"])  # a dict of axes is a full grid; a Design or DataFrame as given
-    rows = {k: [float(x) for x in v] for k, v in design.values.items()}
-    if isinstance(given["params"], dict) or given["params"] is None:
-        axes = {
-            k: [float(x) for x in np.atleast_1d(np.asarray(vals, np.float64))]
-            for k, vals in (given["params"] or {}).items()
-        }
-        n_configs = math.prod(len(x) for x in axes.values())
-        recorded_params: dict = axes
-    else:  # recorded as explicit rows, rebuilt with jaco.research.designs.table on rerun
-        n_configs = len(design)
-        recorded_params = {"design": rows}
+    n_configs, recorded_params = _recorded_params(given["params"])
     seeds_arg = given["seeds"]
     seed_list = list(range(int(seeds_arg))) if isinstance(seeds_arg, (int, np.integer)) else [int(s) for s in seeds_arg]
-    grids = [given["grid"]] if isinstance(given["grid"], Grid) else list(given["grid"])
-    pair = lambda x: np.ndim(x) == 1 and len(x) == 2  # noqa: E731
-    n_q = max(
-        len(grids), 1 if pair(given["start"]) else len(given["start"]), 1 if pair(given["goal"]) else len(given["goal"])
-    )
-    expected = len(variant_names) * n_q * n_configs * len(seed_list)
-    if len(table) != expected:
-        raise RecordError(
-            f"the table has {len(table)} rows but these arguments give {expected} "
-            f"({len(variant_names)} planners x {n_q} queries x {n_configs} configurations x {len(seed_list)} seeds): "
-            "pass the arguments the sweep was called with"
-        )
-    if "seed" in table and set(int(s) for s in table["seed"]) != set(seed_list):
-        raise RecordError("the table's seeds are not the seeds given: pass the arguments the sweep was called with")
+    _check_table_size(table, given, len(variant_names), n_configs, seed_list)
 
     call = {}
     for name, value in given.items():
         if name == "grid":
             call[name] = _encode_grids(value)
         elif name in ("start", "goal"):
-            call[name] = _cells(value)
+            call[name] = cells_to_json(value)
         elif name == "variant":
             call[name] = variant_names if several else variant_names[0]
         elif name == "params":
@@ -315,8 +286,63 @@ def save_sweep(table: Any, path: Any, *args: Any, **kwargs: Any) -> Path:
             call[name] = int(value) if isinstance(value, (int, np.integer)) else seed_list
         else:
             call[name] = _jsonable(name, value.item() if isinstance(value, np.generic) else value)
+    return _write_sweep_record(table, path, call)
+
+
+def _sweep_arguments(args: tuple, kwargs: dict) -> dict:
+    """The arguments of a :func:`jaco.sweep` call, bound to its signature with its defaults, as a
+    record names them (``variant`` for ``planner``; ``progress`` left out)."""
+    from . import sweeps
+
+    try:
+        bound = inspect.signature(sweeps.sweep).bind(*args, **resolve_aliases(dict(kwargs)))
+    except TypeError as e:
+        raise RecordError(f"save_sweep: {e} (pass the arguments of jaco.sweep)") from None
+    bound.apply_defaults()
+    # the record's field keeps the name records have always used, "variant"
+    given = {("variant" if k == "planner" else k): v for k, v in bound.arguments.items()}
+    given.pop("progress", None)
+    return given
+
+
+def _recorded_params(params: Any) -> tuple[int, dict]:
+    """The number of configurations of a sweep's ``params`` and how the record holds them: a dict of
+    axes as its axes, a Design or DataFrame as explicit rows."""
+    from .designs import as_design
+
+    design = as_design(params)  # a dict of axes is a full grid; a Design or DataFrame as given
+    rows = {k: [float(x) for x in v] for k, v in design.values.items()}
+    if isinstance(params, dict) or params is None:
+        axes = {
+            k: [float(x) for x in np.atleast_1d(np.asarray(vals, np.float64))] for k, vals in (params or {}).items()
+        }
+        return math.prod(len(x) for x in axes.values()), axes
+    # recorded as explicit rows, rebuilt with jaco.research.designs.table on rerun
+    return len(design), {"design": rows}
+
+
+def _check_table_size(table: Any, given: dict, n_planners: int, n_configs: int, seed_list: list) -> None:
+    """The table has the rows and seeds these arguments give (a wrong argument is caught here)."""
+    grids = [given["grid"]] if isinstance(given["grid"], Grid) else list(given["grid"])
+    pair = lambda x: np.ndim(x) == 1 and len(x) == 2  # noqa: E731
+    n_q = max(
+        len(grids), 1 if pair(given["start"]) else len(given["start"]), 1 if pair(given["goal"]) else len(given["goal"])
+    )
+    expected = n_planners * n_q * n_configs * len(seed_list)
+    if len(table) != expected:
+        raise RecordError(
+            f"the table has {len(table)} rows but these arguments give {expected} "
+            f"({n_planners} planners x {n_q} queries x {n_configs} configurations x {len(seed_list)} seeds): "
+            "pass the arguments the sweep was called with"
+        )
+    if "seed" in table and set(int(s) for s in table["seed"]) != set(seed_list):
+        raise RecordError("the table's seeds are not the seeds given: pass the arguments the sweep was called with")
+
+
+def _write_sweep_record(table: Any, path: Path, call: dict) -> Path:
+    """The table's CSV at ``path`` and its JSON sidecar (``call``, the table's hash); returns the sidecar."""
     text = _csv_text(table)
-    doc = _header("sweep")
+    doc = record_header("sweep")
     doc["call"] = call
     doc["table"] = {
         "file": path.name,
@@ -328,7 +354,7 @@ def save_sweep(table: Any, path: Any, *args: Any, **kwargs: Any) -> Path:
     # table) under a lock, so two processes saving one record never leave a mixed pair
     sidecar = _sidecar(path)
     with atomic_paths([sidecar, path], "sweep record") as (sidecar_tmp, table_tmp):
-        write_text(sidecar_tmp, _json_text(doc))
+        write_text(sidecar_tmp, json_text(doc))
         write_text(table_tmp, text)
     return sidecar
 
@@ -351,7 +377,7 @@ class SweepRecord:
     def sweep_kwargs(self) -> dict:
         kw = dict(self.call)
         kw["grid"] = self.grids
-        kw["start"], kw["goal"] = _uncells(kw["start"]), _uncells(kw["goal"])
+        kw["start"], kw["goal"] = cells_from_json(kw["start"]), cells_from_json(kw["goal"])
         if isinstance(kw.get("params"), dict) and "design" in kw["params"]:  # explicit rows (a Design)
             from .designs import table
 
@@ -362,17 +388,17 @@ class SweepRecord:
         """The sweep with the default step limit of the jaco that wrote the record, each planner's."""
         from ..engine.checks import legacy_steplimit
         from ..planners.registry import get_planner
-        from .sweeps import _over_variants, sweep
+        from .sweeps import sweep, sweep_each_planner
 
         grid = self.grids if isinstance(self.grids, Grid) else self.grids[0]
 
         def one(v):
             v = get_planner(v)
-            return sweep(**{**kw, "variant": v, "steplimit": legacy_steplimit(grid, v, self.format_version)})
+            return sweep(**{**kw, "planner": v, "steplimit": legacy_steplimit(grid, v, self.format_version)})
 
-        variants = kw["variant"]
+        variants = kw["planner"]
         if isinstance(variants, (list, tuple)) and not isinstance(variants, Planner):
-            return _over_variants(variants, one, kw.get("params"))
+            return sweep_each_planner(variants, one, kw.get("params"))
         return one(variants)
 
     def rerun(self, *, warn: bool = True) -> Rerun:
@@ -387,6 +413,8 @@ class SweepRecord:
             for w in self.warnings:
                 warnings.warn(w, RecordWarning, stacklevel=2)
         kw = self.sweep_kwargs()
+        if "variant" in kw:  # the record's name of sweep's planner= (variant= would warn as a former name)
+            kw["planner"] = kw.pop("variant")
         try:
             if kw.get("steplimit") is None and self.format_version < FORMAT_VERSION:
                 new = self._rerun_old_default(kw)

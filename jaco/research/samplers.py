@@ -211,15 +211,16 @@ def _queue_sampler():
         def sample_relative(self, study, trial, search_space):
             return {}
 
+        # ``trial`` is a FrozenTrial of the one study this sampler serves: its number names it
         def before_trial(self, study, trial):
             if self.pending:
-                self.by_trial[trial._trial_id] = self.pending.pop(0)
+                self.by_trial[trial.number] = self.pending.pop(0)
 
         def sample_independent(self, study, trial, name, distribution):
-            return self.by_trial[trial._trial_id][name]
+            return self.by_trial[trial.number][name]
 
         def after_trial(self, study, trial, state, values):
-            self.by_trial.pop(trial._trial_id, None)
+            self.by_trial.pop(trial.number, None)
 
     return Queue()
 

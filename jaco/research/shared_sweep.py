@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import JacoError
-from .sweep_table import _tidy
+from .sweep_table import tidy_table
 
 #: Seconds without a heartbeat after which a worker's claim on a stored sweep's chunk expires.
 GRACE_PERIOD = 60.0
@@ -25,7 +25,7 @@ def _seconds(value: Any, what: str) -> float:
     return float(value)
 
 
-def _check_sharing(store, grace_period, heartbeat_interval) -> tuple[float, float]:
+def check_sharing(store, grace_period, heartbeat_interval) -> tuple[float, float]:
     """The store's ``(grace period, heartbeat interval)`` in seconds, checked before anything runs."""
     if store is not None and jax.process_count() > 1:
         raise JacoError(
@@ -44,7 +44,7 @@ def _check_sharing(store, grace_period, heartbeat_interval) -> tuple[float, floa
     return grace, beat
 
 
-def _stored_sweep(bar, st, outs, path, unit, grace, beat) -> pd.DataFrame:
+def stored_sweep(bar, st, outs, path, unit, grace, beat) -> pd.DataFrame:
     """Claim, run and store units of ``unit`` rows (fixed: rows ``k·unit`` on, so every worker cuts
     the sweep alike) until every row of the sweep is stored, then read the whole table back."""
     from .store import SweepStore
@@ -69,7 +69,7 @@ def _stored_sweep(bar, st, outs, path, unit, grace, beat) -> pd.DataFrame:
             ran, units, took_over = _claim_and_run(bar, st, held, key, n_rows, unit, min(beat / 2, 0.25))
         held.load(key, outs)
         worker = held.worker
-    table = _tidy(st.variant, st.queries, st.problems, st.values, st.config, st.seeds, *outs)
+    table = tidy_table(st.variant, st.queries, st.problems, st.values, st.config, st.seeds, *outs)
     table.attrs["sweep"] = dict(
         st.info,
         resumed_runs=int((n_rows - ran) * n_q),  # found stored, or run by other workers

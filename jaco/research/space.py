@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from .. import planners as _planners  # noqa: F401 (its modules declare every component's parameters)
-from ..engine.params import ORDERED, SPECS, check_values, owners
+from ..engine.params import SPECS, check_values, ordered_pairs, owners
 from ..engine.planner import Planner
 from ..errors import ParamError
 
@@ -257,8 +257,8 @@ def _check_order(planners, dims, fixed) -> None:
     partner's value is its range, its fixed value or the planner's default)."""
     for name, v in planners.items():
         defaults = v.default_params().to_dict()
-        for lo, hi in ORDERED:
-            if lo not in v.params or hi not in v.params or not (lo in dims or hi in dims):
+        for lo, hi in ordered_pairs(v.params):
+            if not (lo in dims or hi in dims):  # only where a range is searched
                 continue
             _, lo_max = bounds(dims.get(lo), fixed.get(lo, defaults[lo]))
             hi_min, _ = bounds(dims.get(hi), fixed.get(hi, defaults[hi]))

@@ -1,5 +1,5 @@
 """A sweep's set-up: its configurations checked against the planner, its sizes, seeds and memory
-budget checked, then its chunks planned and the chunk program compiled (:class:`_Setup`)."""
+budget checked, then its chunks planned and the chunk program compiled (:class:`SweepSetup`)."""
 
 from __future__ import annotations
 
@@ -9,19 +9,19 @@ from typing import Any, NamedTuple
 import numpy as np
 from jax.sharding import Mesh
 
-from ..engine.checks import check_relations, check_seeds, resolve_params
+from ..engine.checks import check_seeds, resolve_params
 from ..engine.memory import CONFIG_BYTES, check_memory
-from ..engine.params import check_values
+from ..engine.params import check_order, check_values
 from ..engine.shape import RunShape
 from ..errors import JacoError, ParamError
 from ..planners.registry import get_planner
-from .chunks import AXIS, Runner, _devices
+from .chunks import AXIS, Runner, mesh_devices
 from .designs import as_design
 from .queries import prepare_queries
 
 
 # -- configurations -------------------------------------------------------------------------
-def _config_table(variant, params) -> tuple[dict, list[str]]:
+def config_table(variant, params) -> tuple[dict, list[str]]:
     """Per-configuration values (float64, one array per Params field) and the swept names."""
     where = f"planner {variant.name!r}"
     if isinstance(params, dict):
@@ -39,7 +39,7 @@ def _config_table(variant, params) -> tuple[dict, list[str]]:
     base = resolve_params(variant, {}, where=where)
     n = len(design)
     table = {k: np.broadcast_to(design[k] if k in design else base[k], (n,)).astype(np.float64) for k in base}
-    check_relations(table, variant.params)  # on every row (τmin < τmax, Q1 < Q2 < Q3, ρ2 < ρ1)
+    check_order(table, variant.params, per_row=True)  # on every row (τmin < τmax, Q1 < Q2 < Q3, ρ2 < ρ1)
     return table, list(design.names)
 
 
@@ -49,7 +49,7 @@ def check_budget(memory_budget: Any) -> int:
     return int(memory_budget)
 
 
-class _Setup(NamedTuple):
+class SweepSetup(NamedTuple):
     variant: object
     queries: list
     problems: list
@@ -60,7 +60,7 @@ class _Setup(NamedTuple):
     info: dict
 
 
-def _setup(
+def set_up_sweep(
     grid,
     start,
     goal,
@@ -92,7 +92,7 @@ def _setup(
     budget = check_budget(memory_budget)
     if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1):
         raise JacoError(f"chunk must be a positive number of runs (configurations x seeds), got {chunk!r}")
-    values, _ = _config_table(variant, params)
+    values, _ = config_table(variant, params)
     n_cfg = len(next(iter(values.values())))
     n_rows = n_cfg * len(seed_list) * len(qs.queries)
     check_memory(
@@ -100,7 +100,7 @@ def _setup(
         f"a table of {n_rows} runs",
         "use fewer configurations, seeds or queries (or several sweeps)",
     )
-    mesh = Mesh(np.array(_devices(devices)), (AXIS,))
+    mesh = Mesh(np.array(mesh_devices(devices)), (AXIS,))
     config = np.repeat(np.arange(n_cfg), len(seed_list))  # configuration-major, seeds inner
     seed_arr = np.tile(seed_list, n_cfg)
     rows = len(config) if chunk is None else min(len(config), int(chunk))
@@ -116,4 +116,4 @@ def _setup(
     )
     if chunk is not None:  # chunks: over every row, not only the capped first one
         info["chunks"] = math.ceil(len(config) / runner.width)
-    return _Setup(variant, qs.queries, qs.problems, values, config, seed_arr, runner, info)
+    return SweepSetup(variant, qs.queries, qs.problems, values, config, seed_arr, runner, info)

@@ -15,7 +15,7 @@ from ..metrics import gap
 RESULT_COLUMNS = ("seed", "success", "length", "cost", "best_iteration", "optimal", "gap", "coverage")
 
 
-def _tidy(variant, queries, problems, values, config, seed_arr, cost, length, best_iter, covered) -> pd.DataFrame:
+def tidy_table(variant, queries, problems, values, config, seed_arr, cost, length, best_iter, covered) -> pd.DataFrame:
     """The tidy table: one row per query × configuration × seed (query-major)."""
     n_q, n_rows = cost.shape
     cols: dict = {}

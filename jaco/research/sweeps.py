@@ -26,8 +26,8 @@ Scale (docs/cluster.md):
   take over the chunks of a worker that stopped beating, and each return the whole table
   (:mod:`jaco.research.store`).
 
-This module holds :func:`sweep` and :func:`plan_sweep`; the parts live beside it and every name
-they had here is still importable from here: the queries (:mod:`.queries`), the chunk program and
+This module holds :func:`sweep` and :func:`plan_sweep`; the parts live beside it and every public
+name they had here is still importable from here: the queries (:mod:`.queries`), the chunk program and
 its ``Runner`` (:mod:`.chunks`), the set-up (:mod:`.sweep_setup`), the shared store's worker loop
 (:mod:`.shared_sweep`) and the table (:mod:`.sweep_table`).
 """
@@ -47,29 +47,12 @@ from ..engine.params import owners
 from ..engine.planner import Planner
 from ..errors import JacoError, ParamError, accepts_aliases, check_keywords
 from ..planners.registry import get_planner
-from .chunks import (  # noqa: F401  (the chunk program and Runner, as jaco.search and tests import them)
-    _PATH_LEN,
-    _PER_CONFIG,
-    AXIS,
-    Runner,
-    _agree,
-    _devices,
-    _executable,
-    _fetch,
-    _fit,
-    _footprint,
-    _path_len,
-    _plan,
-    _program,
-    _put,
-    _shapes,
-    bytes_per_run,
-)
+from .chunks import AXIS, Runner, bytes_per_run  # noqa: F401  (importable from here, as jaco.search and docs name them)
 from .designs import Design, as_design
-from .queries import Queries, _queries, prepare_queries  # noqa: F401
-from .shared_sweep import GRACE_PERIOD, _check_sharing, _claim_and_run, _seconds, _stored_sweep, _unit_bar  # noqa: F401
-from .sweep_setup import _config_table, _Setup, _setup, check_budget  # noqa: F401
-from .sweep_table import RESULT_COLUMNS, _tidy, summarize  # noqa: F401
+from .queries import Queries, prepare_queries  # noqa: F401
+from .shared_sweep import GRACE_PERIOD, check_sharing, stored_sweep
+from .sweep_setup import check_budget, config_table, set_up_sweep  # noqa: F401
+from .sweep_table import RESULT_COLUMNS, summarize, tidy_table  # noqa: F401
 
 
 @accepts_aliases
@@ -94,7 +77,7 @@ def plan_sweep(
     ``chunk``, ``chunks``, ``chunk_per_device``, ``devices``,
     ``bytes_per_chunk`` from XLA's memory analysis, ``bytes_per_config_estimate`` and
     ``_measured``, ``compiles``...). The compiled program is cached, so the sweep reuses it."""
-    return _setup(
+    return set_up_sweep(
         grid,
         start,
         goal,
@@ -182,47 +165,30 @@ def sweep(
     the program), every ``params`` axis must be a parameter of every planner, and the tables are
     stacked with a first column ``planner``; ``attrs["sweep"]`` maps each planner to its plan.
     """
+    sizes: dict[str, Any] = dict(n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, connectivity=connectivity)
+    running: dict[str, Any] = dict(memory_budget=memory_budget, progress=progress, devices=devices, chunk=chunk)
+    sharing: dict[str, Any] = dict(store=store, grace_period=grace_period, heartbeat_interval=heartbeat_interval)
     if isinstance(planner, (list, tuple)) and not isinstance(planner, Planner):  # a Planner is a tuple too
-        kwargs = dict(
-            n_ants=n_ants,
-            n_iters=n_iters,
-            steplimit=steplimit,
-            connectivity=connectivity,
-            memory_budget=memory_budget,
-            progress=progress,
-            devices=devices,
-            store=store,
-            chunk=chunk,
-            grace_period=grace_period,
-            heartbeat_interval=heartbeat_interval,
+        return sweep_each_planner(
+            planner, lambda v: sweep(grid, start, goal, v, params, seeds, **sizes, **running, **sharing), params
         )
-        return _over_variants(planner, lambda v: sweep(grid, start, goal, v, params, seeds, **kwargs), params)
+    return _sweep_planner(grid, start, goal, planner, params, seeds, **sizes, **running, **sharing)
+
+
+def _sweep_planner(
+    grid, start, goal, planner, params, seeds, *, store, grace_period, heartbeat_interval, progress, **options
+):
+    """:func:`sweep` of one planner: the store's arguments checked, then :func:`_sweep` moving a
+    progress bar (``options``: the rest of :func:`_sweep`'s arguments)."""
     name = get_planner(planner).name
-    sharing = _check_sharing(store, grace_period, heartbeat_interval)
+    sharing = check_sharing(store, grace_period, heartbeat_interval)
     if store is not None:
         from .store import check_store_path
 
         store = check_store_path(store)
     bar = _progress.Bar(_progress.enabled(progress) and jax.process_index() == 0, f"sweep {name}", "run")
     try:
-        return _sweep(
-            bar,
-            grid,
-            start,
-            goal,
-            planner,
-            params,
-            seeds,
-            n_ants,
-            n_iters,
-            steplimit,
-            connectivity,
-            memory_budget,
-            devices,
-            store,
-            chunk,
-            sharing,
-        )
+        return _sweep(bar, grid, start, goal, planner, params, seeds, store=store, sharing=sharing, **options)
     finally:
         bar.close()
 
@@ -249,7 +215,7 @@ def _sweep(
     if store is not None and chunk is None:
         n_runs = len(as_design(params)) * len(check_seeds(seeds))
         chunk = max(1, math.ceil(n_runs / STORE_CHUNKS))
-    st = _setup(
+    st = set_up_sweep(
         grid,
         start,
         goal,
@@ -268,7 +234,7 @@ def _sweep(
     n_rows, n_q = len(st.config), len(st.problems)
     outs = [np.empty((n_q, n_rows), dt) for dt in (np.float32, np.float32, np.int32, np.int32)]
     if store is not None:
-        return _stored_sweep(bar, st, outs, store, chunk, *sharing)
+        return stored_sweep(bar, st, outs, store, chunk, *sharing)
     return _run_sweep(bar, st, outs, np.arange(n_rows))
 
 
@@ -290,12 +256,12 @@ def _run_sweep(bar, st, outs, todo) -> pd.DataFrame:
     st.runner(
         {k: v[st.config[todo]] for k, v in st.values.items()}, st.seeds[todo], on_chunk=finished, on_iteration=running
     )
-    table = _tidy(st.variant, st.queries, st.problems, st.values, st.config, st.seeds, *outs)
+    table = tidy_table(st.variant, st.queries, st.problems, st.values, st.config, st.seeds, *outs)
     table.attrs["sweep"] = st.info
     return table
 
 
-def _over_variants(variants, run, params) -> pd.DataFrame:
+def sweep_each_planner(variants, run, params) -> pd.DataFrame:
     """One sweep per planner (each with its ``planner`` column), stacked; every planner and its
     parameter axes are checked before anything compiles."""
     variants = [get_planner(v) for v in variants]
@@ -314,7 +280,7 @@ def _over_variants(variants, run, params) -> pd.DataFrame:
                 "(jaco search, jaco.search), which sets a parameter only for the planners that have it"
             )
     for v in variants:
-        _config_table(v, params)
+        config_table(v, params)
     tables = [run(v) for v in variants]  # each with its first column "planner"
     table = pd.concat(tables, ignore_index=True)
     table.attrs["sweep"] = {v.name: t.attrs["sweep"] for v, t in zip(variants, tables)}

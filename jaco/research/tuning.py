@@ -43,7 +43,7 @@ import pandas as pd
 
 from .. import progress as _progress
 from ..engine.cache import cached
-from ..engine.checks import check_grid, check_seed, check_sizes, default_steplimit, params_from, resolve_params
+from ..engine.checks import check_grid, check_seed, params_from, resolve_params, resolve_steplimit
 from ..engine.memory import check_run_memory
 from ..engine.params import ORDERED, SPECS, Params, param_names
 from ..engine.planner import Planner
@@ -142,7 +142,9 @@ def _compiled(variant: Planner, names, optimizer, *, n_ants, n_iters, steplimit,
 
 def _build(variant, names, optimizer, n_ants, n_iters, steplimit, steps, population, n_seeds):
     run = make_run(variant, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit)
-    batch = jax.vmap(jax.vmap(run, in_axes=(0, None, None)), in_axes=(None, None, 0))  # members × seeds
+    # members × seeds on one problem, every member on the same seeds' keys (common random numbers):
+    # not a sweep's layout (jaco.engine.run.batch_runs: one key and one configuration per run)
+    batch = jax.vmap(jax.vmap(run, in_axes=(0, None, None)), in_axes=(None, None, 0))
     half = population // 2
 
     def loop(key, problem, base: Params, z0, sigma, penalty):
@@ -295,8 +297,7 @@ def tune(
     planner = get_planner(planner)
     names = _names(planner, tune)
     check_grid(grid)
-    steplimit = default_steplimit(grid, planner) if steplimit is None else steplimit
-    check_sizes(n_ants, n_iters, steplimit)
+    steplimit = resolve_steplimit(grid, planner, steplimit, n_ants=n_ants, n_iters=n_iters)
     steps = _positive_int("steps", steps)
     population = _positive_int("population", population, even=True)
     n_seeds = _positive_int("n_seeds", n_seeds)
@@ -304,41 +305,17 @@ def tune(
     problem = make_problem(grid, start, goal, connectivity=connectivity)
     sigma = _positive_float("sigma", sigma)
     check_seed(seed)
-    optimizer = DEFAULT_OPTIMIZER if optimizer is None else optimizer
-    if not (callable(getattr(optimizer, "init", None)) and callable(getattr(optimizer, "update", None))):
-        raise JacoError(f"optimizer must be an optax GradientTransformation, got {type(optimizer).__name__}")
-    if init is not None and not isinstance(init, Mapping):
-        raise ParamError(f"init must be a mapping of parameter names to values, got {type(init).__name__} {init!r}")
-    values = resolve_params(planner, dict(init or {}), where=f"planner {planner.name!r}")
-    for k, v in values.items():
-        if v.ndim:
-            raise JacoError(f"init takes one value per parameter; {k!r} has {v.size}")
+    optimizer = _check_optimizer(DEFAULT_OPTIMIZER if optimizer is None else optimizer)
+    values = _start_values(planner, init)
     if penalty is not None:
         penalty = _positive_float("penalty", penalty)
 
-    loop, run = _compiled(
-        planner,
-        names,
-        optimizer,
-        n_ants=n_ants,
-        n_iters=n_iters,
-        steplimit=steplimit,
-        steps=steps,
-        population=population,
-        n_seeds=n_seeds,
+    sizes = dict(
+        n_ants=n_ants, n_iters=n_iters, steplimit=steplimit, steps=steps, population=population, n_seeds=n_seeds
     )
-    base = params_from(values)
-    key = jax.random.key(seed)
-    if penalty is None:
-        penalty = math.sqrt(2.0) * path_buffer(run, key, problem, base)
-
-    z0 = jnp.asarray(to_unconstrained(names, [values[n] for n in names]), jnp.float32)
-    bar = _progress.Bar(_progress.enabled(progress), f"tune {planner.name}", "step")
-    bar.start(steps)
-    with _progress.listening(bar):
-        final, x, objective, success = _progress.run_interruptibly(
-            lambda: jax.device_get(loop(key, problem, base, z0, jnp.float32(sigma), jnp.float32(penalty)))
-        )
+    penalty, (final, x, objective, success) = _run_loop(
+        planner, names, optimizer, sizes, problem, values, seed=seed, sigma=sigma, penalty=penalty, progress=progress
+    )
     start_values = {k: float(values[k]) for k in planner.params}
     tuned = dict(start_values)
     tuned.update({n: float(final[i]) for i, n in enumerate(names)})
@@ -346,3 +323,41 @@ def tune(
     for i, n in enumerate(names):
         history[n] = x[:, i]
     return TuneResult(tuned, history, start_values, names, planner.name, penalty)
+
+
+def _check_optimizer(optimizer: Any) -> Any:
+    """An optax ``GradientTransformation`` (anything with callable ``init`` and ``update``)."""
+    if not (callable(getattr(optimizer, "init", None)) and callable(getattr(optimizer, "update", None))):
+        raise JacoError(f"optimizer must be an optax GradientTransformation, got {type(optimizer).__name__}")
+    return optimizer
+
+
+def _start_values(planner: Planner, init: Any) -> dict:
+    """One validated value per parameter of ``planner``: ``init`` over its defaults."""
+    if init is not None and not isinstance(init, Mapping):
+        raise ParamError(f"init must be a mapping of parameter names to values, got {type(init).__name__} {init!r}")
+    values = resolve_params(planner, dict(init or {}), where=f"planner {planner.name!r}")
+    for k, v in values.items():
+        if v.ndim:
+            raise JacoError(f"init takes one value per parameter; {k!r} has {v.size}")
+    return values
+
+
+def _run_loop(planner, names, optimizer, sizes: dict, problem, values: dict, *, seed, sigma, penalty, progress):
+    """Run the compiled tuning loop (:func:`_compiled`) from ``values`` with a bar of its steps;
+    returns the penalty of a failed run (the default one when ``penalty`` is None) and the loop's
+    ``(final values, values per step, objective, success rate)`` on the host."""
+    loop, run = _compiled(planner, names, optimizer, **sizes)
+    base = params_from(values)
+    key = jax.random.key(seed)
+    if penalty is None:
+        penalty = math.sqrt(2.0) * path_buffer(run, key, problem, base)
+
+    z0 = jnp.asarray(to_unconstrained(names, [values[n] for n in names]), jnp.float32)
+    bar = _progress.Bar(_progress.enabled(progress), f"tune {planner.name}", "step")
+    bar.start(sizes["steps"])
+    with _progress.listening(bar):
+        out = _progress.run_interruptibly(
+            lambda: jax.device_get(loop(key, problem, base, z0, jnp.float32(sigma), jnp.float32(penalty)))
+        )
+    return penalty, out
