@@ -110,7 +110,7 @@ def run_legs(grid: Grid, points: list, planner: Planner, *, seed: int, shape: Ru
         to_result(
             jax.tree.map(lambda x, i=i: x[i], out),
             grid=grid,
-            variant=planner,
+            planner=planner,
             start=a,
             goal=b,
             optimal=problems[i].optimal,

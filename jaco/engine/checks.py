@@ -23,7 +23,7 @@ from .shape import RunShape
 KEEP_PHEROMONE = (False, True, "history")
 
 
-def default_steplimit(grid: Grid, variant: Planner | None = None) -> int:
+def default_steplimit(grid: Grid, planner: Planner | None = None) -> int:
     """Step limit when none is given: 4·(H + W), at most the number of free cells (a walk with a
     tabu list can never be longer). Ants that step back at dead ends (a construct marked
     ``back_steps``, IACA's) count their back-steps against the limit and explore dead branches,
@@ -34,7 +34,7 @@ def default_steplimit(grid: Grid, variant: Planner | None = None) -> int:
     paths are much longer than the map is wide; 2·(free cells) is the depth-first search's bound
     (every cell entered once and left once), so where it is the limit every backtracking ant
     reaches a reachable goal (docs/compose.md, "The step limit")."""
-    if variant is not None and variant.back_steps:
+    if planner is not None and planner.back_steps:
         from ..exact import free_extent
 
         extent = max(grid.height + grid.width, math.ceil(free_extent(grid)))
@@ -42,23 +42,23 @@ def default_steplimit(grid: Grid, variant: Planner | None = None) -> int:
     return int(max(1, min(4 * (grid.height + grid.width), grid.n_free)))
 
 
-def resolve_steplimit(grid: Grid, variant: Planner | None, steplimit: int | None, *, n_ants: int, n_iters: int) -> int:
+def resolve_steplimit(grid: Grid, planner: Planner | None, steplimit: int | None, *, n_ants: int, n_iters: int) -> int:
     """A run's step limit, checked with its other sizes (:func:`check_sizes`): ``steplimit`` when
     given, else :func:`default_steplimit` of the map and planner."""
-    steplimit = default_steplimit(grid, variant) if steplimit is None else steplimit
+    steplimit = default_steplimit(grid, planner) if steplimit is None else steplimit
     check_sizes(n_ants, n_iters, steplimit)
     return steplimit
 
 
-def legacy_steplimit(grid: Grid, variant: Planner | None = None, format_version: int = 2) -> int:
+def legacy_steplimit(grid: Grid, planner: Planner | None = None, format_version: int = 2) -> int:
     """The default step limit of the jaco that wrote a record of ``format_version`` (a sweep record
     stores ``steplimit: null`` when none was given): before format 3, 4·(H + W) at most the free
     cells for every planner; in format 3, twice that (at most twice the free cells) for
     backtracking ants; since format 4, :func:`default_steplimit`."""
     if format_version >= 4:
-        return default_steplimit(grid, variant)
+        return default_steplimit(grid, planner)
     free, extent = grid.n_free, 4 * (grid.height + grid.width)
-    if format_version == 3 and variant is not None and variant.back_steps:
+    if format_version == 3 and planner is not None and planner.back_steps:
         free, extent = 2 * free, 2 * extent
     return int(max(1, min(extent, free)))
 
@@ -132,11 +132,11 @@ def check_shape(shape: RunShape) -> RunShape:
     return shape
 
 
-def resolve_params(variant: Planner, values: dict, *, where: str) -> dict:
-    """Validated parameter values (numpy float arrays) over the variant's defaults."""
-    merged = {k: np.asarray(variant.defaults[k], np.float64) for k in variant.params}
-    merged.update(check_values(values, variant.params, where))
-    check_order(merged, variant.params)
+def resolve_params(planner: Planner, values: dict, *, where: str) -> dict:
+    """Validated parameter values (numpy float arrays) over the planner's defaults."""
+    merged = {k: np.asarray(planner.defaults[k], np.float64) for k in planner.params}
+    merged.update(check_values(values, planner.params, where))
+    check_order(merged, planner.params)
     return merged
 
 
@@ -154,7 +154,7 @@ def check_grid(grid: object) -> Grid:
 
 def prepare(
     grid: Grid,
-    variant: Planner,
+    planner: Planner,
     *,
     seed: int,
     n_ants: int,
@@ -167,13 +167,13 @@ def prepare(
     """Validate one call with numpy before anything compiles: the map's type, the sizes and their
     memory estimate (``runs`` runs at once), the seed and every parameter (unknown names list the
     valid ones). Returns the step limit (the default when ``steplimit`` is None) and the parameter
-    values over the variant's defaults."""
+    values over the planner's defaults."""
     check_grid(grid)
     check_keep_pheromone(keep_pheromone)
-    steplimit = resolve_steplimit(grid, variant, steplimit, n_ants=n_ants, n_iters=n_iters)
+    steplimit = resolve_steplimit(grid, planner, steplimit, n_ants=n_ants, n_iters=n_iters)
     check_seed(seed)
     check_run_memory(grid.n_cells, n_ants, n_iters, steplimit, runs=runs, keep_pheromone=keep_pheromone)
-    values = resolve_params(variant, params, where=f"planner {variant.name!r}")
+    values = resolve_params(planner, params, where=f"planner {planner.name!r}")
     for k, v in values.items():
         if v.ndim:
             raise JacoError(f"solve takes one value per parameter; {k!r} has {v.size} (use jaco.sweep)")

@@ -26,7 +26,7 @@ class Result:
 
     ``path`` is a ``(K, 2)`` array of ``(row, col)`` (empty when no ant reached the goal);
     ``length`` and ``optimal`` are in cell units times the grid's ``cell_size``; ``cost`` is the
-    variant's objective (the length in cell units unless the variant says otherwise). When no ant
+    planner's objective (the length in cell units unless the planner says otherwise). When no ant
     reached the goal, ``hint`` says so and what usually helps on such a map.
     """
 
@@ -66,7 +66,7 @@ class Result:
     def metrics(self) -> dict:
         """:func:`jaco.metrics.path_metrics` of the best path (length, turns, heading change E,
         clearance, safety cost S, any-angle length, valid, gap) plus the run's ``cost``,
-        ``coverage`` and ``best_iteration``. S uses the run's ``rs_cost`` when the variant has one
+        ``coverage`` and ``best_iteration``. S uses the run's ``rs_cost`` when the planner has one
         (the multi-objective cost), else :data:`jaco.metrics.SAFETY_RADIUS`, so S and E are those
         of the cost. A failed run has length inf and no path figures. ``gap`` is the result's own
         :attr:`gap` (:func:`jaco.metrics.gap` of :attr:`length`, which the run summed in float32):
@@ -110,7 +110,7 @@ class Result:
 
     # -- records and world coordinates (jaco.research.records, docs/records.md) ---------------
     def save(self, path: Any) -> Any:
-        """Write this run as a JSON record (parameters, seed, variant, the map embedded with its
+        """Write this run as a JSON record (parameters, seed, planner, the map embedded with its
         sha256, sizes, connectivity, result and history, jaco/jax versions); returns the path.
         ``jaco.load_run(path).rerun()`` or ``jaco rerun PATH`` reruns it and checks it bit for bit."""
         from ..research.record_format import save_run
@@ -193,7 +193,7 @@ def path_cells(grid: Grid, start: Any, best_cells: Any) -> np.ndarray:
 
 
 def to_result(
-    out: Any, *, grid: Grid, variant: Any, start: Any, goal: Any, optimal: Any, seed: int, params: dict, shape: RunShape
+    out: Any, *, grid: Grid, planner: Any, start: Any, goal: Any, optimal: Any, seed: int, params: dict, shape: RunShape
 ) -> Result:
     """Convert one (unbatched) :class:`jaco.engine.run.RunOutput` of a run of ``shape`` to a
     :class:`Result`."""
@@ -201,7 +201,7 @@ def to_result(
     length = float(out.best_length) * grid.cell_size if success else math.inf
     opt = float(optimal) * grid.cell_size
     return Result(
-        variant=variant.name,
+        variant=planner.name,
         path=path_cells(grid, start, out.best_cells) if success else np.empty((0, 2), np.int64),
         length=length,
         success=success,
@@ -212,7 +212,7 @@ def to_result(
         history={k: np.asarray(v) for k, v in out.history._asdict().items()},
         coverage=int(out.covered) / grid.n_free,
         seed=int(seed),
-        params={k: float(params[k]) for k in variant.params},
+        params={k: float(params[k]) for k in planner.params},
         n_ants=shape.n_ants,
         n_iters=shape.n_iters,
         steplimit=shape.steplimit,

@@ -1,4 +1,4 @@
-"""The colony loop (the fifth of the five concepts): ``make_run(variant, ...) -> run(key, problem,
+"""The colony loop (the fifth of the five concepts): ``make_run(planner, ...) -> run(key, problem,
 params)``.
 
 Iterations are a loop (``lax.while_loop``, which also ends when the call is interrupted); the ants of an iteration walk together (vectorised over the ant
@@ -37,7 +37,7 @@ from .problem import Problem, make_problem
 from .result import Result, to_result
 from .shape import RunShape
 
-TRACES: Counter = Counter()  # how often each variant's run was traced (tests check "once")
+TRACES: Counter = Counter()  # how often each planner's run was traced (tests check "once")
 
 
 class History(NamedTuple):
@@ -137,7 +137,7 @@ def _iterate(iteration: Callable, key: jax.Array, carry: tuple, n_iters: int, sn
 
 
 def make_run(
-    variant: Planner,
+    planner: Planner,
     *,
     n_ants: int,
     n_iters: int,
@@ -155,23 +155,23 @@ def make_run(
     batch, so the batch reports once). A report is also where an interrupted call ends
     (:func:`jaco.progress.run_interruptibly`).
     """
-    if not isinstance(variant, Planner):
-        raise JacoError(f"make_run takes a Planner, got {variant!r} (by name: jaco.make_run or jaco.PLANNERS[name])")
+    if not isinstance(planner, Planner):
+        raise JacoError(f"make_run takes a Planner, got {planner!r} (by name: jaco.make_run or jaco.PLANNERS[name])")
     check_keep_pheromone(keep_pheromone)
     check_sizes(n_ants, n_iters, steplimit)
 
     def run(key, problem: Problem, params: Params) -> RunOutput:
-        TRACES[variant.name] += 1  # Python side effect: runs once per trace, never when cached
+        TRACES[planner.name] += 1  # Python side effect: runs once per trace, never when cached
         n = problem.nbr.shape[0]
-        size = n if variant.pheromone_on == "cells" else 8 * n
-        trail = variant.rule.init(
+        size = n if planner.pheromone_on == "cells" else 8 * n
+        trail = planner.rule.init(
             Trail(jnp.zeros(size, jnp.float32), jnp.float32(0.0), jnp.float32(jnp.inf)), problem, params
         )
 
         def construct(trail, t, key):
-            p = variant.schedule(params, t, n_iters)
-            trail, colony = variant.construct(
-                variant, problem, trail, p, t, n_iters, key, n_ants=n_ants, steplimit=steplimit
+            p = planner.schedule(params, t, n_iters)
+            trail, colony = planner.construct(
+                planner, problem, trail, p, t, n_iters, key, n_ants=n_ants, steplimit=steplimit
             )
             return p, trail, colony
 
@@ -182,12 +182,12 @@ def make_run(
             trail, best, seen, steps = carry
             key_t, t = xs
             p, trail, col = construct(trail, t, key_t)
-            if variant.local_search is not None:  # the improved paths are deposited and become the best
-                col = variant.local_search(variant, problem, col, p)
+            if planner.local_search is not None:  # the improved paths are deposited and become the best
+                col = planner.local_search(planner, problem, col, p)
             b = jnp.argmin(col.cost)
             best = _better_best(best, col, b, t)
             walks = Walks(col.targets, col.step_len, col.cost, best.targets, best.step_len, best.cost)
-            trail = variant.rule.update(trail, walks, problem, p)
+            trail = planner.rule.update(trail, walks, problem, p)
             hist = _history_row(best, col, b)
             snapshot = trail.tau if keep_pheromone == "history" else None
             _report_iteration(t, report, n_iters)
@@ -219,8 +219,8 @@ def batch_runs(run: Callable) -> Callable:
 
 
 # -- the compiled run, cached so repeated calls of one shape never recompile -----------------
-def compiled_run(variant: Planner, shape: RunShape, batched: bool, report: bool = False) -> Callable:
-    """The jitted run for these static choices (cached by the variant and
+def compiled_run(planner: Planner, shape: RunShape, batched: bool, report: bool = False) -> Callable:
+    """The jitted run for these static choices (cached by the planner and
     :attr:`RunShape.program <jaco.engine.shape.RunShape.program>`).
 
     ``report``: the unbatched run that reports its iterations to a progress bar (a program of its
@@ -232,10 +232,10 @@ def compiled_run(variant: Planner, shape: RunShape, batched: bool, report: bool 
     """
 
     def build():
-        run = make_run(variant, **shape.sizes, keep_pheromone=shape.keep_pheromone, report=report and not batched)
+        run = make_run(planner, **shape.sizes, keep_pheromone=shape.keep_pheromone, report=report and not batched)
         return jax.jit(batch_runs(run) if batched else run)
 
-    key = ("run", variant, *shape.program, batched)
+    key = ("run", planner, *shape.program, batched)
     return cached(key + (("report",) if report and not batched else ()), build)
 
 
@@ -243,7 +243,7 @@ def solve(
     grid: Grid,
     start: Any,
     goal: Any,
-    variant: Planner,
+    planner: Planner,
     *,
     seed: int,
     n_ants: int,
@@ -254,14 +254,14 @@ def solve(
     progress: bool | None = None,
     **params: Any,
 ) -> Result:
-    """One run of ``variant`` from ``start`` to ``goal``: the body of :func:`jaco.solve` without
+    """One run of ``planner`` from ``start`` to ``goal``: the body of :func:`jaco.solve` without
     waypoints (whose signature has the defaults). The call is validated by :func:`prepare` and
     :func:`~jaco.engine.problem.make_problem` (map, start, goal, reachability) before anything
     compiles. ``progress`` (:mod:`jaco.progress`): a bar of iterations once the call has taken
     :data:`jaco.progress.SOLVE_DELAY` seconds."""
     steplimit, values = prepare(
         grid,
-        variant,
+        planner,
         seed=seed,
         n_ants=n_ants,
         n_iters=n_iters,
@@ -272,17 +272,17 @@ def solve(
     shape = RunShape(n_ants, n_iters, steplimit, connectivity, keep_pheromone)
     problem = make_problem(grid, start, goal, connectivity=connectivity)
     show = _progress.enabled(progress)
-    bar = _progress.Bar(show, f"solve {variant.name}", "it", delay=_progress.SOLVE_DELAY)
+    bar = _progress.Bar(show, f"solve {planner.name}", "it", delay=_progress.SOLVE_DELAY)
     bar.start(n_iters)
     with _progress.listening(bar):
-        run = compiled_run(variant, shape, batched=False, report=show)
+        run = compiled_run(planner, shape, batched=False, report=show)
         out = _progress.run_interruptibly(
             lambda: jax.device_get(run(jax.random.key(seed), problem, params_from(values)))
         )
     return to_result(
         out,
         grid=grid,
-        variant=variant,
+        planner=planner,
         start=start,
         goal=goal,
         optimal=problem.optimal,

@@ -61,18 +61,18 @@ def mesh_devices(devices) -> list:
     return devs
 
 
-_PER_CONFIG: dict = {}  # (walk, variant, shape, batch shapes) -> measured bytes per configuration and device
+_PER_CONFIG: dict = {}  # (walk, planner, shape, batch shapes) -> measured bytes per configuration and device
 
 
-def _program(variant: Planner, shape: RunShape, mesh: Mesh, paths: bool = False):
+def _program(planner: Planner, shape: RunShape, mesh: Mesh, paths: bool = False):
     """The jitted chunk program (cached): ``(seeds, problems, params) -> (cost, length, best
     iteration, covered[, best cells])``, each ``(queries, configurations)``; ``paths`` adds the
     best ant's cells (for path metrics such as turns)."""
-    key = ("sweep", variant, *shape.sizes.values(), tuple(d.id for d in mesh.devices.flat), paths)
+    key = ("sweep", planner, *shape.sizes.values(), tuple(d.id for d in mesh.devices.flat), paths)
 
     def build():
         # reports every iteration: a bar inside the chunk, and an interrupt ends the chunk at once
-        batched = batch_runs(make_run(variant, **shape.sizes, report="every"))
+        batched = batch_runs(make_run(planner, **shape.sizes, report="every"))
 
         def chunk(seeds, problems, params):
             out = batched(jax.vmap(jax.random.key)(seeds), problems, params)
@@ -98,7 +98,7 @@ def _shapes(batch) -> tuple:
 
 
 def _executable(
-    variant: Planner,
+    planner: Planner,
     shape: RunShape,
     mesh: Mesh,
     batch,
@@ -109,7 +109,7 @@ def _executable(
 ):
     """The compiled chunk program for ``chunk`` configurations per device (cached), and whether
     it was compiled by this call (``on_compile()`` is called first when it is)."""
-    pkey, program = _program(variant, shape, mesh, paths)
+    pkey, program = _program(planner, shape, mesh, paths)
     key = (pkey, _shapes(batch), n_params, chunk)
     new = not is_cached(key)
 
@@ -120,7 +120,7 @@ def _executable(
         on_cfg, replicated = NamedSharding(mesh, PartitionSpec(AXIS)), NamedSharding(mesh, PartitionSpec())
         seeds = jax.ShapeDtypeStruct((width,), np.uint32, sharding=on_cfg)
         problems = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype, sharding=replicated), batch)
-        params = params_from(variant.default_params().to_dict(), (width,))
+        params = params_from(planner.default_params().to_dict(), (width,))
         params = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, np.float32, sharding=on_cfg), params)
         return _progress.run_interruptibly(lambda: program.lower(seeds, problems, params).compile())
 
@@ -144,7 +144,7 @@ def fit_chunk(budget: int, fixed: int, per: float, rows_per_device: int) -> int:
 
 
 def _plan(
-    variant: Planner,
+    planner: Planner,
     shape: RunShape,
     mesh: Mesh,
     batch,
@@ -161,14 +161,14 @@ def _plan(
     Returns ``(executable, configurations per device and chunk, info dict)``."""
     rows_per_device = math.ceil(n_rows / mesh.size)
     fixed = sum(int(np.asarray(x).nbytes) for x in jax.tree.leaves(batch))  # replicated problems
-    mkey = (native.active_walk(), variant, *shape.sizes.values(), _shapes(batch), paths)
-    path_len = _path_len(variant, shape, batch)
+    mkey = (native.active_walk(), planner, *shape.sizes.values(), _shapes(batch), paths)
+    path_len = _path_len(planner, shape, batch)
     guess = bytes_per_run(batch.n_cells, shape.n_ants, shape.n_iters, shape.steplimit, path_len) * batch.nbr.shape[0]
     per = _PER_CONFIG.get(mkey, guess)
     chunk = _agree(fit_chunk(budget, fixed, per, rows_per_device))
     compiles, tried = 0, []
     while True:
-        exe, new = _executable(variant, shape, mesh, batch, n_params, chunk, on_compile, paths)
+        exe, new = _executable(planner, shape, mesh, batch, n_params, chunk, on_compile, paths)
         compiles += new
         tried.append(chunk)
         used = _footprint(exe)
@@ -199,13 +199,13 @@ def _plan(
 _PATH_LEN: dict = {}
 
 
-def _path_len(variant: Planner, shape: RunShape, batch) -> int:
+def _path_len(planner: Planner, shape: RunShape, batch) -> int:
     """Length of the construct step's candidate buffer (shape only, traced once per shapes)."""
-    key = (variant, *shape.sizes.values(), _shapes(batch))
+    key = (planner, *shape.sizes.values(), _shapes(batch))
     if key not in _PATH_LEN:
-        run = make_run(variant, **shape.sizes)
+        run = make_run(planner, **shape.sizes)
         one = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape[1:], x.dtype), batch)
-        prm = jax.tree.map(lambda x: jax.ShapeDtypeStruct((), np.float32), variant.default_params())
+        prm = jax.tree.map(lambda x: jax.ShapeDtypeStruct((), np.float32), planner.default_params())
         out = jax.eval_shape(run, jax.ShapeDtypeStruct((), jax.random.key(0).dtype), one, prm)
         _PATH_LEN[key] = int(out.best_cells.shape[0])
     return _PATH_LEN[key]
@@ -234,7 +234,7 @@ class Runner:
 
     def __init__(
         self,
-        variant: Planner,
+        planner: Planner,
         queries: Queries,
         *,
         shape: RunShape,
@@ -244,10 +244,10 @@ class Runner:
         on_compile=None,
         paths: bool = False,
     ):
-        self.variant, self.queries, self.mesh, self.paths, self.shape = variant, queries, mesh, paths, shape
+        self.planner, self.queries, self.mesh, self.paths, self.shape = planner, queries, mesh, paths, shape
         batch = stack(queries.problems)
-        n_params = len(variant.default_params().to_dict())
-        self.exe, self.chunk, self.info = _plan(variant, shape, mesh, batch, n_params, rows, budget, on_compile, paths)
+        n_params = len(planner.default_params().to_dict())
+        self.exe, self.chunk, self.info = _plan(planner, shape, mesh, batch, n_params, rows, budget, on_compile, paths)
         self.width = self.chunk * mesh.size
         self._on_cfg = NamedSharding(mesh, PartitionSpec(AXIS))
         self._batch = jax.tree.map(lambda x: _put(x, NamedSharding(mesh, PartitionSpec())), batch)

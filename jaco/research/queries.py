@@ -68,16 +68,16 @@ def prepare_queries(
     n_iters: int,
     steplimit: int | None,
     connectivity: int,
-    variant: Any = None,
+    planner: Any = None,
 ) -> tuple[Queries, int]:
     """Validate the maps, queries and sizes (before anything compiles) and build the problems;
-    returns them and the step limit (when ``steplimit`` is None, the map's default for ``variant``:
+    returns them and the step limit (when ``steplimit`` is None, the map's default for ``planner``:
     :func:`jaco.engine.checks.resolve_steplimit`)."""
     queries = _queries(grid, start, goal)
     shapes = {g.shape for g, _, _ in queries}
     if len(shapes) != 1:
         raise JacoError(f"all maps of a sweep must have one shape, got {sorted(shapes)}")
-    steplimit = resolve_steplimit(queries[0][0], variant, steplimit, n_ants=n_ants, n_iters=n_iters)
+    steplimit = resolve_steplimit(queries[0][0], planner, steplimit, n_ants=n_ants, n_iters=n_iters)
     # one configuration of every query must fit: the chunks are cut under memory_budget from there
     check_run_memory(queries[0][0].n_cells, n_ants, n_iters, steplimit, runs=len(queries), what="a sweep chunk")
     problems = [make_problem(g, s, t, connectivity=connectivity) for g, s, t in queries]

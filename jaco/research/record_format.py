@@ -1,7 +1,7 @@
 """The files a run writes: run records (:meth:`jaco.Result.save`) and paths
 (:meth:`jaco.Result.save_path`), and the pieces of the record format that reading needs too.
 
-A run record is one JSON file: the call (variant, seed, sizes, parameters, start, goal,
+A run record is one JSON file: the call (planner, seed, sizes, parameters, start, goal,
 waypoints), the map embedded (text rows up to :data:`EMBED_ROWS_MAX` cells, above that a packed
 bit mask) with its sha256 (:func:`map_hash`) and, when it is a named map or a bundled file, that
 name, the result and its history, and the versions that decide whether a rerun can be bit-identical
@@ -56,15 +56,15 @@ __all__ = [
 _HISTORY_DTYPE = np.float32
 
 
-def recordable_name(variant: Any) -> str:
-    """The name a record stores for ``variant`` (a name or a Planner): one the registry resolves
+def recordable_name(planner: Any) -> str:
+    """The name a record stores for ``planner`` (a name or a Planner): one the registry resolves
     to that same planner — a registered planner, a composition of :func:`jaco.compose`, or a
     registered planner with another cost (``"acs+multi"``). Anything else cannot be rerun."""
     from ..planners.registry import get_planner
 
-    name = variant if isinstance(variant, str) else variant.name
+    name = planner if isinstance(planner, str) else planner.name
     try:
-        same = get_planner(name) is variant or isinstance(variant, str)
+        same = get_planner(name) is planner or isinstance(planner, str)
     except JacoError:
         same = False
     if not same:

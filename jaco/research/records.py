@@ -396,10 +396,10 @@ class SweepRecord:
             v = get_planner(v)
             return sweep(**{**kw, "planner": v, "steplimit": legacy_steplimit(grid, v, self.format_version)})
 
-        variants = kw["planner"]
-        if isinstance(variants, (list, tuple)) and not isinstance(variants, Planner):
-            return sweep_each_planner(variants, one, kw.get("params"))
-        return one(variants)
+        planners = kw["planner"]
+        if isinstance(planners, (list, tuple)) and not isinstance(planners, Planner):
+            return sweep_each_planner(planners, one, kw.get("params"))
+        return one(planners)
 
     def rerun(self, *, warn: bool = True) -> Rerun:
         """Run the recorded sweep again and compare the whole table value by value, every number

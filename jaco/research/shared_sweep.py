@@ -53,7 +53,7 @@ def stored_sweep(bar, st, outs, path, unit, grace, beat) -> pd.DataFrame:
     with SweepStore(path, grace) as held:
         sizes = st.runner.shape
         key = held.fingerprint(
-            st.variant,
+            st.planner,
             st.queries,
             st.values,
             st.config,
@@ -64,12 +64,12 @@ def stored_sweep(bar, st, outs, path, unit, grace, beat) -> pd.DataFrame:
             connectivity=sizes.connectivity,
         )
         held.load(key, outs)
-        bar.start(n_rows * n_q, f"sweep {st.variant.name}: {n_rows * n_q} runs")
+        bar.start(n_rows * n_q, f"sweep {st.planner.name}: {n_rows * n_q} runs")
         with held.heartbeat(beat):
             ran, units, took_over = _claim_and_run(bar, st, held, key, n_rows, unit, min(beat / 2, 0.25))
         held.load(key, outs)
         worker = held.worker
-    table = tidy_table(st.variant, st.queries, st.problems, st.values, st.config, st.seeds, *outs)
+    table = tidy_table(st.planner, st.queries, st.problems, st.values, st.config, st.seeds, *outs)
     table.attrs["sweep"] = dict(
         st.info,
         resumed_runs=int((n_rows - ran) * n_q),  # found stored, or run by other workers

@@ -68,7 +68,7 @@ class Int:
 
 @dataclass(frozen=True)
 class Categorical:
-    """One of ``choices`` (numbers, or planner names for ``variant``)."""
+    """One of ``choices`` (numbers, or planner names for ``planner``)."""
 
     choices: tuple
 
@@ -176,8 +176,8 @@ class Space:
         return out
 
 
-def parse_space(space: Any, variant: Any = None) -> Space:
-    """Check ``space`` (see the module) and resolve its planners; ``variant`` is the planner when
+def parse_space(space: Any, planner: Any = None) -> Space:
+    """Check ``space`` (see the module) and resolve its planners; ``planner`` is the planner when
     the space names none (default ``"mmas"``)."""
     from ..planners.registry import get_planner
 
@@ -191,19 +191,19 @@ def parse_space(space: Any, variant: Any = None) -> Space:
         if VARIANT in entries:
             raise SpaceError("space['planner'] and space['variant'] are the same entry: give one")
         entries[VARIANT] = entries.pop("planner")
-    if VARIANT in entries and variant is not None:
+    if VARIANT in entries and planner is not None:
         raise SpaceError("the planner is given twice: as planner= and as space['planner']; keep one")
-    chosen = entries.pop(VARIANT, "mmas" if variant is None else variant)
+    chosen = entries.pop(VARIANT, "mmas" if planner is None else planner)
     several = isinstance(chosen, (list, tuple, Categorical)) and not isinstance(chosen, Planner)
     names = list(chosen.choices if isinstance(chosen, Categorical) else chosen) if several else [chosen]
     if not names:
-        raise SpaceError("space['variant']: an empty list of planners")
+        raise SpaceError("space['planner']: an empty list of planners")
     planners = {}
     for v in names:
         resolved = get_planner(v)  # an unknown planner: one JacoError line listing the registered ones
         planners[resolved.name] = resolved
     if len(planners) != len(names):
-        raise SpaceError(f"space['variant']: a planner is listed twice in {names}")
+        raise SpaceError(f"space['planner']: a planner is listed twice in {names}")
     dims: dict = {VARIANT: Categorical(tuple(planners))} if len(planners) > 1 else {}
     fixed: dict = {}
     used = set().union(*(v.params for v in planners.values()))

@@ -237,12 +237,12 @@ class SweepStore:
                 db.execute("DELETE FROM claims WHERE worker = ?", (self.worker,))
             db.close()
 
-    def fingerprint(self, variant: Any, queries: Any, values: Any, config: Any, seeds: Any, **sizes: Any) -> str:
+    def fingerprint(self, planner: Any, queries: Any, values: Any, config: Any, seeds: Any, **sizes: Any) -> str:
         """The sweep's key: sha256 of what decides its runs; registers the sweep on first use."""
         from .record_format import map_hash
 
         call = {
-            "planner": variant.name,
+            "planner": planner.name,
             "queries": [[map_hash(g), list(s), list(t)] for g, s, t in queries],
             "parameters": {k: _sha(np.asarray(v, np.float64)) for k, v in sorted(values.items())},
             "config": _sha(np.asarray(config, np.int64)),
@@ -251,7 +251,7 @@ class SweepStore:
             "rows": int(len(seeds)),
         }
         key = hashlib.sha256(json.dumps(call, sort_keys=True).encode()).hexdigest()
-        self.db.execute("INSERT OR IGNORE INTO sweeps VALUES (?, ?, ?)", (key, variant.name, json.dumps(call)))
+        self.db.execute("INSERT OR IGNORE INTO sweeps VALUES (?, ?, ?)", (key, planner.name, json.dumps(call)))
         return key
 
     def load(self, key: str, outs: Any) -> np.ndarray:

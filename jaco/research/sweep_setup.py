@@ -21,11 +21,11 @@ from .queries import prepare_queries
 
 
 # -- configurations -------------------------------------------------------------------------
-def config_table(variant, params) -> tuple[dict, list[str]]:
+def config_table(planner, params) -> tuple[dict, list[str]]:
     """Per-configuration values (float64, one array per Params field) and the swept names."""
-    where = f"planner {variant.name!r}"
+    where = f"planner {planner.name!r}"
     if isinstance(params, dict):
-        check_values(params, variant.params, where)  # the variant's own names in the message
+        check_values(params, planner.params, where)  # the planner's own names in the message
         n = math.prod(np.size(v) for v in params.values())
         check_memory(
             n * CONFIG_BYTES,
@@ -33,13 +33,13 @@ def config_table(variant, params) -> tuple[dict, list[str]]:
             "use fewer values per axis, or a random or Latin hypercube design",
         )
     design = as_design(params)
-    unknown = [k for k in design.names if k not in variant.params]
+    unknown = [k for k in design.names if k not in planner.params]
     if unknown:
-        raise ParamError(f"unknown parameter {unknown[0]!r} for {where}; valid: {', '.join(sorted(variant.params))}")
-    base = resolve_params(variant, {}, where=where)
+        raise ParamError(f"unknown parameter {unknown[0]!r} for {where}; valid: {', '.join(sorted(planner.params))}")
+    base = resolve_params(planner, {}, where=where)
     n = len(design)
     table = {k: np.broadcast_to(design[k] if k in design else base[k], (n,)).astype(np.float64) for k in base}
-    check_order(table, variant.params, per_row=True)  # on every row (τmin < τmax, Q1 < Q2 < Q3, ρ2 < ρ1)
+    check_order(table, planner.params, per_row=True)  # on every row (τmin < τmax, Q1 < Q2 < Q3, ρ2 < ρ1)
     return table, list(design.names)
 
 
@@ -50,7 +50,7 @@ def check_budget(memory_budget: Any) -> int:
 
 
 class SweepSetup(NamedTuple):
-    variant: object
+    planner: object
     queries: list
     problems: list
     values: dict
@@ -64,7 +64,7 @@ def set_up_sweep(
     grid,
     start,
     goal,
-    variant,
+    planner,
     params,
     seeds,
     n_ants,
@@ -77,7 +77,7 @@ def set_up_sweep(
     chunk=None,
 ):
     """Validate everything (before compiling), then plan the chunks and compile the program."""
-    variant = get_planner(variant)
+    planner = get_planner(planner)
     qs, steplimit = prepare_queries(
         grid,
         start,
@@ -86,13 +86,13 @@ def set_up_sweep(
         n_iters=n_iters,
         steplimit=steplimit,
         connectivity=connectivity,
-        variant=variant,
+        planner=planner,
     )
     seed_list = check_seeds(seeds)
     budget = check_budget(memory_budget)
     if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1):
         raise JacoError(f"chunk must be a positive number of runs (configurations x seeds), got {chunk!r}")
-    values, _ = config_table(variant, params)
+    values, _ = config_table(planner, params)
     n_cfg = len(next(iter(values.values())))
     n_rows = n_cfg * len(seed_list) * len(qs.queries)
     check_memory(
@@ -105,7 +105,7 @@ def set_up_sweep(
     seed_arr = np.tile(seed_list, n_cfg)
     rows = len(config) if chunk is None else min(len(config), int(chunk))
     shape = RunShape(n_ants, n_iters, steplimit, connectivity)
-    runner = Runner(variant, qs, shape=shape, mesh=mesh, rows=rows, budget=budget, on_compile=on_compile)
+    runner = Runner(planner, qs, shape=shape, mesh=mesh, rows=rows, budget=budget, on_compile=on_compile)
     info = dict(
         runs=len(config) * len(qs.problems),
         configurations=n_cfg,
@@ -116,4 +116,4 @@ def set_up_sweep(
     )
     if chunk is not None:  # chunks: over every row, not only the capped first one
         info["chunks"] = math.ceil(len(config) / runner.width)
-    return SweepSetup(variant, qs.queries, qs.problems, values, config, seed_arr, runner, info)
+    return SweepSetup(planner, qs.queries, qs.problems, values, config, seed_arr, runner, info)

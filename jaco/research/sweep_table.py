@@ -15,7 +15,7 @@ from ..metrics import gap
 RESULT_COLUMNS = ("seed", "success", "length", "cost", "best_iteration", "optimal", "gap", "coverage")
 
 
-def tidy_table(variant, queries, problems, values, config, seed_arr, cost, length, best_iter, covered) -> pd.DataFrame:
+def tidy_table(planner, queries, problems, values, config, seed_arr, cost, length, best_iter, covered) -> pd.DataFrame:
     """The tidy table: one row per query × configuration × seed (query-major)."""
     n_q, n_rows = cost.shape
     cols: dict = {}
@@ -24,7 +24,7 @@ def tidy_table(variant, queries, problems, values, config, seed_arr, cost, lengt
         success = np.isfinite(cost[q])
         L = np.where(success, length[q].astype(np.float64) * g.cell_size, math.inf)
         optimal = float(problems[q].optimal) * g.cell_size
-        cols = {"planner": [variant.name] * n_rows}  # every table names its planner, one planner too
+        cols = {"planner": [planner.name] * n_rows}  # every table names its planner, one planner too
         if n_q > 1:  # the query as integer columns, so that a CSV round trip keeps them numbers
             cols |= {
                 "map": [g.name] * n_rows,
@@ -34,7 +34,7 @@ def tidy_table(variant, queries, problems, values, config, seed_arr, cost, lengt
                 "goal_col": np.full(n_rows, t[1], np.int64),
             }
         cols["config"] = config.astype(np.int64)
-        cols.update({k: values[k][config] for k in variant.params})
+        cols.update({k: values[k][config] for k in planner.params})
         cols.update(
             seed=seed_arr.astype(np.int64),
             success=success,

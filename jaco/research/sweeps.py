@@ -198,7 +198,7 @@ def _sweep(
     grid,
     start,
     goal,
-    variant,
+    planner,
     params,
     seeds,
     n_ants,
@@ -219,7 +219,7 @@ def _sweep(
         grid,
         start,
         goal,
-        variant,
+        planner,
         params,
         seeds,
         n_ants,
@@ -241,7 +241,7 @@ def _sweep(
 def _run_sweep(bar, st, outs, todo) -> pd.DataFrame:
     """Run the rows ``todo`` of a set-up sweep into ``outs``."""
     n_q, n_rows = outs[0].shape
-    bar.start(n_rows * n_q, f"sweep {st.variant.name}: {n_rows * n_q} runs")
+    bar.start(n_rows * n_q, f"sweep {st.planner.name}: {n_rows * n_q} runs")
 
     def finished(lo, hi, got):
         rows = todo[lo:hi]
@@ -256,32 +256,32 @@ def _run_sweep(bar, st, outs, todo) -> pd.DataFrame:
     st.runner(
         {k: v[st.config[todo]] for k, v in st.values.items()}, st.seeds[todo], on_chunk=finished, on_iteration=running
     )
-    table = tidy_table(st.variant, st.queries, st.problems, st.values, st.config, st.seeds, *outs)
+    table = tidy_table(st.planner, st.queries, st.problems, st.values, st.config, st.seeds, *outs)
     table.attrs["sweep"] = st.info
     return table
 
 
-def sweep_each_planner(variants, run, params) -> pd.DataFrame:
+def sweep_each_planner(planners, run, params) -> pd.DataFrame:
     """One sweep per planner (each with its ``planner`` column), stacked; every planner and its
     parameter axes are checked before anything compiles."""
-    variants = [get_planner(v) for v in variants]
-    if not variants:
+    planners = [get_planner(v) for v in planners]
+    if not planners:
         raise JacoError("planner: an empty list of planners")
-    names = [v.name for v in variants]
+    names = [v.name for v in planners]
     if len(set(names)) != len(names):
         raise JacoError(f"planner: a planner is listed twice in {names}")
     axes = list(params) if isinstance(params, dict) else as_design(params).names
     for axis in axes:  # one that some planners lack: say which have it (no "did you mean")
-        have = [v.name for v in variants if axis in v.params]
-        if have and len(have) < len(variants):
+        have = [v.name for v in planners if axis in v.params]
+        if have and len(have) < len(planners):
             raise ParamError(
-                f"{owners(axis, variants)}: a sweep over several planners takes only the parameters every one of "
+                f"{owners(axis, planners)}: a sweep over several planners takes only the parameters every one of "
                 f"them has; sweep {' and '.join(have)} on {'its' if len(have) == 1 else 'their'} own, or search "
                 "(jaco search, jaco.search), which sets a parameter only for the planners that have it"
             )
-    for v in variants:
+    for v in planners:
         config_table(v, params)
-    tables = [run(v) for v in variants]  # each with its first column "planner"
+    tables = [run(v) for v in planners]  # each with its first column "planner"
     table = pd.concat(tables, ignore_index=True)
-    table.attrs["sweep"] = {v.name: t.attrs["sweep"] for v, t in zip(variants, tables)}
+    table.attrs["sweep"] = {v.name: t.attrs["sweep"] for v, t in zip(planners, tables)}
     return table

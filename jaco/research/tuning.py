@@ -1,7 +1,7 @@
 """Hyperparameter tuning with optax: evolution-strategy gradients over continuous parameters
 (docs/algorithms.md §9; docs/tuning.md).
 
-``jaco.tune(grid, start, goal, variant, tune=("alpha", "beta", "rho"), ...) -> TuneResult``
+``jaco.tune(grid, start, goal, planner, tune=("alpha", "beta", "rho"), ...) -> TuneResult``
 
 **Transforms.** Each tuned parameter lives in an unconstrained coordinate z, mapped into its range
 from :data:`jaco.engine.params.SPECS` by
@@ -131,17 +131,17 @@ def member_objective(cost: jax.Array, penalty: float | jax.Array) -> jax.Array:
 
 
 # -- the compiled loop -----------------------------------------------------------------------
-def _compiled(variant: Planner, names, optimizer, *, n_ants, n_iters, steplimit, steps, population, n_seeds):
-    """The jitted tuning loop for these static choices, cached by the variant and the optimiser
+def _compiled(planner: Planner, names, optimizer, *, n_ants, n_iters, steplimit, steps, population, n_seeds):
+    """The jitted tuning loop for these static choices, cached by the planner and the optimiser
     themselves (both hashable: an optax transformation is a tuple of its functions)."""
-    key = ("tune", variant, optimizer, names, n_ants, n_iters, steplimit, steps, population, n_seeds)
+    key = ("tune", planner, optimizer, names, n_ants, n_iters, steplimit, steps, population, n_seeds)
     return cached(
-        key, lambda: _build(variant, names, optimizer, n_ants, n_iters, steplimit, steps, population, n_seeds)
+        key, lambda: _build(planner, names, optimizer, n_ants, n_iters, steplimit, steps, population, n_seeds)
     )
 
 
-def _build(variant, names, optimizer, n_ants, n_iters, steplimit, steps, population, n_seeds):
-    run = make_run(variant, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit)
+def _build(planner, names, optimizer, n_ants, n_iters, steplimit, steps, population, n_seeds):
+    run = make_run(planner, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit)
     # members × seeds on one problem, every member on the same seeds' keys (common random numbers):
     # not a sweep's layout (jaco.engine.run.batch_runs: one key and one configuration per run)
     batch = jax.vmap(jax.vmap(run, in_axes=(0, None, None)), in_axes=(None, None, 0))
@@ -185,7 +185,7 @@ def path_buffer(run: Callable, key: jax.Array, problem: Any, params: Params) -> 
 class TuneResult:
     """What :func:`tune` found.
 
-    ``params``: every parameter of the variant, the tuned ones at their final values (ready for
+    ``params``: every parameter of the planner, the tuned ones at their final values (ready for
     ``jaco.solve(..., **result.params)``); ``init``: the starting values; ``history``: one row per
     step with the step, the population's mean objective, the share of successful runs and the
     tuned parameters at the centre of that step's population; ``penalty``: the cost a failed run
@@ -196,24 +196,24 @@ class TuneResult:
     history: pd.DataFrame
     init: dict
     tuned: tuple
-    variant: str
+    planner: str
     penalty: float
 
 
-def _names(variant: Planner, tune) -> tuple[str, ...]:
+def _names(planner: Planner, tune) -> tuple[str, ...]:
     try:
         names = (tune,) if isinstance(tune, str) else tuple(tune)
     except TypeError:
         raise ParamError(f"tune: expected parameter names, got {tune!r}") from None
     if not names:
         raise ParamError("tune: name at least one parameter to tune")
-    usable = [n for n in variant.params if tunable(n)]
+    usable = [n for n in planner.params if tunable(n)]
     for name in names:
         if not isinstance(name, str):
             raise ParamError(f"tune: parameter names must be strings, got {name!r}")
         if name not in param_names():
             raise ParamError(
-                f"unknown parameter {name!r}{did_you_mean(name, usable)}; tunable for {variant.name!r}: "
+                f"unknown parameter {name!r}{did_you_mean(name, usable)}; tunable for {planner.name!r}: "
                 f"{', '.join(usable)}"
             )
         if not tunable(name):
@@ -222,8 +222,8 @@ def _names(variant: Planner, tune) -> tuple[str, ...]:
                 f"parameter {name!r} cannot be tuned: it is ordered ({pairs}), which independent "
                 f"transforms cannot keep; sweep it with jaco.sweep instead"
             )
-        if name not in variant.params:
-            raise ParamError(f"planner {variant.name!r} does not use parameter {name!r}; tunable: {', '.join(usable)}")
+        if name not in planner.params:
+            raise ParamError(f"planner {planner.name!r} does not use parameter {name!r}; tunable: {', '.join(usable)}")
     if len(set(names)) != len(names):
         raise ParamError(f"tune: a parameter is named twice in {names!r}")
     return names
@@ -272,7 +272,7 @@ def tune(
 
     ``tune``: the parameters to tune (each must be used by the planner and have a range in
     :data:`jaco.engine.params.SPECS`); ``init``: starting values of the tuned parameters and fixed
-    values of any other parameter of the planner (default: the variant's defaults); ``steps``
+    values of any other parameter of the planner (default: the planner's defaults); ``steps``
     optimiser steps of ``population`` members (even: antithetic pairs), each run on ``n_seeds``
     seeds; ``sigma``: the perturbation in the unconstrained coordinates (about ±50 % of a value
     for log-transformed parameters); ``optimizer``: any optax ``GradientTransformation``

@@ -33,14 +33,14 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
     ledger: dict = {}  # what an interrupt leaves in the store (the last line says)
     args.kept = functools.partial(_sweep_kept, args.store, ledger)
-    variants = [get_planner(v) for v in args.planner or [args.default_planner]]
-    variant = variants[0] if len(variants) == 1 else variants
+    planners = [get_planner(v) for v in args.planner or [args.default_planner]]
+    planner = planners[0] if len(planners) == 1 else planners
     several = len(starts) > 1
     start, goal = (starts, goals) if several else (starts[0], goals[0])
-    n_configs = len(variants) * (math.prod(len(v) for v in axes.values()) if axes else 1)
-    _print_sweep_plan(args, grid, variants, start, goal, n_configs, len(starts), scenarios, label)
+    n_configs = len(planners) * (math.prod(len(v) for v in axes.values()) if axes else 1)
+    _print_sweep_plan(args, grid, planners, start, goal, n_configs, len(starts), scenarios, label)
     # the sweep's call, which --record writes down for 'jaco rerun'
-    call = (grid, start, goal, variant, axes, args.seeds)
+    call = (grid, start, goal, planner, axes, args.seeds)
     sizes = {"n_ants": args.ants, "n_iters": args.iters, "steplimit": args.steplimit}
     with counting(ledger):  # progress left at its default: a bar on a terminal
         table = sweep(*call, **sizes, store=args.store, chunk=args.chunk, grace_period=args.grace_period)
@@ -49,26 +49,26 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     args.finished = True
     print(f"{len(table)} runs in {seconds:.2f} s (since the command started: imports, JIT compilation and the runs)")
     if args.store:
-        _print_store_share(args.store, table, several_planners=len(variants) > 1)
+        _print_store_share(args.store, table, several_planners=len(planners) > 1)
     if scenarios is not None and not several:
         print(f"scenario {label}: optimal length {scenarios[0].optimal:.4f} (from the .scen file)")
     _write_sweep_outputs(args, table, call, sizes)
-    _print_sweep_summary(table, variants, axes, several)
+    _print_sweep_summary(table, planners, axes, several)
     if n_configs > 1 and (args.csv or args.record):
         # every swept column, so that the command runs as printed
         by = " ".join(f"--by {c}" for c in ["planner", *(k for k, v in axes.items() if len(v) > 1)])
-        what = "planners" if len(variants) > 1 else "configurations"
+        what = "planners" if len(planners) > 1 else "configurations"
         print(f"\ncompare the {what} with paired tests: jaco compare {shlex.quote(str(args.csv or args.record))} {by}")
     return 0
 
 
-def _print_sweep_plan(args, grid, variants, start, goal, n_configs, n_queries, scenarios, label) -> None:
+def _print_sweep_plan(args, grid, planners, start, goal, n_configs, n_queries, scenarios, label) -> None:
     """The first lines: what runs on which map and queries, how many configurations and seeds."""
     from ...research.tables import short_name
 
     query = f"{n_queries} queries" if n_queries > 1 else f"start {tuple(start)} -> goal {tuple(goal)}"
     print(
-        f"sweep {', '.join(short_name(v.name) for v in variants)} on {grid.name} ({grid.height}x{grid.width}), {query}: "
+        f"sweep {', '.join(short_name(v.name) for v in planners)} on {grid.name} ({grid.height}x{grid.width}), {query}: "
         f"{n_configs} configurations x {args.seeds} seeds, {args.ants} ants x {args.iters} iterations",
         flush=True,
     )
@@ -112,19 +112,19 @@ def _sweep_kept(store, ledger) -> str:
     return f"{runs} run{'s' if runs != 1 else ''} stored in {store}; the same command resumes"
 
 
-def _print_sweep_summary(table, variants, axes, several) -> None:
+def _print_sweep_summary(table, planners, axes, several) -> None:
     """The best configurations (over every query when there are several) and the best one."""
     from ...research.sweeps import summarize
     from ...research.tables import percent, short_name
 
-    swept = (["planner"] if len(variants) > 1 else []) + list(axes)
+    swept = (["planner"] if len(planners) > 1 else []) + list(axes)
     by = swept + ["config"] if several else None  # several queries: one row per configuration
     summary = (
         summarize(table, by=by if by else None)
         .sort_values(["success_rate", "gap_median", "gap_mean"], ascending=[False, True, True], kind="stable")
         .reset_index(drop=True)
     )
-    shown_by = swept or list(variants[0].params)
+    shown_by = swept or list(planners[0].params)
     over = "every query's seeds" if several else "the seeds"
     print(
         f"\ntop {min(10, len(summary))} of {len(summary)} configurations over {over} (by success rate, then median "
@@ -136,7 +136,7 @@ def _print_sweep_summary(table, variants, axes, several) -> None:
         optimum = "" if several else f" (optimum {table['optimal'].iloc[0]:.4f})"
         print(f"\nno configuration reached the goal{optimum}: every run failed")
         return
-    winner = _variant_of(best, variants)
+    winner = _planner_of(best, planners)
     conf = " ".join(f"{k}={best[k]:g}" for k in axes)
     rest = "other parameters at their defaults" if axes else "default parameters"
     print(f"\nbest: {short_name(winner.name)} {conf}".rstrip() + f" ({rest})")
@@ -152,11 +152,11 @@ def _print_sweep_summary(table, variants, axes, several) -> None:
     )
 
 
-def _variant_of(row, variants):
+def _planner_of(row, planners):
     """The planner of a summary row (the one planner of the sweep, or the row's ``planner``)."""
     from ...planners.registry import get_planner
 
-    return get_planner(row["planner"]) if len(variants) > 1 else variants[0]
+    return get_planner(row["planner"]) if len(planners) > 1 else planners[0]
 
 
 def _unsigned_zero(text: str) -> str:
