@@ -138,3 +138,10 @@ def test_a_failed_run_explains_what_usually_helps():
     assert "--planner iaca" in cli and "--steplimit 6" in cli and "--ants 16" in cli
     stuck = jaco.solve(trap, start, goal, "iaca", n_ants=2, n_iters=1, steplimit=3)
     assert not stuck.success and "backtracking" not in stuck.hint  # it backtracks already
+    # What the planner's construct declares decides, not its name: a backtracking composition under
+    # a name of its own gets no such tip, a dying-ant one named like IACA does.
+    stepper = jaco.compose(construct="backtrack", rule="mmas").named("stepper", source="test", doc="test")
+    dying = jaco.compose(rule="mmas").named("iaca-like", source="test", doc="test")
+    for planner, tip in ((stepper, False), (dying, True)):
+        failed = jaco.solve(trap, start, goal, planner, n_ants=2, n_iters=1, steplimit=3)
+        assert not failed.success and ("a backtracking planner" in failed.hint) is tip

@@ -51,6 +51,8 @@ class Result:
     pheromone: np.ndarray | None = field(default=None, repr=False)
     connectivity: int = 8  # records: a rerun needs the move set (jaco.research.records)
     waypoints: tuple = ()  # the targets visited between start and goal (jaco.waypoints)
+    # The planner's ants step back from dead ends (Planner.back_steps): the failure hint reads it.
+    back_steps: bool = field(default=False, repr=False, compare=False)
 
     @property
     def planner(self) -> str:
@@ -167,8 +169,7 @@ def failure_hint(result: Result, *, cli: bool = False) -> str:
             f"a larger step limit ({opt['steplimit']}{2 * result.steplimit}; it is {result.steplimit} and the "
             f"shortest path is {steps:.0f} cells long, so an ant that strays runs out of steps)"
         )
-    backtracks = result.variant == "iaca" or "backtrack" in result.variant
-    if not backtracks:
+    if not result.back_steps:
         tips.append(
             f"a backtracking planner ({opt['planner']}): {result.variant}'s ants die in dead ends, and maps "
             "of rooms, corridors and traps are full of them; IACA's ants step back instead"
@@ -221,4 +222,5 @@ def to_result(
         grid=grid,
         pheromone=None if out.tau is None else np.asarray(out.tau),
         connectivity=int(shape.connectivity),
+        back_steps=bool(planner.back_steps),
     )

@@ -39,7 +39,7 @@ import numpy as np
 
 from ..engine.planner import Planner
 from ..engine.result import Result
-from ..errors import resolve_aliases
+from ..errors import JacoError, resolve_aliases
 from ..grid import Grid
 from ..metrics import gap
 from ..outputs import as_path, atomic_paths, check_output, write_text
@@ -182,6 +182,16 @@ class RunRecord:
         return Rerun(not diffs, diffs, list(self.warnings), new, what)
 
 
+def _backtracks(name: str) -> bool:
+    """Whether the recorded planner's ants step back (False where this jaco does not know it)."""
+    from ..planners.registry import get_planner
+
+    try:
+        return bool(get_planner(name).back_steps)
+    except JacoError:
+        return False
+
+
 def _result_from(doc: dict, grid: Grid):
     c, r = doc["call"], doc["result"]
     history = {
@@ -212,6 +222,7 @@ def _result_from(doc: dict, grid: Grid):
     for name, value in (
         ("connectivity", int(c.get("connectivity", 8))),
         ("waypoints", cells_from_json(c.get("waypoints"))),
+        ("back_steps", _backtracks(c["variant"])),
     ):
         if hasattr(res, name) and value is not None:
             setattr(res, name, value)
