@@ -251,7 +251,7 @@ def test_plots_of_a_comparison(three, tmp_path):
     assert f"CD = {three.friedman['cd']:.2f}" in texts
     ranks = three.ranks.to_numpy()
     bars = [line for line in ax.lines if line.get_linewidth() > 3]
-    assert len(bars) == len(jaco.plot._cliques(ranks, three.friedman["cd"]))
+    assert len(bars) == len(jaco.plot.compare.cliques(ranks, three.friedman["cd"]))
     jaco.plot.save(fig, tmp_path / "cd.png")
     prof = jaco.plot.plot_performance_profile(three)
     assert [t.get_text() for t in prof.axes[0].get_legend().get_texts()] == ["A", "B", "C"]
@@ -261,9 +261,9 @@ def test_plots_of_a_comparison(three, tmp_path):
 
 
 def test_cliques_by_hand():
-    assert jaco.plot._cliques(np.array([1.0, 1.5, 2.2, 4.0]), 1.0) == [(0, 1), (1, 2)]
-    assert jaco.plot._cliques(np.array([1.0, 1.5, 2.2, 4.0]), 1.3) == [(0, 2)]
-    assert jaco.plot._cliques(np.array([1.0, 3.0]), 1.0) == []
+    assert jaco.plot.compare.cliques(np.array([1.0, 1.5, 2.2, 4.0]), 1.0) == [(0, 1), (1, 2)]
+    assert jaco.plot.compare.cliques(np.array([1.0, 1.5, 2.2, 4.0]), 1.3) == [(0, 2)]
+    assert jaco.plot.compare.cliques(np.array([1.0, 3.0]), 1.0) == []
 
 
 def test_cli_compare_on_a_saved_table_old_and_new_layout(tmp_path, capsys):

@@ -417,10 +417,10 @@ def test_planner_effect_is_eta_squared():
     # (0.5² + 0.4² + 0.3²) + 3 * 0.4² = 0.5 + 0.48 = 0.98; η² = 0.96 / 0.98 = 48/49
     values = [0.1, 0.2, 0.3, 1.0, 1.0, 1.0]
     planners = ["acs"] * 3 + ["mmas"] * 3
-    assert jaco.plot._planner_effect(values, planners) == pytest.approx(48 / 49)
-    assert jaco.plot._planner_effect([0.2, 0.2, 0.5, 0.5], ["a", "a", "b", "b"]) == pytest.approx(1.0)
-    assert jaco.plot._planner_effect([0.1, 0.3, 0.1, 0.3], ["a", "a", "b", "b"]) == pytest.approx(0.0)
-    assert np.isnan(jaco.plot._planner_effect([0.4, 0.4], ["a", "b"]))  # nothing varies
+    assert jaco.plot.search.planner_effect(values, planners) == pytest.approx(48 / 49)
+    assert jaco.plot.search.planner_effect([0.2, 0.2, 0.5, 0.5], ["a", "a", "b", "b"]) == pytest.approx(1.0)
+    assert jaco.plot.search.planner_effect([0.1, 0.3, 0.1, 0.3], ["a", "a", "b", "b"]) == pytest.approx(0.0)
+    assert np.isnan(jaco.plot.search.planner_effect([0.4, 0.4], ["a", "b"]))  # nothing varies
 
 
 @pytest.mark.filterwarnings("ignore:Argument ``normalize``", "ignore:Target and region quantiles")

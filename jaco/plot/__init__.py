@@ -17,8 +17,7 @@ One module per family of figures: :mod:`.maps` (the map, paths, pheromone and it
 """
 
 # Reached as jaco.plot.<name> but not in __all__: check_figure_path and figure_suffixes by the
-# command line, sweep_grid and OBJECTIVE_MAX by users, _cliques and _planner_effect by the tests.
-from .compare import _cliques as _cliques
+# command line, sweep_grid and OBJECTIVE_MAX by users.
 from .compare import plot_critical_difference, plot_performance_profile
 from .convergence import plot_convergence
 from .files import check_figure_path as check_figure_path
@@ -26,7 +25,6 @@ from .files import figure_suffixes as figure_suffixes
 from .files import save, save_gif
 from .maps import animate_pheromone, plot_map, plot_paths, plot_pheromone
 from .search import OBJECTIVE_MAX as OBJECTIVE_MAX
-from .search import _planner_effect as _planner_effect
 from .search import plot_param_importance, plot_pareto, plot_search_contour, plot_search_history
 from .sweeps import plot_sweep_box, plot_sweep_heatmap
 from .sweeps import sweep_grid as sweep_grid

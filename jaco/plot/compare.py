@@ -25,7 +25,7 @@ def _comparison(obj, what):
     return obj
 
 
-def _cliques(ranks: np.ndarray, cd: float) -> list[tuple[int, int]]:
+def cliques(ranks: np.ndarray, cd: float) -> list[tuple[int, int]]:
     """Maximal runs ``(i, j)`` of configurations (sorted by mean rank) whose mean ranks lie within
     ``cd`` of each other: the groups a critical-difference diagram joins with a bar."""
     out: list[tuple[int, int]] = []
@@ -70,7 +70,7 @@ def plot_critical_difference(comparison: Comparison, *, ax: Axes | None = None, 
     for x in (1, 1 + cd):
         ax.plot([x, x], [0.68, 0.82], color="black", linewidth=1.0)
     ax.text(1 + cd / 2, 0.86, f"CD = {cd:.2f}", ha="center", va="bottom", fontsize="small")
-    for n, (i, j) in enumerate(_cliques(ranks, cd)):
+    for n, (i, j) in enumerate(cliques(ranks, cd)):
         y = -0.1 - 0.09 * n
         ax.plot([ranks[i] - 0.03, ranks[j] + 0.03], [y, y], color="black", linewidth=3.5, solid_capstyle="butt")
     lowest = -(1 + max(left, k - left)) * step - 0.45

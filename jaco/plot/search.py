@@ -161,7 +161,7 @@ def _by_objective(study: Study, table: pd.DataFrame) -> pd.DataFrame:
     return table.rename(columns={objective_column(n): n for n in study.objectives})
 
 
-def _planner_effect(values: ArrayLike, planners: ArrayLike) -> float:
+def planner_effect(values: ArrayLike, planners: ArrayLike) -> float:
     """The share of the variance of ``values`` explained by the planner, η² (eta squared): the
     between-planner sum of squares over the total, ``Σ_p n_p (mean_p − mean)² / Σ_i (v_i − mean)²``
     over the finite values, 0 (the planners' means are equal) to 1 (every planner's values are all
@@ -218,7 +218,7 @@ def _importance_within(study: Study, numbers: Iterable[int]) -> dict[str, float]
 def _draw_planner_effect(effect_ax: Axes, table: pd.DataFrame, name: str, n_planners: int) -> None:
     """The planner's effect on the objective ``name`` as one bar: η² over the finished trials."""
     column = _planner_column(table)
-    eta = _planner_effect(table[name], table[column])
+    eta = planner_effect(table[name], table[column])
     effect_ax.barh(["planner"], [0.0 if np.isnan(eta) else eta], color="#c44e52", height=0.5, label="planner effect")
     inside = not np.isnan(eta) and eta > 0.75  # the value's text inside the bar's end
     effect_ax.text(
