@@ -92,7 +92,7 @@ def main(argv=None):
     rows = []
     for label, grid, start, goal in queries(jaco, args.smoke):
         trials = 16 if args.smoke else 512
-        kw = dict(variant="acs", seeds=args.seeds, sampler="tpe", progress=False, **sizes)
+        kw = dict(planner="acs", seeds=args.seeds, sampler="tpe", progress=False, **sizes)
         compile_s = {}
         for batch in batches:  # warm-up: compile every program the timed search uses
             t0 = time.perf_counter()

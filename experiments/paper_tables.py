@@ -165,7 +165,7 @@ def run_cell(grid, variant, runs, n_ants, n_iters, steplimit, values=None, rs=SA
         per_run.append(path_metrics(grid, path, optimal=optimal, rs=rs))
     best_i = int(np.argmin(lengths))
     best = to_result(
-        jax.tree.map(lambda a: a[best_i], raw), grid=grid, variant=variant, start=start, goal=goal,
+        jax.tree.map(lambda a: a[best_i], raw), grid=grid, planner=variant, start=start, goal=goal,
         optimal=optimal / grid.cell_size, seed=seeds[best_i], params=base,
         shape=RunShape(n_ants, n_iters, steplimit),
     )
