@@ -71,7 +71,7 @@ def test_pheromone_finite_and_within_bounds(name, maps_):
 
 
 def test_same_seed_identical_different_seeds_differ(name, maps_):
-    testing.check_seeds(name, maps_[0])
+    testing.check_reproducible_seeds(name, maps_[0])
 
 
 def test_sweep_rows_equal_solve(name, maps_):
@@ -198,3 +198,10 @@ def test_every_planner_with_local_search_keeps_the_contract(planner, maps_):
         finally:
             native.set_walk(None)
         _same_run(a, c)
+
+
+def test_the_contract_checks_former_name_warns_and_is_the_same_check():
+    """``jaco.testing.check_seeds`` was the reproducibility check's name until it met the sweep's
+    ``engine.checks.check_seeds``: it still works, with a DeprecationWarning naming the new one."""
+    with pytest.warns(DeprecationWarning, match="check_reproducible_seeds"):
+        assert testing.check_seeds is testing.check_reproducible_seeds
