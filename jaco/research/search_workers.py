@@ -10,6 +10,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .search_checks import SearchError, positive_seconds
+from .store import process_exists
 
 BEAT = "jaco_worker:"  # the study's user attribute per worker: its last heartbeat (time.time(); 0: it stopped)
 
@@ -32,19 +33,6 @@ def check_heartbeats(worker, interval, grace) -> Heartbeats:
     if grace <= interval:
         raise SearchError(f"grace_period ({grace:g} s) must be longer than heartbeat_interval ({interval:g} s)")
     return Heartbeats(int(worker), interval, grace)
-
-
-def alive_pid(pid: int) -> bool:
-    """Whether process ``pid`` of this host exists."""
-    import os
-
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # another user's process
-        return True
-    return True
 
 
 class Workers:
@@ -101,7 +89,7 @@ class Workers:
         if not beat:
             return False
         host, pid, _ = owner.rsplit(":", 2)  # type: ignore[union-attr]
-        if host == self.host and not alive_pid(int(pid)):
+        if host == self.host and not process_exists(int(pid)):
             return False
         return time.time() - float(beat) < self.grace
 

@@ -113,6 +113,17 @@ def worker_id() -> str:
     return f"{HOST}/{os.getpid()}/{secrets.token_hex(4)}"
 
 
+def process_exists(pid: int) -> bool:
+    """Whether process ``pid`` of this host exists (another user's counts)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # exists, another user's
+        return True
+    return True
+
+
 def _gone(worker: str) -> bool:
     """Whether ``worker`` was a process of this host that no longer exists (its claims are dead)."""
     host, _, rest = worker.partition("/")
@@ -121,13 +132,7 @@ def _gone(worker: str) -> bool:
         return False
     if int(pid) == os.getpid():  # an earlier call of this process, ended
         return worker not in _OPEN_WORKERS
-    try:
-        os.kill(int(pid), 0)
-    except ProcessLookupError:
-        return True
-    except OSError:  # exists, another user's
-        return False
-    return False
+    return not process_exists(int(pid))
 
 
 def _connect(path: Path) -> sqlite3.Connection:
