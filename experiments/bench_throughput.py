@@ -588,6 +588,10 @@ def report(R: dict, command: str) -> str:
         "",
     ]
     for walk, r in R["ratio"].items():
+        if not on_cpu:  # the host's CPU time says nothing of the GPU's work
+            lines.append(f"**{WALK_NAMES[walk]}: {r['steps']:.2f}× the native loop's real ant-steps per second** "
+                         f"(wall time; {r['configs']:.2f}× in configs/s), {r['engine']}.")
+            continue
         lines.append(f"**{WALK_NAMES[walk]}: {r['per_core']:.2f}× the native loop per core** (real ant-steps per CPU "
                      f"second, {r['per_core_engine']}); {r['steps']:.2f}× in wall-time real ant-steps/s "
                      f"({r['configs']:.2f}× in configs/s), best row: {r['engine']}.")
