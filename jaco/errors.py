@@ -49,6 +49,11 @@ class OutputError(JacoError):
 F = TypeVar("F", bound=Callable[..., Any])
 
 
+def one_line(text: object) -> str:
+    """``text`` (a message, an exception) on one line: its whitespace runs as single spaces."""
+    return " ".join(str(text).split())
+
+
 def did_you_mean(name: str, candidates: Iterable[str]) -> str:
     """``" (did you mean 'n_ants'?)"`` for the names in ``candidates`` closest to a misspelt
     ``name`` (difflib's ratio ≥ 0.6, at most three), or ``""`` when none is close."""

@@ -20,7 +20,8 @@ import time
 
 _IMPORTED = [time.perf_counter()]  # before jax and the rest are imported: the reported time counts start-up
 
-from .args import UsageError, one_line  # noqa: E402
+from ..errors import one_line  # noqa: E402
+from .args import UsageError  # noqa: E402
 from .parser import build_parser, join_negative_xy  # noqa: E402
 
 __all__ = ["main", "entry", "build_parser"]

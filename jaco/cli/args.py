@@ -192,7 +192,3 @@ def parse_axis(name: str, value: str) -> list[float]:
 
 def parse_sweep_params(items: list[str] | None) -> dict[str, list[float]]:
     return {name: parse_axis(name, value) for name, value in split_params(items)}
-
-
-def one_line(text: object) -> str:
-    return " ".join(str(text).split())

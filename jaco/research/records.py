@@ -39,7 +39,7 @@ import numpy as np
 
 from ..engine.planner import Planner
 from ..engine.result import Result
-from ..errors import JacoError, resolve_aliases
+from ..errors import JacoError, one_line, resolve_aliases
 from ..grid import Grid
 from ..metrics import gap
 from ..outputs import as_path, atomic_paths, check_output, write_text
@@ -453,10 +453,6 @@ def _as_recorded(new, record: SweepRecord):
 
 
 # -- loading --------------------------------------------------------------------------------
-def _one_line(e) -> str:
-    return " ".join(str(e).split())
-
-
 def load_run(path: Any) -> RunRecord | SweepRecord:
     """Load a record written by :meth:`jaco.Result.save` (returns a :class:`RunRecord`) or by
     :func:`save_sweep` (a :class:`SweepRecord`; the sidecar ``.json`` or its ``.csv`` table).
@@ -469,7 +465,7 @@ def load_run(path: Any) -> RunRecord | SweepRecord:
     try:
         doc = json.loads(path.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise RecordError(f"{path.name}: not a JSON record ({_one_line(e)})") from None
+        raise RecordError(f"{path.name}: not a JSON record ({one_line(e)})") from None
     except RecursionError:
         raise RecordError(f"{path.name}: not a jaco record (JSON nested too deeply)") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:

@@ -7,7 +7,8 @@ import shlex
 import sys
 from pathlib import Path
 
-from ..args import UsageError, one_line
+from ...errors import one_line
+from ..args import UsageError
 from ..output_flags import check_outputs
 
 

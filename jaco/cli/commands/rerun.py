@@ -8,7 +8,7 @@ import sys
 import time
 from typing import Any
 
-from ..args import one_line
+from ...errors import one_line
 
 
 def cmd_rerun(args: argparse.Namespace) -> int:
