@@ -315,7 +315,7 @@ def test_table_is_computed_once_per_run_not_per_iteration():
         return potential.apf_distance(problem)
 
     v = jaco.PLANNERS["apf-aco"]
-    v = v._replace(name="apf-aco-count", rule=ph.chain(apf_guided.apf_init(counting), ph.evaporate(), apf_guided.deposit_best_half()))
+    v = v._replace(name="apf-aco-count", rule=ph.chain(apf_guided.apf_init(counting, "apf"), ph.evaporate(), apf_guided.deposit_best_half()))
     grid = jaco.Grid.from_rows(["......", "..#...", "..#...", "......"])
     prob = make_problem(grid, (2, 0), (2, 5))
     out = jax.eval_shape(jaco.make_run(v, n_ants=4, n_iters=3, steplimit=10), jax.random.key(0), prob, v.default_params())

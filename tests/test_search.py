@@ -425,7 +425,7 @@ def test_interrupted_batch_resumes_without_loss_or_double_evaluation(tmp_path, m
     monkeypatch.setattr(S.Evaluator, "__call__", real)
     seen = []
     monkeypatch.setattr(
-        S.Evaluator, "__call__", lambda self, jobs: (seen.extend(j["trial"].number for j in jobs), real(self, jobs))[1]
+        S.Evaluator, "__call__", lambda self, jobs: (seen.extend(j.trial.number for j in jobs), real(self, jobs))[1]
     )
     study = jaco.search(GRID, *ENDS, SPACE, **kw)
     # each stale trial is failed and evaluated again once, as a new trial that names it (retry_of)

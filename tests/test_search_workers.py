@@ -36,12 +36,12 @@ WORKER = textwrap.dedent("""
     def logged(self, jobs):
         if os.environ.get("JACO_TEST_HANG"):
             with open(f"hung-{os.getpid()}.json", "w") as f:
-                json.dump([j["trial"].number for j in jobs], f)
+                json.dump([j.trial.number for j in jobs], f)
             time.sleep(600)
         out = real(self, jobs)
         with open(f"evals-{os.getpid()}.jsonl", "a") as f:
             for j in jobs:
-                f.write(json.dumps({"number": j["trial"].number, "values": j["own"]}) + "\\n")
+                f.write(json.dumps({"number": j.trial.number, "values": j.own}) + "\\n")
         return out
 
     S.Evaluator.__call__ = logged

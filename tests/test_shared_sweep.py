@@ -225,12 +225,12 @@ def test_an_old_store_without_worker_columns_is_upgraded(tmp_path):
 @pytest.mark.parametrize(
     "kwargs, match",
     [
-        (dict(grace_period=-1), "grace_period must be a positive number of seconds, got -1"),
-        (dict(grace_period=0), "grace_period must be a positive number"),
-        (dict(grace_period=math.nan), "grace_period must be a positive number"),
-        (dict(grace_period="60"), "grace_period must be a positive number"),
-        (dict(grace_period=True), "grace_period must be a positive number"),
-        (dict(heartbeat_interval=-2.0), "heartbeat_interval must be a positive number"),
+        (dict(grace_period=-1), "grace_period must be a positive finite number of seconds, got -1"),
+        (dict(grace_period=0), "grace_period must be a positive finite number"),
+        (dict(grace_period=math.nan), "grace_period must be a positive finite number"),
+        (dict(grace_period="60"), "grace_period must be a positive finite number"),
+        (dict(grace_period=True), "grace_period must be a positive finite number"),
+        (dict(heartbeat_interval=-2.0), "heartbeat_interval must be a positive finite number"),
         (
             dict(grace_period=10, heartbeat_interval=6),
             r"heartbeat_interval \(6 s\) must be at most half of grace_period \(10 s\)",

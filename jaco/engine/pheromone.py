@@ -48,8 +48,9 @@ RHO, Q, TAU0, XI, SIGMA, W, P_BEST, TAU_MIN, TAU_MAX = declare(
 
 class Trail(NamedTuple):
     """Pheromone ``tau (M,)``, its current bounds (``lo = 0``, ``hi = inf`` when unbounded) and
-    the components' own state by component (``state["pg"]``: a learning rule's logits and
-    optimiser state; ``state["apf"]``: a potential-field table), so that components with state
+    the components' own state by slot (pg-aco's rule: its logits and optimiser state; apf-aco's
+    heuristic: a potential-field table). The composition gives each stateful component its slot
+    (:func:`jaco.planners.compose.slot`) and refuses two in one, so that components with state
     combine: each reads and writes only its own entry (:func:`own`, :func:`with_own`)."""
 
     tau: jax.Array
@@ -59,12 +60,12 @@ class Trail(NamedTuple):
 
 
 def own(trail: Trail, key: str) -> Any:
-    """The state component ``key`` keeps in the trail."""
+    """The state kept in the trail's slot ``key``."""
     return trail.state[key]
 
 
 def with_own(trail: Trail, key: str, value: Any) -> Trail:
-    """``trail`` with component ``key``'s state set to ``value`` (the others' kept)."""
+    """``trail`` with slot ``key`` set to ``value`` (the other slots kept)."""
     return trail._replace(state={**trail.state, key: value})
 
 

@@ -56,19 +56,19 @@ def _heuristic(table):
     return heuristic
 
 
-def apf_table(table: Callable[[Any, Params], jax.Array]) -> ph.Rule:
-    """Keep the APF distance ``r = table(problem, params) (N,)`` in the trail (its state ``"apf"``),
-    computed once per run inside the run; the pheromone itself is left to the other pieces."""
+def apf_table(table: Callable[[Any, Params], jax.Array], slot: str) -> ph.Rule:
+    """Keep the APF distance ``r = table(problem, params) (N,)`` in the trail (in the heuristic's
+    slot), computed once per run inside the run; the pheromone itself is left to the other pieces."""
 
     def init(trail, problem, params):
-        return ph.with_own(trail, "apf", table(problem, params).astype(jnp.float32))
+        return ph.with_own(trail, slot, table(problem, params).astype(jnp.float32))
 
     return ph.Rule(init, ph.keep_update)
 
 
-def apf_init(table: Callable[[Any, Params], jax.Array]) -> ph.Rule:
-    """τ = τ0 everywhere and ``r = table(problem, params)`` (once per run, inside the run)."""
-    return ph.chain(apf_table(table), ph.init_constant())
+def apf_init(table: Callable[[Any, Params], jax.Array], slot: str) -> ph.Rule:
+    """τ = τ0 everywhere and ``r = table(problem, params)`` in ``slot`` (once per run, inside the run)."""
+    return ph.chain(apf_table(table, slot), ph.init_constant())
 
 
 def deposit_best_half() -> ph.Rule:
@@ -89,12 +89,21 @@ def deposit_best_half() -> ph.Rule:
     return ph.Rule(ph.keep_init, update)
 
 
-def apf_factor(planner: Planner, trail: ph.Trail, problem: Any, params: Params, t: Any, n_iters: int) -> jax.Array:
+def apf_factor(slot: str) -> Callable:
     """The factor of rule (6) besides τ^α, in log space: ``β·log η`` ``(N, 8)`` with η of eq. (10)
-    from the table the heuristic's init stored in the trail (its state ``"apf"``, once per run). The
-    engine scales each cell's weights to a top of 1, so large β cannot underflow."""
-    eta = apf_eta(problem, ph.own(trail, "apf"), t, n_iters)
-    return params.beta * jnp.log(jnp.maximum(eta, _TINY))
+    from the table the heuristic's init stored in its trail slot (once per run). The engine scales
+    each cell's weights to a top of 1, so large β cannot underflow."""
+
+    def factor(planner: Planner, trail: ph.Trail, problem: Any, params: Params, t: Any, n_iters: int) -> jax.Array:
+        eta = apf_eta(problem, ph.own(trail, slot), t, n_iters)
+        return params.beta * jnp.log(jnp.maximum(eta, _TINY))
+
+    return factor
+
+
+def _with_table(table: Callable[[Any, Params], jax.Array]) -> Callable[[str], dict]:
+    """The heuristic's parts that keep ``table`` in its slot and read it from there."""
+    return lambda slot: dict(factor=apf_factor(slot), rule=apf_table(table, slot))
 
 
 _TINY = float(np.finfo(np.float32).tiny)
@@ -113,8 +122,7 @@ component(
     "heuristic",
     "apf",
     heuristic=_heuristic(apf_distance),
-    factor=apf_factor,
-    rule=apf_table(apf_distance),
+    state=_with_table(apf_distance),
     params=(BETA.with_default(20.0),),
     why_not=_no_double,
     source="Dong & Zhao 2021 eqs. 4, 5, 10",
@@ -123,8 +131,7 @@ component(
     "heuristic",
     "pf",
     heuristic=_heuristic(classic_distance),
-    factor=apf_factor,
-    rule=apf_table(classic_distance),
+    state=_with_table(classic_distance),
     params=(BETA.with_default(20.0), K_REP_PARAM, D0_PARAM),
     why_not=_no_double,
     source="classic APF (Khatib)",

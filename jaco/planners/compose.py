@@ -37,8 +37,8 @@ modules and, for the engine's own pieces, below) with the parameters it reads an
 (:class:`~jaco.engine.params.Param`): the rule owns α and its own (ρ, Q, τ0, …), the heuristic β
 and its own, the construct, transition, schedule and cost theirs; where two claim a parameter,
 the later of construct, rule, heuristic, transition, schedule, cost gives the default. A
-component may keep state in the trail (``Trail.state[name]``) and fix parameters itself (IDACA's
-schedule sets α and β). Pheromone lives on cells when a component needs it (``backtrack``,
+component may keep state in the trail, in the slot the composition gives it (``Trail.state[slot]``,
+the slot its name: :func:`slot`), and fix parameters itself (IDACA's schedule sets α and β). Pheromone lives on cells when a component needs it (``backtrack``,
 ``iaca``), else on moves. Combinations that cannot work together are a
 :class:`~jaco.errors.JacoError` naming the algorithmic reason.
 
@@ -70,6 +70,8 @@ __all__ = [
     "compose",
     "component",
     "lookup",
+    "parts",
+    "slot",
     "add_local_search",
     "parse",
     "default_transition",
@@ -96,7 +98,9 @@ class Component(NamedTuple):
     defaults, its source in a few words, the pheromone layout it needs (``"cells"``, ``"moves"``
     or None), the parameters it sets itself (taken out of the planner's), and ``why_not(chosen)``:
     the reason it cannot work with the other chosen components (their names by kind), or None.
-    A rule's ``default_transition`` part names the transition :func:`compose` takes when given none."""
+    A rule's ``default_transition`` part names the transition :func:`compose` takes when given none.
+    ``state``: for a component that keeps state in the trail, ``state(slot) -> parts``, the parts
+    that read and write it built for the slot the composition gives it (:func:`parts`)."""
 
     kind: str
     name: str
@@ -106,6 +110,7 @@ class Component(NamedTuple):
     pheromone_on: str | None = None
     fixes: tuple = ()
     why_not: Callable | None = None
+    state: Callable[[str], Mapping] | None = None
 
 
 _CACHE: dict = {}  # compositions by their arguments
@@ -123,12 +128,15 @@ def component(
     pheromone_on: str | None = None,
     fixes: tuple = (),
     why_not: Callable | None = None,
+    state: Callable[[str], Mapping] | None = None,
     **parts: Any,
 ) -> Component:
     """Declare a component of ``kind`` under ``name`` (a module that defines a new heuristic, rule,
     construct step, transition, schedule, cost or local search calls this once, at import), so
     that :func:`compose` finds it by name; returns it (:func:`compose` takes the value too). ``params``: the
-    :class:`~jaco.engine.params.Param` declarations it reads, with its defaults. Declaring the
+    :class:`~jaco.engine.params.Param` declarations it reads, with its defaults. ``state``: for a
+    component that keeps state in the trail, a function of its slot (a ``Trail.state`` key, given
+    by :func:`compose`) returning the parts that use it, so its code names no key. Declaring the
     same name again replaces the component (a notebook cell run twice)."""
     if kind not in COMPONENTS:
         raise JacoError(f"unknown kind {kind!r}; kinds: {', '.join(COMPONENTS)}")
@@ -137,7 +145,7 @@ def component(
     if not all(isinstance(p, Param) for p in params):
         raise JacoError(f"component {name!r}: params must be Param declarations (jaco.engine.params.Param)")
     declare(*params)
-    c = Component(kind, name, FrozenMap(parts), tuple(params), source, pheromone_on, tuple(fixes), why_not)
+    c = Component(kind, name, FrozenMap(parts), tuple(params), source, pheromone_on, tuple(fixes), why_not, state)
     COMPONENTS[kind][name] = c
     _CACHE.clear()  # compositions built with an older declaration are rebuilt
     return c
@@ -218,12 +226,44 @@ def lookup(kind: str, value: "str | Component") -> Component:
     return COMPONENTS[kind][value]
 
 
+def slot(c: Component) -> str:
+    """The ``Trail.state`` key a stateful component gets in a composition: its name (two
+    stateful components of one name cannot be composed)."""
+    return c.name
+
+
+_BOUND: dict = {}  # a stateful component's parts by (state, slot): the same functions, no recompiles
+
+
+def parts(c: Component) -> Mapping:
+    """What ``c`` sets on a planner: its parts, with those of its ``state`` built for its slot."""
+    if c.state is None:
+        return c.parts
+    key = (c.state, slot(c))
+    if key not in _BOUND:
+        _BOUND[key] = FrozenMap({**c.parts, **c.state(slot(c))})
+    return _BOUND[key]
+
+
+def _check_slots(pieces) -> None:
+    """One slot per stateful component: two that would share one cannot be composed."""
+    seen: dict = {}
+    for p in pieces:
+        if p.state is not None:
+            other = seen.setdefault(slot(p), p)
+            if other is not p:
+                raise JacoError(
+                    f"these components cannot be composed: the {other.kind} {other.name!r} and the {p.kind} "
+                    f"{p.name!r} would keep state in one trail slot {slot(p)!r}; give one another name"
+                )
+
+
 def default_transition(rule: "str | Component") -> str:
     """The transition a rule brings when :func:`compose` is given none (its component's
     ``transition`` part: ``q0`` for ``acs`` and ``iaca``, ``adaptive-q0`` for ``iaaco``), else
     ``roulette``."""
     r = rule if isinstance(rule, Component) else COMPONENTS["rule"].get(rule)
-    return r.parts.get("default_transition", "roulette") if r is not None else "roulette"
+    return parts(r).get("default_transition", "roulette") if r is not None else "roulette"
 
 
 def compose(
@@ -256,6 +296,7 @@ def compose(
     key = tuple(pieces.values())
     hit = _CACHE.get(key)
     if hit is None:
+        _check_slots(pieces.values())
         search = pieces.pop(SEARCH)
         hit = _build(pieces) if search.name == "none" else add_local_search(compose(**pieces), search)
         _CACHE[key] = hit
@@ -274,7 +315,7 @@ def add_local_search(base: Planner, search: Component) -> Planner:
         if composed
         else f"{base.source}; {search.source}",
         doc=f"{base.doc} Local search: {search.source}.",
-        local_search=search.parts["local_search"],
+        local_search=parts(search)["local_search"],
     )
 
 
@@ -285,20 +326,21 @@ def _build(pieces: dict) -> Planner:
         why = p.why_not(c) if p.why_not is not None else None
         if why:
             raise JacoError(f"these components cannot be composed: {why}")
+    bound = {kind: parts(p) for kind, p in pieces.items()}
     layouts = {p.pheromone_on for p in pieces.values()} - {None}
     if len(layouts) > 1:
         raise JacoError("these components cannot be composed: one needs pheromone on cells, another on moves")
-    parts: dict = {}
+    fields: dict = {}
     defaults: dict = {}
     schedules_: list = []
     # every component's pheromone pieces, the heuristic's first (a table the rule's init keeps)
-    rules = [p.parts["rule"] for p in sorted(pieces.values(), key=lambda p: p.kind != "heuristic") if "rule" in p.parts]
+    rules = [bound[k]["rule"] for k in sorted(bound, key=lambda k: k != "heuristic") if "rule" in bound[k]]
     for p in pieces.values():
-        for k, v in p.parts.items():
+        for k, v in bound[p.kind].items():
             if k == "schedule":
                 schedules_.append(v)
             elif k not in ("rule", "default_transition"):
-                parts[k] = v
+                fields[k] = v
         defaults.update({q.name: q.default for q in p.params})
     for p in pieces.values():
         for name in p.fixes:
@@ -322,7 +364,7 @@ def _build(pieces: dict) -> Planner:
         pheromone_on="cells" if cells else "moves",
         composition=name,
         schedule=sch.compose(*schedules_) if len(schedules_) > 1 else (schedules_[0] if schedules_ else constant),
-        **parts,
+        **fields,
     )
 
 

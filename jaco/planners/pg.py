@@ -3,8 +3,8 @@ optax optimiser from a REINFORCE estimate of the expected path cost.
 
 Source: Meuleau & Dorigo, *Ant colony optimization and stochastic gradient descent*, Artificial
 Life 8(2), 2002 (Ant System's update as stochastic gradient descent), taken literally, with
-Williams's REINFORCE (1992) as the estimator. The rule's state in the trail (``"pg"``) carries
-the logits and the optimiser's state through the engine's loop; :func:`make_pg_aco` picks the optimiser.
+Williams's REINFORCE (1992) as the estimator. The rule's state in the trail (its slot, given by
+the composition) carries the logits and the optimiser's state through the engine's loop; :func:`make_pg_aco` picks the optimiser.
 
 Equations (1)-(4): docs/algorithms.md §8; choices, defaults: docs/planners.md, "Policy-gradient ACO".
 """
@@ -22,7 +22,7 @@ from ..engine.colony import move_weights, single_colony
 from ..engine.params import INF, Param, declare
 from ..engine.planner import Planner
 from ..errors import JacoError
-from .compose import component, compose
+from .compose import component, compose, slot
 
 if TYPE_CHECKING:
     from ..engine.planner import Construct
@@ -111,9 +111,9 @@ def _unit(params):
     return params.replace(alpha=jnp.ones_like(jnp.asarray(params.beta)))
 
 
-def make_pg_colony(optimizer: optax.GradientTransformation, baseline: str = "all") -> Construct:
+def make_pg_colony(optimizer: optax.GradientTransformation, baseline: str = "all", *, slot: str) -> Construct:
     """The construct step of a policy-gradient planner with this optax optimiser (lr 1) and
-    baseline (see :func:`advantages`)."""
+    baseline (see :func:`advantages`), its logits and optimiser state in the trail's ``slot``."""
 
     def pg_colony(planner, problem, trail, params, t, n_iters, key, *, n_ants: int, steplimit: int):
         """Walk one colony with policy (1), then one REINFORCE step (3)–(4) on the logits."""
@@ -125,23 +125,24 @@ def make_pg_colony(optimizer: optax.GradientTransformation, baseline: str = "all
         moves = jnp.where(took, colony.targets % 8, -1)
         adv = advantages(colony.cost, params.penalty, baseline)
         g = score(problem, weights, colony.cells, moves, adv) / colony.cost.shape[0]  # Eq. (3)
-        theta, opt = ph.own(trail, "pg")
+        theta, opt = ph.own(trail, slot)
         updates, opt = optimizer.update(g, opt, theta)
         theta = (1.0 - params.rho) * theta + params.q * updates  # Eq. (4)
         theta = jnp.clip(theta, -LOGIT_MAX, LOGIT_MAX)
-        return ph.with_own(trail._replace(tau=jnp.exp(theta)), "pg", (theta, opt)), colony
+        return ph.with_own(trail._replace(tau=jnp.exp(theta)), slot, (theta, opt)), colony
 
     return pg_colony
 
 
-def pg_init(optimizer: optax.GradientTransformation) -> ph.Rule:
+def pg_init(optimizer: optax.GradientTransformation, slot: str) -> ph.Rule:
     """θ = 0 (τ = 1, the policy is the heuristic alone), fixed bounds [e^−θmax, e^θmax], the
-    optimiser's initial state; the logits and the optimiser's state are the trail's state ``"pg"``. The update is a no-op: :func:`make_pg_colony` has applied it."""
+    optimiser's initial state; the logits and the optimiser's state are the trail's ``slot``. The
+    update is a no-op: :func:`make_pg_colony` has applied it."""
 
     def init(trail, problem, params):
         theta = jnp.zeros_like(trail.tau)
         lo, hi = jnp.exp(jnp.float32(-LOGIT_MAX)), jnp.exp(jnp.float32(LOGIT_MAX))
-        return ph.with_own(trail._replace(tau=jnp.exp(theta), lo=lo, hi=hi), "pg", (theta, optimizer.init(theta)))
+        return ph.with_own(trail._replace(tau=jnp.exp(theta), lo=lo, hi=hi), slot, (theta, optimizer.init(theta)))
 
     return ph.Rule(init, ph.keep_update)
 
@@ -168,12 +169,15 @@ def _needs_dying_ants(chosen) -> str | None:
     return None
 
 
-_ADAM = optax.adam(1.0)
-component(
+def _pg_parts(optimizer: optax.GradientTransformation, baseline: str = "all"):
+    """The rule's parts that keep the logits and the optimiser's state in its slot."""
+    return lambda slot: dict(rule=pg_init(optimizer, slot), construct=make_pg_colony(optimizer, baseline, slot=slot))
+
+
+PG_RULE = component(
     "rule",
     "pg",
-    rule=pg_init(_ADAM),
-    construct=make_pg_colony(_ADAM),
+    state=_pg_parts(optax.adam(1.0)),
     pheromone_on="moves",
     fixes=("alpha",),
     params=(ph.RHO.with_default(0.03), ph.Q.with_default(0.2), PENALTY),
@@ -209,7 +213,7 @@ def make_pg_aco(
             raise JacoError(f"optimizer must be an optax GradientTransformation, got {type(optimizer).__name__}")
         if baseline not in BASELINES:
             raise JacoError(f"baseline must be one of {', '.join(BASELINES)}, got {baseline!r}")
-        base = compose(rule="pg")._replace(rule=pg_init(optimizer), construct=make_pg_colony(optimizer, baseline))
+        base = compose(rule="pg")._replace(**_pg_parts(optimizer, baseline)(slot(PG_RULE)))
     return base.named(
         name, source="Meuleau & Dorigo 2002 (Artificial Life 8(2)); REINFORCE, Williams 1992", doc=_DOC, **PG_DEFAULTS
     )

@@ -11,7 +11,7 @@ from __future__ import annotations
 from ..engine.planner import FrozenMap, Planner
 from ..errors import JacoError, ParamError, accepts_aliases, did_you_mean
 from . import MODULES
-from .compose import COMPONENTS, add_local_search, parse
+from .compose import COMPONENTS, add_local_search, parse, parts
 
 __all__ = ["PLANNERS", "VARIANTS", "get_planner", "get_variant", "register", "with_cost", "with_local_search"]
 
@@ -123,7 +123,7 @@ def with_cost(planner: str | Planner, cost: str = "multi") -> Planner:
     key = (base, chosen)
     hit = _WITH_COST.get(key)
     if hit is None:
-        fn = chosen.parts["cost"]
+        fn = parts(chosen)["cost"]
         if base.cost is fn:
             new = base
         else:

@@ -162,7 +162,7 @@ def _plan(
     rows_per_device = math.ceil(n_rows / mesh.size)
     fixed = sum(int(np.asarray(x).nbytes) for x in jax.tree.leaves(batch))  # replicated problems
     mkey = (native.active_walk(), planner, *shape.sizes.values(), _shapes(batch), paths)
-    path_len = _path_len(planner, shape, batch)
+    path_len = path_buffer(planner, shape, jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape[1:], x.dtype), batch))
     guess = bytes_per_run(batch.n_cells, shape.n_ants, shape.n_iters, shape.steplimit, path_len) * batch.nbr.shape[0]
     per = _PER_CONFIG.get(mkey, guess)
     chunk = _agree(fit_chunk(budget, fixed, per, rows_per_device))
@@ -199,14 +199,14 @@ def _plan(
 _PATH_LEN: dict = {}
 
 
-def _path_len(planner: Planner, shape: RunShape, batch) -> int:
-    """Length of the construct step's candidate buffer (shape only, traced once per shapes)."""
-    key = (planner, *shape.sizes.values(), _shapes(batch))
+def path_buffer(planner: Planner, shape: RunShape, problem) -> int:
+    """Length of the best-path buffer of ``planner``'s run of ``shape`` on problems shaped as
+    ``problem`` (one problem: arrays or shapes); traced once per planner and shapes."""
+    key = (planner, *shape.sizes.values(), _shapes(problem))
     if key not in _PATH_LEN:
         run = make_run(planner, **shape.sizes)
-        one = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape[1:], x.dtype), batch)
         prm = jax.tree.map(lambda x: jax.ShapeDtypeStruct((), np.float32), planner.default_params())
-        out = jax.eval_shape(run, jax.ShapeDtypeStruct((), jax.random.key(0).dtype), one, prm)
+        out = jax.eval_shape(run, jax.ShapeDtypeStruct((), jax.random.key(0).dtype), problem, prm)
         _PATH_LEN[key] = int(out.best_cells.shape[0])
     return _PATH_LEN[key]
 

@@ -67,6 +67,7 @@ users is importable from here.
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -102,7 +103,7 @@ from .search_setup import (  # noqa: F401  (importable from here)
 )
 from .search_storage import claim_lock, opened, quiet
 from .search_workers import BEAT, Workers  # noqa: F401  (importable from here)
-from .space import SIZES, Space
+from .space import Space
 
 _clock = time.monotonic  # the timeout's clock (a module name, so tests can replace it)
 
@@ -290,7 +291,8 @@ class _Run:
             values=values,
             own={k: values[k] for k in v.params},
             stored={},
-            **{k: int(sizes[k]) for k in SIZES},
+            n_ants=int(sizes["n_ants"]),
+            n_iters=int(sizes["n_iters"]),
         )
 
     def _next_generation(self) -> int:
@@ -322,8 +324,8 @@ class _Run:
             "jaco_trial",
             {
                 "planner": planner,
-                "params": job["own"],
-                "n_ants": job["n_ants"],
+                "params": job.own,
+                "n_ants": job.n_ants,
                 "generation": self.generation,
                 "owner": self.workers.id,
                 **extra,
@@ -336,21 +338,21 @@ class _Run:
         a = trial_info(frozen)
         sizes = {"n_ants": a["n_ants"], "n_iters": frozen.params.get("n_iters", self.sizes["n_iters"])}
         job = self._job(self.workers.replace(frozen), a["planner"], a["params"], sizes)
-        job["stored"] = dict(a["runs"])
+        job.stored = dict(a["runs"])
         self.timings["retried"] += 1
         return job
 
     def _evaluate(self, jobs, n_iters=None) -> None:
         if n_iters is not None:
             for j in jobs:
-                j["n_iters"] = int(n_iters)
+                j.n_iters = int(n_iters)
         t0 = time.perf_counter()
         self.evaluate(jobs)
         self.timings["evaluate_s"] += time.perf_counter() - t0
         self.ran = self.ran or bool(jobs)
         for j in jobs:
-            j["stored"][str(j["n_iters"])] = plain_json(j["runs"])  # a failed run's inf length and gap: None
-            j["trial"].set_user_attr("jaco_runs", j["stored"])  # by iterations: a promoted trial has one per rung
+            j.stored[str(j.n_iters)] = plain_json(j.runs)  # a failed run's inf length and gap: None
+            j.trial.set_user_attr("jaco_runs", j.stored)  # by iterations: a promoted trial has one per rung
 
     def _tell(self, jobs, state=None) -> None:
         from optuna.trial import TrialState
@@ -358,9 +360,9 @@ class _Run:
         t0 = time.perf_counter()
         for j in jobs:
             if state is TrialState.PRUNED:
-                self.study.tell(j["trial"], state=TrialState.PRUNED)
+                self.study.tell(j.trial, state=TrialState.PRUNED)
             else:
-                self.study.tell(j["trial"], j["objective"])
+                self.study.tell(j.trial, j.objective)
         self.timings["sampler_s"] += time.perf_counter() - t0
 
     # the loop
@@ -456,7 +458,7 @@ class _Run:
         a = trial_info(frozen)
         sizes = {"n_ants": a["n_ants"], "n_iters": frozen.params.get("n_iters", self.sizes["n_iters"])}
         job = self._job(Trial(self.study, self.workers.trial_id(frozen.number)), a["planner"], a["params"], sizes)
-        job["stored"] = dict(a["runs"])
+        job.stored = dict(a["runs"])
         return job
 
     def _bracket(self, jobs, rungs, resumed=False) -> None:
@@ -468,21 +470,21 @@ class _Run:
         sign = 1.0 if self.study.directions[0].name == "MINIMIZE" else -1.0
         alive = list(jobs)
         for k, budget in enumerate(rungs):
-            numbers = {j["trial"].number for j in alive}
+            numbers = {j.trial.number for j in alive}
             stored = {t.number: t for t in self._trials() if t.number in numbers}
-            todo = [j for j in alive if budget not in stored[j["trial"].number].intermediate_values]
+            todo = [j for j in alive if budget not in stored[j.trial.number].intermediate_values]
             self._evaluate(todo, budget)
             for j in todo:
-                j["trial"].report(j["objective"][0], budget)
+                j.trial.report(j.objective[0], budget)
             for j in alive:
                 if j not in todo:
-                    j["objective"] = [stored[j["trial"].number].intermediate_values[budget]]
+                    j.objective = [stored[j.trial.number].intermediate_values[budget]]
             if k == len(rungs) - 1:
-                self._tell([j for j in alive if stored[j["trial"].number].state == TrialState.RUNNING])
+                self._tell([j for j in alive if stored[j.trial.number].state == TrialState.RUNNING])
                 return
-            ranked = sorted(alive, key=lambda j: (sign * j["objective"][0], j["trial"].number))
+            ranked = sorted(alive, key=lambda j: (sign * j.objective[0], j.trial.number))
             keep = max(1, len(alive) // self.halving.eta)
-            dropped = [j for j in ranked[keep:] if stored[j["trial"].number].state == TrialState.RUNNING]
+            dropped = [j for j in ranked[keep:] if stored[j.trial.number].state == TrialState.RUNNING]
             self._tell(dropped, TrialState.PRUNED)
             alive = ranked[:keep]
 
@@ -525,11 +527,11 @@ class _Run:
                 len(missing),
                 lambda i, missing=missing, z=z: {"member": missing[i], "z": [float(x) for x in z[missing[i]]]},
             )
-            jobs += [Job(j, member=m) for j, m in zip(new, missing)]
+            jobs += [replace(j, member=m) for j, m in zip(new, missing)]
             self._evaluate(jobs)
             self._tell(jobs)
             for j in jobs:
-                fitness[j["member"]] = sign * j["objective"][0]
+                fitness[j.member] = sign * j.objective[0]
             self.proposer.tell(generation, z, fitness)
             generation += 1
             self._progress()

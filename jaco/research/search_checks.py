@@ -26,15 +26,22 @@ class SearchError(JacoError):
     """A search that cannot run or resume (one line, before anything compiles)."""
 
 
-def positive_int(name, v, limit=2**31 - 1) -> int:
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 1 <= v <= limit:
-        raise SearchError(f"{name} must be a positive integer, got {v!r}")
+def positive_int(name, v, limit: int | None = 2**31 - 1, *, even: str = "", error: type = SearchError) -> int:
+    """``v`` as an int, checked: an integer (not a bool) in ``[1, limit]`` (no bound with None);
+    with ``even`` (the reason, in the message) an even one ≥ 2. The research package's one check of a
+    count: ``error`` is the caller's error class."""
+    ok = not isinstance(v, bool) and isinstance(v, (int, np.integer)) and 1 <= v and (limit is None or v <= limit)
+    if not ok or (even and v % 2):
+        need = f"an even integer ≥ 2 ({even})" if even else "a positive integer"
+        raise error(f"{name} must be {need}, got {v!r}")
     return int(v)
 
 
-def positive_seconds(name, v) -> float:
+def positive_seconds(name, v, error: type = SearchError) -> float:
+    """``v`` as a float, checked: a finite number (not a bool or a string) > 0; the research
+    package's one check of a duration, ``error`` the caller's error class."""
     if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not 0 < v < math.inf:
-        raise SearchError(f"{name} must be a positive finite number of seconds, got {v!r}")
+        raise error(f"{name} must be a positive finite number of seconds, got {v!r}")
     return float(v)
 
 

@@ -6,6 +6,7 @@ become its objective values, a failed run counted as its penalty (:mod:`jaco.res
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -16,9 +17,23 @@ if TYPE_CHECKING:
     from .search_setup import SearchSetup
 
 
-class Job(dict):
+@dataclass(eq=False)  # a job is one trial's evaluation: two jobs are the same only if one object
+class Job:
     """One evaluation: ``trial`` (an Optuna Trial), ``planner``, ``values`` (every parameter),
-    ``n_ants``, ``n_iters``; :meth:`Evaluator.__call__` adds ``runs`` and ``objective``."""
+    ``own`` (the planner's own, as stored), ``stored`` (its runs by iterations), ``n_ants``,
+    ``n_iters``; ``member``: its place in an evosax generation. :meth:`Evaluator.__call__` sets
+    ``runs`` and ``objective``."""
+
+    trial: Any
+    planner: str
+    values: dict
+    own: dict
+    stored: dict
+    n_ants: int
+    n_iters: int
+    member: int | None = None
+    runs: dict | None = None
+    objective: list | None = None
 
 
 def pow2(n: int) -> int:
@@ -85,17 +100,17 @@ class Evaluator:
     def __call__(self, jobs: list[Job]) -> None:
         groups: dict = {}
         for job in jobs:
-            groups.setdefault((job["planner"], job["n_ants"], job["n_iters"]), []).append(job)
+            groups.setdefault((job.planner, job.n_ants, job.n_iters), []).append(job)
         n_s = len(self.seeds)
         for (planner, n_ants, n_iters), group in groups.items():
             runner = self._runner(planner, n_ants, n_iters, len(group))
-            names = list(group[0]["values"])
-            values = {k: np.repeat([j["values"][k] for j in group], n_s) for k in names}  # trial-major, seeds inner
+            names = list(group[0].values)
+            values = {k: np.repeat([j.values[k] for j in group], n_s) for k in names}  # trial-major, seeds inner
             outs = runner(values, np.tile(self.seeds, len(group)))
             for i, job in enumerate(group):
                 part = [o[:, i * n_s : (i + 1) * n_s] for o in outs]
-                job["runs"] = self._runs(part)
-                job["objective"] = self.objective(job["runs"], n_ants, n_iters)
+                job.runs = self._runs(part)
+                job.objective = self.objective(job.runs, n_ants, n_iters)
 
     def _runs(self, outs) -> dict:
         """Per-run results, arrays ``(queries, seeds)``."""

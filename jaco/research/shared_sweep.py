@@ -4,25 +4,15 @@ until every row is stored; every worker returns the whole table."""
 
 from __future__ import annotations
 
-import math
-from typing import Any
-
 import jax
-import numpy as np
 import pandas as pd
 
 from ..errors import JacoError
+from .search_checks import positive_seconds
 from .sweep_table import tidy_table
 
 #: Seconds without a heartbeat after which a worker's claim on a stored sweep's chunk expires.
 GRACE_PERIOD = 60.0
-
-
-def _seconds(value: Any, what: str) -> float:
-    number = not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating))
-    if not (number and math.isfinite(value) and value > 0):
-        raise JacoError(f"{what} must be a positive number of seconds, got {value!r}")
-    return float(value)
 
 
 def check_sharing(store, grace_period, heartbeat_interval) -> tuple[float, float]:
@@ -34,8 +24,12 @@ def check_sharing(store, grace_period, heartbeat_interval) -> tuple[float, float
         )
     if store is None and (grace_period is not None or heartbeat_interval is not None):
         raise JacoError("grace_period and heartbeat_interval apply to a shared store: pass store=FILE too")
-    grace = GRACE_PERIOD if grace_period is None else _seconds(grace_period, "grace_period")
-    beat = grace / 6 if heartbeat_interval is None else _seconds(heartbeat_interval, "heartbeat_interval")
+    grace = GRACE_PERIOD if grace_period is None else positive_seconds("grace_period", grace_period, JacoError)
+    beat = (
+        grace / 6
+        if heartbeat_interval is None
+        else positive_seconds("heartbeat_interval", heartbeat_interval, JacoError)
+    )
     if beat * 2 > grace:
         raise JacoError(
             f"heartbeat_interval ({beat:g} s) must be at most half of grace_period ({grace:g} s), so that "

@@ -31,7 +31,7 @@ seed noise), and the whole loop of ``steps`` steps is one jitted ``lax.scan``.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -49,6 +49,7 @@ from ..engine.params import ORDERED, SPECS, Params, param_names
 from ..engine.planner import Planner
 from ..engine.problem import make_problem
 from ..engine.run import make_run
+from ..engine.shape import RunShape
 from ..errors import JacoError, ParamError, check_keywords, did_you_mean
 from ..grid import Grid
 
@@ -57,6 +58,8 @@ if TYPE_CHECKING:
 
     from ..grid import Cell
 from ..planners.registry import get_planner
+from .chunks import path_buffer
+from .search_checks import positive_int
 
 
 #: Parameters that can be tuned: every parameter with a range, except those in an order relation
@@ -166,18 +169,7 @@ def _build(planner, names, optimizer, n_ants, n_iters, steplimit, steps, populat
         (z, _), (x, objective, success) = jax.lax.scan(step, (z0, optimizer.init(z0)), jnp.arange(steps))
         return to_params(names, z), x, objective, success
 
-    return jax.jit(loop), run
-
-
-_PATH_LEN: dict = {}
-
-
-def path_buffer(run: Callable, key: jax.Array, problem: Any, params: Params) -> int:
-    """Length of the best-path buffer of ``run`` (shape only, traced once per run and map shape)."""
-    cache_key = (run, problem.nbr.shape)
-    if cache_key not in _PATH_LEN:
-        _PATH_LEN[cache_key] = jax.eval_shape(run, key, problem, params).best_cells.shape[0]
-    return _PATH_LEN[cache_key]
+    return jax.jit(loop)
 
 
 # -- the user-facing function ----------------------------------------------------------------
@@ -227,13 +219,6 @@ def _names(planner: Planner, tune) -> tuple[str, ...]:
     if len(set(names)) != len(names):
         raise ParamError(f"tune: a parameter is named twice in {names!r}")
     return names
-
-
-def _positive_int(name, v, *, even=False):
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < (2 if even else 1) or (even and v % 2):
-        need = "an even integer ≥ 2 (antithetic pairs)" if even else "a positive integer"
-        raise JacoError(f"{name} must be {need}, got {v!r}")
-    return int(v)
 
 
 def _positive_float(name, v):
@@ -298,9 +283,9 @@ def tune(
     names = _names(planner, tune)
     check_grid(grid)
     steplimit = resolve_steplimit(grid, planner, steplimit, n_ants=n_ants, n_iters=n_iters)
-    steps = _positive_int("steps", steps)
-    population = _positive_int("population", population, even=True)
-    n_seeds = _positive_int("n_seeds", n_seeds)
+    steps = positive_int("steps", steps, None, error=JacoError)
+    population = positive_int("population", population, None, even="antithetic pairs", error=JacoError)
+    n_seeds = positive_int("n_seeds", n_seeds, None, error=JacoError)
     check_run_memory(grid.n_cells, n_ants, n_iters + steps, steplimit, runs=population * n_seeds, what="a tuning step")
     problem = make_problem(grid, start, goal, connectivity=connectivity)
     sigma = _positive_float("sigma", sigma)
@@ -347,11 +332,12 @@ def _run_loop(planner, names, optimizer, sizes: dict, problem, values: dict, *, 
     """Run the compiled tuning loop (:func:`_compiled`) from ``values`` with a bar of its steps;
     returns the penalty of a failed run (the default one when ``penalty`` is None) and the loop's
     ``(final values, values per step, objective, success rate)`` on the host."""
-    loop, run = _compiled(planner, names, optimizer, **sizes)
+    loop = _compiled(planner, names, optimizer, **sizes)
     base = params_from(values)
     key = jax.random.key(seed)
     if penalty is None:
-        penalty = math.sqrt(2.0) * path_buffer(run, key, problem, base)
+        shape = RunShape(sizes["n_ants"], sizes["n_iters"], sizes["steplimit"])
+        penalty = math.sqrt(2.0) * path_buffer(planner, shape, problem)
 
     z0 = jnp.asarray(to_unconstrained(names, [values[n] for n in names]), jnp.float32)
     bar = _progress.Bar(_progress.enabled(progress), f"tune {planner.name}", "step")
