@@ -21,7 +21,7 @@ from pathlib import Path
 from setuptools import Extension, setup
 from setuptools.command.build_ext import build_ext
 
-# The lane kernels (jaco/engine/walk_lanes.cc) are compiled once per instruction set, with that
+# The lane kernels (jaco/engine/walk_lanes.cc, jaco/planners/iaca_lanes.cc) are compiled once per instruction set, with that
 # set's flags and lane count; the kernel uses, at run time, the widest one the CPU has (walk.cc).
 # Nothing else is built with machine-specific flags, so the library runs on any CPU of its
 # platform. JACO_NATIVE_ISAS (comma-separated names) builds only the sets named, e.g. "baseline".
@@ -32,7 +32,7 @@ _ISAS = {
     "avx512": (["-mavx512f", "-mavx512bw", "-mavx512vl", "-mavx512dq", "-mavx2", "-mbmi", "-mbmi2", "-mpopcnt",
                 "-mprefer-vector-width=512"], 16),
 }
-_LANES = "jaco/engine/walk_lanes.cc"
+_LANES = ["jaco/engine/walk_lanes.cc", "jaco/planners/iaca_lanes.cc"]
 
 
 def _isas() -> dict:
@@ -101,7 +101,7 @@ class BuildNative(build_ext):
         for isa, (flags, lanes) in _isas().items():
             try:
                 objects = self.compiler.compile(
-                    [_LANES],
+                    _LANES,
                     output_dir=os.path.join(self.build_temp, f"lanes-{isa}"),
                     macros=[("JACO_ISA", isa), ("JACO_LANES", str(lanes))],
                     include_dirs=ext.include_dirs,
@@ -149,7 +149,7 @@ setup(
             # One kernel per file, next to the code it serves; one library.
             ["jaco/engine/walk.cc", "jaco/planners/iaca.cc", "jaco/engine/pheromone.cc", "jaco/engine/local_search.cc",
              "jaco/potential.cc"],
-            depends=[_LANES, "jaco/engine/walk_lanes.h", "jaco/engine/walk_shared.h", "jaco/engine/kernel_threads.h"],
+            depends=[*_LANES, "jaco/engine/walk_lanes.h", "jaco/planners/iaca_lanes.h", "jaco/engine/walk_shared.h", "jaco/engine/kernel_threads.h"],
             include_dirs=["jaco/engine"],
             language="c++",
             extra_compile_args=["-std=c++17", "-O3", "-ffp-contract=off"],

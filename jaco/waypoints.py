@@ -39,7 +39,7 @@ from .engine.checks import params_from, prepare
 from .engine.planner import Planner
 from .engine.problem import make_problem, stack
 from .engine.result import Result, to_result
-from .engine.run import make_run
+from .engine.run import make_run, paired_runs
 from .engine.shape import RunShape
 from .errors import ProblemError
 from .exact import distance_field, shortest_path
@@ -87,12 +87,13 @@ def leg_keys(seed: int, n_legs: int) -> jax.Array:
 
 
 def compiled_legs(planner: Planner, shape: RunShape) -> Any:
-    """``jit(vmap(run))`` over (key, problem) pairs with shared params, cached like
-    :func:`jaco.engine.run.compiled_run` (by the planner and :attr:`RunShape.program`)."""
+    """The jitted run over (key, problem) pairs with shared params
+    (:func:`jaco.engine.run.paired_runs`), cached like :func:`jaco.engine.run.compiled_run` (by
+    the planner and :attr:`RunShape.program`)."""
 
     def build():
         run = make_run(planner, **shape.sizes, keep_pheromone=shape.keep_pheromone)
-        return jax.jit(jax.vmap(run, in_axes=(0, 0, None)))
+        return jax.jit(paired_runs(run))
 
     return cached(("legs", planner, *shape.program), build)
 

@@ -181,7 +181,39 @@ def test_native_backtracking_walk_takes_the_jax_walks_moves_and_pheromone(case, 
     factors = jnp.asarray(np.where(np.asarray(weights) > 0, rng.uniform(1e-6, 1.0, weights.shape), 0).astype(np.float32))
     args = (tau, rows, factors, words, start, goal, scalars, offsets)
     key = (case["n_ants"], case["steplimit"], case["exploit"], table)
-    _same(_backtracking("jax", *key)(*args), _backtracking("native", *key)(*args))
+    expected = _backtracking("jax", *key)(*args)
+    try:
+        for isa in RUNNABLE:  # IACA's lanes are built per instruction set too
+            native.set_isa(isa)
+            _same(expected, _backtracking("native", *key)(*args))
+    finally:
+        native.set_isa(None)
+
+
+@pytest.mark.parametrize("table", [False, True])
+def test_one_colony_of_many_ants_walked_by_a_team_of_threads_takes_the_jax_walks_moves(table, isa_choice):
+    """One colony in a call (a solve): its 64 ants are split into chunks that XLA's threads take
+    at every step, the pheromone updated between steps; on a 24x24 map with obstacles, so ants
+    backtrack, die and arrive. Every instruction set this CPU runs gives the JAX walk's results."""
+    case = dict(h=24, w=24, shape=(24, 24), density=0.3, seed=11, n_ants=64, steplimit=300, exploit=True,
+                connectivity=8)
+    weights, words, start, goal, q0, offsets = _arrays(case, colonies=1)
+    n = weights.shape[1]
+    xy = np.stack(np.divmod(np.arange(n), 24), axis=1).astype(np.float32)
+    to_goal = np.sqrt(((xy[:, None, :] + MOVES[None] - xy[int(goal[0])]) ** 2).sum(-1))
+    rows = jnp.asarray(np.where(np.asarray(weights[0]) > 0, np.hypot(*MOVES.T)[None] + to_goal, 0).astype(np.float32))
+    rng = np.random.default_rng(3)
+    tau = jnp.asarray(rng.uniform(0.01, 20.0, n).astype(np.float32))
+    factors = jnp.asarray(np.where(np.asarray(weights[0]) > 0, rng.uniform(1e-6, 1.0, (n, 8)), 0).astype(np.float32))
+    scalars = jnp.asarray([0.5, 1.0, 4.0, 0.01, 20.0, 0.2, 1.0], jnp.float32)
+    args = (tau, rows, factors, words[0], start[0], goal[0], scalars, offsets[0])
+    call = {kind: jax.jit(functools.partial(fn, n_ants=64, steplimit=300, exploit=True, table=table))
+            for kind, fn in (("jax", jax_backtrack_walk), ("native", native_backtrack_walk))}
+    expected = call["jax"](*args)
+    assert int(expected[4].sum()) > 64 * 20 and 0 < int(expected[3].sum()) < 64  # long walks; some ants fail
+    for isa in RUNNABLE:
+        isa_choice(isa)
+        _same(expected, call["native"](*args))
 
 
 # -- the improved APF's next-cell table (apf-aco) -------------------------------------------------

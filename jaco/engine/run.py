@@ -218,6 +218,13 @@ def batch_runs(run: Callable) -> Callable:
     return jax.vmap(jax.vmap(run, in_axes=(0, None, 0)), in_axes=(None, 0, None))
 
 
+def paired_runs(run: Callable) -> Callable:
+    """``run(key, problem, params)`` over pairs: ``(keys (L,), problems (L, ...), params) -> outputs
+    (L, ...)``, run i with key i on problem i, the parameters shared (a waypoint route's legs,
+    :mod:`jaco.waypoints`)."""
+    return jax.vmap(run, in_axes=(0, 0, None))
+
+
 # -- the compiled run, cached so repeated calls of one shape never recompile -----------------
 def compiled_run(planner: Planner, shape: RunShape, batched: bool, report: bool = False) -> Callable:
     """The jitted run for these static choices (cached by the planner and

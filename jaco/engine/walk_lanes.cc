@@ -55,38 +55,9 @@ typedef float vf __attribute__((vector_size(4 * L)));
 typedef int32_t vi __attribute__((vector_size(4 * L)));
 typedef uint32_t vu __attribute__((vector_size(4 * L)));
 
-// Uniforms of steps 2·block0 .. 2·block0 + U − 1 of one ant: word s % 2 of Threefry(key; ant, s / 2),
-// as AntRng::at, for L blocks at once (block0 + l in lane l).
+// Uniforms of steps 2·block0 .. 2·block0 + U − 1 of one ant (walk_shared.h).
 inline void draw(uint32_t k0, uint32_t k1, uint32_t ant, uint32_t block0, float* out) {
-  const uint32_t ks[3] = {k0, k1, k0 ^ k1 ^ 0x1BD11BDAu};
-  vu x1;
-  for (int l = 0; l < L; ++l) x1[l] = block0 + uint32_t(l);
-  vu x0 = x1 - x1 + (ant + ks[0]);
-  x1 += ks[1];
-#define JACO_MIX(r)        \
-  x0 += x1;                \
-  x1 = (x1 << r) | (x1 >> (32 - r)); \
-  x1 ^= x0;
-#define JACO_ROUND(a, b, c, d, i) \
-  JACO_MIX(a) JACO_MIX(b) JACO_MIX(c) JACO_MIX(d) x0 += ks[(i + 1) % 3]; x1 += ks[(i + 2) % 3] + uint32_t(i + 1);
-  JACO_ROUND(13, 15, 26, 6, 0)
-  JACO_ROUND(17, 29, 16, 24, 1)
-  JACO_ROUND(13, 15, 26, 6, 2)
-  JACO_ROUND(17, 29, 16, 24, 3)
-  JACO_ROUND(13, 15, 26, 6, 4)
-#undef JACO_ROUND
-#undef JACO_MIX
-  const vu one = (x0 - x0) + 0x3F800000u;
-  vf f0, f1;
-  const vu b0 = (x0 >> 9) | one, b1 = (x1 >> 9) | one;
-  std::memcpy(&f0, &b0, sizeof f0);
-  std::memcpy(&f1, &b1, sizeof f1);
-  f0 -= 1.0f;  // unit_float
-  f1 -= 1.0f;
-  for (int l = 0; l < L; ++l) {
-    out[2 * l] = f0[l];
-    out[2 * l + 1] = f1[l];
-  }
+  draw_blocks<vu, vf>(k0, k1, ant, block0, out);
 }
 
 inline vi bits_of(vf x) {

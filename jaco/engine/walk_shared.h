@@ -58,6 +58,42 @@ struct AntRng {
   }
 };
 
+// The uniforms of steps 2·block0 .. 2·block0 + 2L − 1 of one ant, as AntRng::at, for L blocks at
+// once (block0 + l in lane l of VU, a vector of L uint32; VF of L floats).
+template <typename VU, typename VF>
+inline void draw_blocks(uint32_t k0, uint32_t k1, uint32_t ant, uint32_t block0, float* out) {
+  constexpr int L = sizeof(VU) / sizeof(uint32_t);
+  const uint32_t ks[3] = {k0, k1, k0 ^ k1 ^ 0x1BD11BDAu};
+  VU x1;
+  for (int l = 0; l < L; ++l) x1[l] = block0 + uint32_t(l);
+  VU x0 = x1 - x1 + (ant + ks[0]);
+  x1 += ks[1];
+#define JACO_MIX(r)        \
+  x0 += x1;                \
+  x1 = (x1 << r) | (x1 >> (32 - r)); \
+  x1 ^= x0;
+#define JACO_ROUND(a, b, c, d, i) \
+  JACO_MIX(a) JACO_MIX(b) JACO_MIX(c) JACO_MIX(d) x0 += ks[(i + 1) % 3]; x1 += ks[(i + 2) % 3] + uint32_t(i + 1);
+  JACO_ROUND(13, 15, 26, 6, 0)
+  JACO_ROUND(17, 29, 16, 24, 1)
+  JACO_ROUND(13, 15, 26, 6, 2)
+  JACO_ROUND(17, 29, 16, 24, 3)
+  JACO_ROUND(13, 15, 26, 6, 4)
+#undef JACO_ROUND
+#undef JACO_MIX
+  const VU one = (x0 - x0) + 0x3F800000u;
+  VF f0, f1;
+  const VU b0 = (x0 >> 9) | one, b1 = (x1 >> 9) | one;
+  std::memcpy(&f0, &b0, sizeof f0);
+  std::memcpy(&f1, &b1, sizeof f1);
+  f0 -= 1.0f;  // unit_float
+  f1 -= 1.0f;
+  for (int l = 0; l < L; ++l) {
+    out[2 * l] = f0[l];
+    out[2 * l + 1] = f1[l];
+  }
+}
+
 // ---- the roulette (jaco.engine.walk.choose) --------------------------------------------------
 inline int choose(const float* w, float u, float q0, bool exploit) {
   float c[8];

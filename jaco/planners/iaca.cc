@@ -1,35 +1,118 @@
 // IACA's backtracking walk as an XLA FFI kernel for the CPU (jaco.planners.iaca.native_backtrack_walk):
 // the same moves, pheromone and stacks bit for bit as jax_backtrack_walk in iaca.py (thesis ch. 4).
-// Float operations in the JAX walk's order, no fused multiply-add (-ffp-contract=off), powers by the
-// integer tables of jaco/engine/bitexact.py; uniforms from walk_shared.h.
+// One colony's walk is iaca_lanes.cc, built once per instruction set; this file runs the colonies
+// of a call on XLA's threads with the set the dying-ant walk uses.
+//
+// The ants walk in lock-step: at step t every running ant reads the pheromone as the local
+// updates of step t - 1 left it, then the cells entered at step t are updated (eqs. 4-2..4-4).
+// Within a step the ants are independent, so when a call has fewer colonies than threads (one
+// solve), a colony's ants are split into chunks that a team of threads takes at every step. Which
+// thread walks an ant changes nothing: an ant's uniforms are its own (Threefry on ant and step) and
+// a cell's update depends only on how many ants entered it, straight or diagonally.
 #include <algorithm>
 #include <atomic>
-#include <cmath>
 #include <condition_variable>
 #include <cstdint>
-#include <cstring>
 #include <memory>
 #include <mutex>
+#include <thread>
 #include <vector>
 
+#include "iaca_lanes.h"
 #include "xla/ffi/api/ffi.h"
 
 namespace ffi = xla::ffi;
 
+extern "C" int jaco_isa_get();  // walk.cc: the instruction set in use, an index of JACO_ISA_LIST
+
 namespace {
 
 #include "kernel_threads.h"
-#include "walk_shared.h"
 
-// ---- IACA's backtracking walk (jaco.planners.iaca.jax_backtrack_walk) -------------------------------
+#ifdef JACO_HAVE_AVX2
+constexpr const BacktrackKernel* kAvx2 = &backtrack_avx2;
+#else
+constexpr const BacktrackKernel* kAvx2 = nullptr;
+#endif
+#ifdef JACO_HAVE_AVX512
+constexpr const BacktrackKernel* kAvx512 = &backtrack_avx512;
+#else
+constexpr const BacktrackKernel* kAvx512 = nullptr;
+#endif
+const BacktrackKernel* const kKernels[] = {&backtrack_baseline, kAvx2, kAvx512};  // JACO_ISA_LIST's order
 
-inline float int_power(float x, int32_t k) {
-  float out = 1.0f, base = x;
-  for (int bit = 0; bit < 16; ++bit) {
-    if ((k >> bit) & 1) out = out * base;
-    base = base * base;
+const BacktrackKernel& kernel() {
+  const int i = jaco_isa_get();  // only a set that was built and that this CPU runs
+  return *(i >= 0 && i < 3 && kKernels[i] ? kKernels[i] : kKernels[0]);
+}
+
+// ---- a colony walked by a team of threads ----------------------------------------------------
+// The colony's first thread (the leader) runs the steps: it publishes step t, takes chunks like
+// any other thread, waits until every chunk is done, then updates. The others join when they
+// start and take chunks while there are any; the leader never waits for a thread that has not
+// joined, so a busy pool costs speed, never a deadlock.
+struct Team {
+  std::atomic<uint64_t> ticket{~0ull};  // step << 32 | next chunk to take
+  std::atomic<int64_t> done{0};         // chunks of the current step finished
+  std::atomic<bool> finished{false};
+  std::atomic<void*> colony{nullptr};
+  int64_t n_chunks = 1;
+};
+
+constexpr uint64_t kChunkBits = 0xFFFFFFFFull;
+
+inline void relax() {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_ia32_pause();
+#endif
+}
+
+// Take and walk chunks of the published step until none is left.
+void take_chunks(Team& team, const BacktrackKernel& walk, void* colony) {
+  for (;;) {
+    const uint64_t seen = team.ticket.load(std::memory_order_acquire);
+    if ((seen & kChunkBits) >= uint64_t(team.n_chunks)) return;
+    const uint64_t got = team.ticket.fetch_add(1, std::memory_order_acq_rel);
+    const uint64_t k = got & kChunkBits;
+    if (k >= uint64_t(team.n_chunks)) return;
+    walk.step_chunk(colony, int64_t(k), int64_t(got >> 32));
+    team.done.fetch_add(1, std::memory_order_release);
   }
-  return out;
+}
+
+// A step with few ants walking is not worth the hand-over: the leader walks it alone.
+constexpr int64_t kTeamAnts = 16;
+
+void lead(Team& team, const BacktrackKernel& walk, void* colony, int64_t steplimit, int64_t n_ants) {
+  team.colony.store(colony, std::memory_order_release);
+  for (int64_t t = 0, walking = n_ants; t < steplimit && walking > 0; ++t) {
+    if (walking < kTeamAnts) {
+      for (int64_t k = 0; k < team.n_chunks; ++k) walk.step_chunk(colony, k, t);
+    } else {
+      team.done.store(0, std::memory_order_relaxed);
+      team.ticket.store(uint64_t(t) << 32, std::memory_order_release);
+      take_chunks(team, walk, colony);
+      while (team.done.load(std::memory_order_acquire) < team.n_chunks) relax();
+    }
+    walking = walk.update(colony);
+  }
+  team.finished.store(true, std::memory_order_release);
+}
+
+void follow(Team& team, const BacktrackKernel& walk) {
+  int64_t idle = 0;
+  while (!team.finished.load(std::memory_order_acquire)) {
+    void* colony = team.colony.load(std::memory_order_acquire);
+    const uint64_t seen = team.ticket.load(std::memory_order_acquire);
+    if (colony && seen != ~0ull && (seen & kChunkBits) < uint64_t(team.n_chunks)) {
+      take_chunks(team, walk, colony);
+      idle = 0;
+    } else if (++idle < 4096) {
+      relax();
+    } else {
+      std::this_thread::yield();  // a pool shared with other work: give the core back now and then
+    }
+  }
 }
 
 ffi::Error BacktrackImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> tau_in, ffi::Buffer<ffi::F32> rows,
@@ -44,144 +127,36 @@ ffi::Error BacktrackImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> tau_in, ffi
   const int64_t N = rd[rd.size() - 2], A = sd[sd.size() - 2], D = sd[sd.size() - 1];
   const int64_t B = leading(rd, 2);
   const int64_t n_tables = tables.dimensions()[tables.dimensions().size() - 1];
-  const float *T0 = tau_in.typed_data(), *R0 = rows.typed_data(), *F0 = factors.typed_data(), *P0 = scalars.typed_data();
-  const uint32_t* K = words.typed_data();
-  const int32_t *st = start.typed_data(), *gl = goal.typed_data(), *off0 = offsets.typed_data();
-  const int32_t* tab0 = tables.typed_data();
-  float* tau0 = tau_out->typed_data();
-  int32_t *stk0 = stack_out->typed_data(), *sp0 = sp_out->typed_data(), *act0 = actions_out->typed_data();
-  bool *arr0 = arrived_out->typed_data(), *vis0 = visited_out->typed_data(), *bad0 = infeasible_out->typed_data();
-
-  for_each_colony(pool, B, [=]() {
-    struct Scratch {
-      std::vector<uint8_t> tabu;           // (A, N): cells each ant entered
-      std::vector<int32_t> cur, entered;   // entered: (A, D) cells in the order entered, start first
-      std::vector<int32_t> n_entered, n1, n2, touched, mark;
-      std::vector<uint8_t> running, good;
-      std::vector<AntRng> rng;
-    };
-    return [=, s = std::make_shared<Scratch>()](int64_t b) {
-      const float* R = R0 + b * N * 8;
-      const float* F = F0 + b * N * 8;
-      const float* P = P0 + b * 7;
-      const float q0 = P[0], alpha = P[1], beta = P[2], lo = P[3], hi = P[4], rho = P[5], q = P[6];
-      const int32_t* off = off0 + b * 8;
-      const int32_t* tab = tab0 + b * n_tables;
-      const int32_t start_b = st[b], goal_b = gl[b];
-      float* tau = tau0 + b * N;
-      int32_t* stack = stk0 + b * A * D;
-      int32_t* sp = sp0 + b * A;
-      int32_t* actions = act0 + b * A;
-      bool* arrived = arr0 + b * A;
-      bool* vis = vis0 + b * N;
-      bool* bad = bad0 + b * N;
-      std::memcpy(tau, T0 + b * N, N * sizeof(float));
-      s->tabu.assign(A * N, 0);
-      s->cur.assign(A, start_b);
-      s->entered.assign(A * D, 0);
-      s->n_entered.assign(A, 1);
-      s->n1.assign(N, 0);
-      s->n2.assign(N, 0);
-      s->running.assign(A, start_b != goal_b);
-      s->rng.clear();
-      for (int64_t a = 0; a < A; ++a) {
-        s->rng.push_back(AntRng{K[2 * b], K[2 * b + 1], uint32_t(a)});
-        s->tabu[a * N + start_b] = 1;
-        s->entered[a * D] = start_b;
-        stack[a * D] = start_b;
-        sp[a] = 0;
-        actions[a] = 0;
-      }
-      const float keep = 1.0f - rho;
-      const float amount[2] = {q / 1.0f, q / kSqrt2};
-      for (int64_t t = 0; t < steplimit; ++t) {
-        bool any_running = false;
-        s->touched.clear();
-        for (int64_t a = 0; a < A; ++a) {
-          if (!s->running[a]) continue;
-          any_running = true;
-          uint8_t* tabu = s->tabu.data() + a * N;
-          const int32_t c = s->cur[a];
-          const float* r = R + int64_t(c) * 8;
-          bool allowed[8];
-          int n_allowed = 0;
-          float rr[8], total = 0.0f;
-          for (int k = 0; k < 8; ++k) {
-            allowed[k] = r[k] > 0.0f && !tabu[c + off[k]];
-            n_allowed += allowed[k];
-            rr[k] = allowed[k] ? r[k] : 0.0f;
-          }
-          if (n_allowed == 0) {
-            if (sp[a] > 0) {  // step back along the path; the dead end stays tabu
-              s->cur[a] = stack[a * D + sp[a] - 1];
-              sp[a] -= 1;
-              actions[a] += 1;
-            } else {
-              s->running[a] = 0;  // back at the start with nothing left: dead
-            }
-            continue;
-          }
-          total = rr[0];
-          for (int k = 1; k < 8; ++k) total = total + rr[k];
-          float w[8];
-          for (int k = 0; k < 8; ++k) {
-            if (!allowed[k]) {
-              w[k] = 0.0f;
-              continue;
-            }
-            float v;
-            if (table) {  // another planner's factor, fixed for the iteration
-              v = table_power(tau[c + off[k]], alpha, tab) * F[int64_t(c) * 8 + k];
-            } else {  // eq. 4-5 over the ant's allowed moves
-              float eta = n_allowed == 1 ? 1.0f : 1.0f - rr[k] / std::max(total, 1e-12f);
-              eta = std::max(eta, 1e-6f);
-              v = table_power(tau[c + off[k]], alpha, tab) * table_power(eta, beta, tab);
-            }
-            if (std::isnan(v)) v = 1e-30f;
-            w[k] = std::min(std::max(v, 1e-30f), 1e30f);
-          }
-          const int k = choose(w, s->rng[a].at(uint32_t(t)), q0, exploit);
-          const int32_t next = c + off[k];
-          s->cur[a] = next;
-          sp[a] += 1;
-          stack[a * D + sp[a]] = next;
-          tabu[next] = 1;
-          s->entered[a * D + s->n_entered[a]++] = next;
-          actions[a] += 1;
-          if (s->n1[next] + s->n2[next] == 0) s->touched.push_back(next);
-          (k < 4 ? s->n1 : s->n2)[next] += 1;
-          s->running[a] = next != goal_b;
-        }
-        if (!any_running) break;
-        for (int32_t cell : s->touched) {  // eqs. 4-2..4-4 (jaco.planners.iaca.local_update)
-          const int32_t n1 = s->n1[cell], n2 = s->n2[cell], k = n1 + n2;
-          const float deposit = float(n1) * amount[0] + float(n2) * amount[1];
-          const float decay = int_power(keep, k);
-          const float mean_decay = rho > 1e-6f ? (1.0f - decay) / std::max(float(k) * rho, 1e-12f) : 1.0f;
-          const float v = decay * tau[cell] + deposit * mean_decay;
-          tau[cell] = std::min(std::max(v, lo), hi);
-          s->n1[cell] = s->n2[cell] = 0;
+  const BacktrackKernel& walk = kernel();
+  // Fewer colonies than threads: a team of threads per colony, its ants in chunks of 8 or more.
+  const int64_t n_threads = std::max<int64_t>(pool.num_threads(), 1);
+  const int64_t parts = B > 0 && B < n_threads ? std::min<int64_t>((n_threads + B - 1) / B, std::max<int64_t>(A / 16, 1)) : 1;
+  const int64_t n_chunks = parts > 1 ? std::min<int64_t>(4 * parts, std::max<int64_t>(A / 8, parts)) : 1;
+  auto colony_of = [&](int64_t b) {
+    const BacktrackInputs in{tau_in.typed_data() + b * N, rows.typed_data() + b * N * 8, factors.typed_data() + b * N * 8,
+                    scalars.typed_data() + b * 7, offsets.typed_data() + b * 8, tables.typed_data() + b * n_tables,
+                    words.typed_data()[2 * b], words.typed_data()[2 * b + 1], start.typed_data()[b], goal.typed_data()[b]};
+    const BacktrackOutputs out{tau_out->typed_data() + b * N, stack_out->typed_data() + b * A * D, sp_out->typed_data() + b * A,
+                      actions_out->typed_data() + b * A, arrived_out->typed_data() + b * A,
+                      visited_out->typed_data() + b * N, infeasible_out->typed_data() + b * N};
+    return walk.make(in, out, BacktrackSizes{N, A, D, steplimit, n_chunks, exploit, table});
+  };
+  std::vector<Team> teams(parts > 1 ? B : 0);
+  for (Team& team : teams) team.n_chunks = n_chunks;
+  for_each_colony(pool, B * parts, [&]() {
+    return [&](int64_t task) {
+      const int64_t b = task / parts;
+      if (parts > 1 && task % parts) return follow(teams[b], walk);
+      void* colony = colony_of(b);
+      if (parts > 1) {
+        lead(teams[b], walk, colony, steplimit, A);
+      } else {
+        for (int64_t t = 0, walking = A; t < steplimit && walking > 0; ++t) {
+          walk.step_chunk(colony, 0, t);
+          walking = walk.update(colony);
         }
       }
-      // Final paths, visited cells and the cells of eq. (4-6) (jaco.planners.iaca.infeasible_cells).
-      std::memset(vis, 0, N);
-      std::memset(bad, 0, N);
-      s->good.assign(N, 0);
-      s->mark.assign(N, -1);
-      for (int64_t a = 0; a < A; ++a) {
-        arrived[a] = s->cur[a] == goal_b;
-        for (int64_t i = sp[a] + 1; i < D; ++i) stack[a * D + i] = -1;
-        for (int64_t i = 0; i <= sp[a]; ++i) {
-          s->mark[stack[a * D + i]] = int32_t(a);
-          if (arrived[a]) s->good[stack[a * D + i]] = 1;
-        }
-        for (int64_t i = 0; i < s->n_entered[a]; ++i) {
-          const int32_t cell = s->entered[a * D + i];
-          vis[cell] = true;
-          if (!arrived[a] || s->mark[cell] != a) bad[cell] = true;
-        }
-      }
-      for (int64_t i = 0; i < N; ++i) bad[i] = bad[i] && !s->good[i];
+      walk.finish(colony);
     };
   });
   return ffi::Error::Success();

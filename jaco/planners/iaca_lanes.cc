@@ -1,0 +1,366 @@
+// IACA's backtracking walk of one colony, step by step (iaca_lanes.h): the same moves, pheromone
+// and stacks bit for bit as jax_backtrack_walk in iaca.py (thesis ch. 4). Float operations in
+// the JAX walk's order, no fused multiply-add (-ffp-contract=off), powers by the integer tables of
+// jaco/engine/bitexact.py; uniforms and the roulette from walk_shared.h.
+//
+// An ant's 8 moves are computed together in 8 vector lanes: the two table powers of each move
+// (eq. 4-1 with eq. 4-5), each lane doing exactly the operations of bitexact.power. setup.py
+// compiles this file once per instruction set, as walk_lanes.cc (JACO_ISA names the set); with
+// AVX2 the table look-ups are gathers and the floor one instruction.
+//
+// Nothing here may be shared with the other objects (see walk_shared.h): everything has internal
+// linkage but the one table of entry points.
+
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <math.h>
+#include <vector>
+
+#include "iaca_lanes.h"
+
+#if defined(__AVX2__)
+#include <immintrin.h>
+#endif
+
+#ifndef JACO_ISA
+#define JACO_ISA baseline
+#endif
+#define JACO_CAT2(a, b) a##b
+#define JACO_CAT(a, b) JACO_CAT2(a, b)
+
+// 8 lanes are two vectors of SSE2: GCC warns that such a value would be passed differently with
+// AVX; nothing here is called from another object.
+#pragma GCC diagnostic ignored "-Wpsabi"
+
+namespace {
+
+#include "walk_shared.h"
+
+// ---- the 8 moves of an ant in 8 lanes (GCC/Clang vector types; selects are bitwise) ----------
+typedef float f8 __attribute__((vector_size(32)));
+typedef int32_t i8 __attribute__((vector_size(32)));
+typedef uint32_t u8 __attribute__((vector_size(32)));
+
+inline f8 as_f8(i8 x) {
+  f8 y;
+  std::memcpy(&y, &x, sizeof y);
+  return y;
+}
+inline i8 as_i8(f8 x) {
+  i8 y;
+  std::memcpy(&y, &x, sizeof y);
+  return y;
+}
+inline f8 select(i8 mask, f8 a, f8 b) { return as_f8((mask & as_i8(a)) | (~mask & as_i8(b))); }
+inline f8 splat(float x) { return f8{x, x, x, x, x, x, x, x}; }
+
+template <typename T>
+inline i8 gather(const T* table, i8 index) {
+  i8 out;
+#if defined(__AVX2__)
+  __m256i i, r;
+  std::memcpy(&i, &index, sizeof i);
+  r = _mm256_i32gather_epi32(reinterpret_cast<const int*>(table), i, 4);
+  std::memcpy(&out, &r, sizeof out);
+#else
+  for (int k = 0; k < 8; ++k) std::memcpy(&out[k], table + index[k], 4);
+#endif
+  return out;
+}
+
+// floorf lane by lane for finite y.
+inline f8 floor8(f8 y) {
+#if defined(__AVX2__)
+  __m256 v;
+  std::memcpy(&v, &y, sizeof v);
+  v = _mm256_round_ps(v, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+  std::memcpy(&y, &v, sizeof y);
+  return y;
+#else
+  // |y| >= 2^23 is an integer already; below, truncate and step down where that rounded up. (A
+  // zero's sign may differ from floorf's; nothing below sees it.)
+  const f8 t = __builtin_convertvector(__builtin_convertvector(y, i8), f8);
+  const f8 down = select(t > y, t - 1.0f, t);
+  const f8 mag = as_f8(as_i8(y) & 0x7FFFFFFF);
+  return select(mag >= 0x1p23f, y, down);
+#endif
+}
+
+// table_power (walk_shared.h) in 8 lanes: the same integer and float operations per lane.
+inline f8 power8(f8 x, float a, const int32_t* tables) {
+  const i8 pos = x > 0.0f;
+  const i8 b = as_i8(select(pos, x, splat(1.0f)));
+  // table_log2
+  const i8 e = (b >> 23) - 127;
+  const i8 m = b & 0x7FFFFF;
+  const i8 i = m >> (23 - kBits);
+  const i8 f = m & ((1 << (23 - kBits)) - 1);
+  const i8 lo = gather(tables, i), hi = gather(tables, i + 1);
+  const i8 frac = lo + (((hi - lo) * f) >> (23 - kBits));
+  const f8 log2x = __builtin_convertvector(e, f8) + __builtin_convertvector(frac, f8) * 0x1p-24f;
+  // table_exp2
+  const f8 y = a * log2x;
+  const f8 n = floor8(y);
+  const f8 r = y - n;
+  i8 fx = __builtin_convertvector(r * 0x1p24f, i8);
+  fx = fx < (1 << 24) - 1 ? fx : (1 << 24) - 1;
+  fx = fx > 0 ? fx : 0;  // only a non-finite y (never: exponents and pheromone are finite) is below
+  const i8 j = fx >> (24 - kBits);
+  const i8 g = fx & ((1 << (24 - kBits)) - 1);
+  const int32_t* exp_table = tables + kTable;
+  const i8 elo = gather(exp_table, j), ehi = gather(exp_table, j + 1);
+  const i8 mant = elo + (((ehi - elo) * g) >> (24 - kBits));
+  f8 clamped = select(n < -126.0f, splat(-126.0f), n);   // max_of(n, -126)
+  clamped = select(127.0f < clamped, splat(127.0f), clamped);  // min_of(., 127)
+  const i8 ni = __builtin_convertvector(clamped, i8);
+  const f8 value = __builtin_convertvector(mant, f8) * 0x1p-23f * as_f8((ni + 127) << 23);
+  const f8 result = select(n < -126.0f, splat(0.0f), select(n > 127.0f, splat(INFINITY), value));
+  return select(pos, result, splat(0.0f));
+}
+
+// jaco.planners.iaca.int_power: squarings past k's highest bit change nothing, so they stop there.
+inline float int_power(float x, int32_t k) {
+  float out = 1.0f, base = x;
+  for (int bit = 0; bit < 16 && (k >> bit); ++bit) {
+    if ((k >> bit) & 1) out = out * base;
+    base = base * base;
+  }
+  return out;
+}
+
+// ---- one colony's walk ---------------------------------------------------------------------
+class Colony {
+ public:
+  Colony(const BacktrackInputs& in, const BacktrackOutputs& out, const BacktrackSizes& z)
+      : in_(in), out_(out), N_(z.n_cells), A_(z.n_ants), D_(z.depth), exploit_(z.exploit), table_(z.table),
+        n_chunks_(z.n_chunks) {
+    const int64_t N = N_, A = A_, D = D_;
+    const float* P = in.scalars;
+    q0_ = P[0], alpha_ = P[1], beta_ = P[2], lo_ = P[3], hi_ = P[4], rho_ = P[5];
+    keep_ = 1.0f - rho_;
+    amount_[0] = P[6] / 1.0f;
+    amount_[1] = P[6] / kSqrt2;
+    offsets_ = i8{in.offsets[0], in.offsets[1], in.offsets[2], in.offsets[3],
+                  in.offsets[4], in.offsets[5], in.offsets[6], in.offsets[7]};
+    std::memcpy(out.tau, in.tau, N * sizeof(float));
+    words_ = (A / n_chunks_ + 1 + 63) / 64;  // a chunk has at most A / n_chunks + 1 ants
+    tabu_.assign(n_chunks_ * N * words_, 0);
+    tabu_at_.resize(A);
+    for (int64_t k = 0; k < n_chunks_; ++k)
+      for (int64_t a = A * k / n_chunks_, i = 0; a < A * (k + 1) / n_chunks_; ++a, ++i)
+        tabu_at_[a] = k * N * words_ * 64 + i;
+    cur_.assign(A, in.start);
+    entered_.assign(A * D, 0);
+    n_entered_.assign(A, 1);
+    counts_.assign(N, 0);
+    running_.assign(A, in.start != in.goal);
+    uniforms_.assign(A * 16, 0.0f);
+    drawn_.assign(A, ~0u);
+    entries_.resize(n_chunks_);
+    walking_.assign(n_chunks_, 0);
+    moves_.resize(A);
+    for (int64_t a = 0; a < A; ++a) {
+      set_tabu(a, in.start);
+      entered_[a * D] = in.start;
+      out.stack[a * D] = in.start;
+      out.sp[a] = 0;
+      out.actions[a] = 0;
+    }
+  }
+
+  // Step t of chunk k's ants: every walking ant's weights first, then their moves.
+  void step_chunk(int64_t k, int64_t t) {
+    std::vector<int32_t>& entries = entries_[k];
+    entries.clear();
+    const int64_t begin = A_ * k / n_chunks_, end = A_ * (k + 1) / n_chunks_;
+    for (int64_t a = begin; a < end; ++a)
+      if (running_[a]) weigh(a);
+    int32_t walking = 0;
+    for (int64_t a = begin; a < end; ++a)
+      if (running_[a]) {
+        move(a, t, entries);
+        walking += running_[a];
+      }
+    walking_[k] = walking;
+  }
+
+  // Eqs. 4-2..4-4 on the cells entered in this step (jaco.planners.iaca.local_update); the ants
+  // still walking after it (none: the walk is over, later steps would change nothing).
+  int64_t update() {
+    int64_t walking = 0;
+    touched_.clear();
+    for (int64_t k = 0; k < n_chunks_; ++k) {
+      walking += walking_[k];
+      for (int32_t e : entries_[k]) {  // straight entries in the low word, diagonal in the high
+        if (counts_[e >> 1] == 0) touched_.push_back(e >> 1);
+        counts_[e >> 1] += e & 1 ? 1ull << 32 : 1ull;
+      }
+    }
+    for (int32_t cell : touched_) {
+      const uint64_t both = counts_[cell];
+      const int32_t n1 = int32_t(both & 0xFFFFFFFFu), n2 = int32_t(both >> 32), n = n1 + n2;
+      const float deposit = float(n1) * amount_[0] + float(n2) * amount_[1];
+      const float decay = int_power(keep_, n);
+      const float mean_decay = rho_ > 1e-6f ? (1.0f - decay) / std::max(float(n) * rho_, 1e-12f) : 1.0f;
+      const float v = decay * out_.tau[cell] + deposit * mean_decay;
+      out_.tau[cell] = std::min(std::max(v, lo_), hi_);
+      counts_[cell] = 0;
+    }
+    return walking;
+  }
+
+  // Final paths, visited cells and the cells of eq. (4-6) (jaco.planners.iaca.infeasible_cells).
+  void finish() {
+    const BacktrackOutputs& o = out_;
+    std::memset(o.visited, 0, N_);
+    std::memset(o.infeasible, 0, N_);
+    std::vector<uint8_t> good(N_, 0);
+    std::vector<int32_t> mark(N_, -1);
+    for (int64_t a = 0; a < A_; ++a) {
+      int32_t* stack = o.stack + a * D_;
+      const bool arrived = o.arrived[a] = cur_[a] == in_.goal;
+      std::fill(stack + o.sp[a] + 1, stack + D_, -1);
+      for (int64_t i = 0; i <= o.sp[a]; ++i) {
+        mark[stack[i]] = int32_t(a);
+        if (arrived) good[stack[i]] = 1;
+      }
+      for (int64_t i = 0; i < n_entered_[a]; ++i) {
+        const int32_t cell = entered_[a * D_ + i];
+        o.visited[cell] = true;
+        if (!arrived || mark[cell] != a) o.infeasible[cell] = true;
+      }
+    }
+    for (int64_t i = 0; i < N_; ++i) o.infeasible[i] = o.infeasible[i] && !good[i];
+  }
+
+ private:
+  // Bit i of the cell's words in chunk k's table: ant a's tabu entry (tabu_at_[a] = k·N·words·64 + i).
+  bool tabu(int64_t a, int32_t cell) const {
+    const int64_t at = tabu_at_[a] + int64_t(cell) * words_ * 64;
+    return (tabu_[at >> 6] >> (at & 63)) & 1;
+  }
+  void set_tabu(int64_t a, int32_t cell) {
+    const int64_t at = tabu_at_[a] + int64_t(cell) * words_ * 64;
+    tabu_[at >> 6] |= 1ull << (at & 63);
+  }
+
+  // The uniform of ant a at step t (AntRng::at), from 8 Threefry blocks drawn at once.
+  float uniform(int64_t a, int64_t t) {
+    float* u = uniforms_.data() + a * 16;
+    if (drawn_[a] != uint32_t(t >> 4)) {
+      drawn_[a] = uint32_t(t >> 4);
+      draw_blocks<u8, f8>(in_.k0, in_.k1, uint32_t(a), drawn_[a] * 8, u);
+    }
+    return u[t & 15];
+  }
+
+  // The weights of ant a's 8 moves (eq. 4-1), and how many are allowed, into moves_[a]. No branch
+  // depends on the map or the ant, so the CPU overlaps one ant's latencies with the next ant's.
+  void weigh(int64_t a) {
+    const int32_t c = cur_[a];
+    f8 r;
+    std::memcpy(&r, in_.rows + int64_t(c) * 8, sizeof r);
+    const i8 on_map = r > 0.0f;  // rows are > 0 exactly on the moves the map allows
+    const i8 cells = on_map & (c + offsets_);  // off the map: cell 0, never read for a move
+    i8 free;
+    for (int k = 0; k < 8; ++k) free[k] = tabu(a, cells[k]) ? 0 : -1;
+    const i8 allowed = on_map & free;
+    int n_allowed = 0;
+#if defined(__AVX2__)
+    __m256 mask;
+    std::memcpy(&mask, &allowed, sizeof mask);
+    n_allowed = __builtin_popcount(unsigned(_mm256_movemask_ps(mask)));
+#else
+    for (int k = 0; k < 8; ++k) n_allowed -= allowed[k];
+#endif
+    f8 tau_nb;
+    for (int k = 0; k < 8; ++k) tau_nb[k] = out_.tau[cells[k]];
+    f8 v = power8(tau_nb, alpha_, in_.tables);
+    if (table_) {  // another planner's factor, fixed for the iteration
+      f8 factor;
+      std::memcpy(&factor, in_.factors + int64_t(c) * 8, sizeof factor);
+      v = v * factor;
+    } else {  // eq. 4-5 over the ant's allowed moves
+      const f8 rr = select(allowed, r, splat(0.0f));
+      float total = rr[0];
+      for (int k = 1; k < 8; ++k) total = total + rr[k];
+      const f8 eta_all = 1.0f - rr / std::max(total, 1e-12f);
+      f8 eta = select(i8{} + (n_allowed == 1 ? -1 : 0), splat(1.0f), eta_all);
+      eta = select(eta < 1e-6f, splat(1e-6f), eta);  // std::max(eta, 1e-6f)
+      v = v * power8(eta, beta_, in_.tables);
+    }
+    v = select(v != v, splat(1e-30f), v);
+    v = select(v < 1e-30f, splat(1e-30f), v);  // std::max(v, 1e-30f)
+    v = select(1e30f < v, splat(1e30f), v);    // std::min(v, 1e30f)
+    const f8 w = select(allowed, v, splat(0.0f));
+    std::memcpy(moves_[a].w, &w, sizeof w);
+    moves_[a].n_allowed = n_allowed;
+  }
+
+  // Ant a's step t from its weights: forward by the roulette, else back along its path.
+  void move(int64_t a, int64_t t, std::vector<int32_t>& entries) {
+    const BacktrackOutputs& o = out_;
+    if (moves_[a].n_allowed == 0) {
+      if (o.sp[a] > 0) {  // step back along the path; the dead end stays tabu
+        cur_[a] = o.stack[a * D_ + o.sp[a] - 1];
+        o.sp[a] -= 1;
+        o.actions[a] += 1;
+      } else {
+        running_[a] = 0;  // back at the start with nothing left: dead
+      }
+      return;
+    }
+    const int k = choose(moves_[a].w, uniform(a, t), q0_, exploit_);
+    const int32_t next = cur_[a] + in_.offsets[k];
+    cur_[a] = next;
+    o.sp[a] += 1;
+    o.stack[a * D_ + o.sp[a]] = next;
+    set_tabu(a, next);
+    entered_[a * D_ + n_entered_[a]++] = next;
+    o.actions[a] += 1;
+    entries.push_back(2 * next + (k >= 4));
+    running_[a] = next != in_.goal;
+  }
+
+  BacktrackInputs in_;
+  BacktrackOutputs out_;
+  int64_t N_, A_, D_;
+  bool exploit_, table_;
+  int64_t n_chunks_;
+  float q0_, alpha_, beta_, lo_, hi_, rho_, keep_, amount_[2];
+  i8 offsets_;
+  // Tabu lists as bits, one table per chunk of ants, cell-major: bit i of the chunk's words of a
+  // cell is set once the chunk's i-th ant entered it. Ants follow one another, so the lines of the
+  // cells around one ant serve the next; a chunk's table is written by the one thread walking it.
+  int64_t words_;
+  std::vector<uint64_t> tabu_;  // (n_chunks, N, words)
+  std::vector<int64_t> tabu_at_;  // (A,)
+  std::vector<int32_t> cur_, entered_, n_entered_;  // entered: (A, D) cells in the order entered, start first
+  std::vector<uint64_t> counts_;  // (N,): entries of this step, straight | diagonal << 32
+  std::vector<std::vector<int32_t>> entries_;  // by chunk: 2·cell + diagonal of each forward step
+  std::vector<int32_t> touched_;  // the cells entered in this step
+  std::vector<uint8_t> running_;
+  struct Moves {
+    float w[8];  // the weights of the ant's 8 moves this step, 0 where not allowed
+    int32_t n_allowed;
+  };
+  std::vector<Moves> moves_;  // (A,)
+  std::vector<int32_t> walking_;  // by chunk: its ants still walking after the step
+  std::vector<float> uniforms_;    // (A, 16): each ant's uniforms of steps 16·drawn .. 16·drawn + 15
+  std::vector<uint32_t> drawn_;    // (A,)
+};
+
+}  // namespace
+
+const BacktrackKernel JACO_CAT(backtrack_, JACO_ISA) = {
+    [](const BacktrackInputs& in, const BacktrackOutputs& out, const BacktrackSizes& sizes) -> void* {
+      return new Colony(in, out, sizes);
+    },
+    [](void* colony, int64_t chunk, int64_t t) { static_cast<Colony*>(colony)->step_chunk(chunk, t); },
+    [](void* colony) { return static_cast<Colony*>(colony)->update(); },
+    [](void* colony) {
+      static_cast<Colony*>(colony)->finish();
+      delete static_cast<Colony*>(colony);
+    },
+};
