@@ -128,10 +128,11 @@ ffi::Error BacktrackImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> tau_in, ffi
   const int64_t B = leading(rd, 2);
   const int64_t n_tables = tables.dimensions()[tables.dimensions().size() - 1];
   const BacktrackKernel& walk = kernel();
-  // Fewer colonies than threads: a team of threads per colony, its ants in chunks of 8 or more.
+  // Fewer colonies than threads: a team of threads per colony, one chunk of its ants a thread
+  // (taken by another thread when its own has not come; more chunks cost more hand-overs a step).
   const int64_t n_threads = std::max<int64_t>(pool.num_threads(), 1);
   const int64_t parts = B > 0 && B < n_threads ? std::min<int64_t>((n_threads + B - 1) / B, std::max<int64_t>(A / 16, 1)) : 1;
-  const int64_t n_chunks = parts > 1 ? std::min<int64_t>(4 * parts, std::max<int64_t>(A / 8, parts)) : 1;
+  const int64_t n_chunks = parts;
   auto colony_of = [&](int64_t b) {
     const BacktrackInputs in{tau_in.typed_data() + b * N, rows.typed_data() + b * N * 8, factors.typed_data() + b * N * 8,
                     scalars.typed_data() + b * 7, offsets.typed_data() + b * 8, tables.typed_data() + b * n_tables,
