@@ -297,11 +297,11 @@ inline vi move_offset(const int32_t* offsets, vi chosen) {
 
 }  // namespace
 
-void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
+namespace {
+// No step yet in this call's columns of the step buffers (loops, not std::fill_n: walk_shared.h
+// says why), no cell visited.
+void clear_columns(const LaneColony& c) {
   const int64_t A = c.n_ants, S = c.steplimit, first = c.ant_begin, end = c.ant_end;
-  const int32_t start = c.start, goal = c.goal;
-  uint32_t* tabu = c.tabu;
-  // No step yet in this call's columns (loops, not std::fill_n: walk_shared.h says why).
   if (first == 0 && end == A) {
     for (int64_t i = 0; i < S * A; ++i) c.edges[i] = 8 * c.n_cells;
     std::memset(c.cells, -1, S * A * sizeof(int32_t));
@@ -312,6 +312,16 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
     }
   }
   std::memset(c.visited, 0, c.n_cells);
+}
+}  // namespace
+
+// One function for the lanes' loop and its two per-lane steps (load, finish): longer than the
+// rest of jaco's functions, but the lane state stays in registers and the loop reads as one.
+void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
+  const int64_t A = c.n_ants, S = c.steplimit, end = c.ant_end;
+  const int32_t start = c.start, goal = c.goal;
+  uint32_t* tabu = c.tabu;
+  clear_columns(c);
   c.visited[start] = true;
   vi offset[8];
   for (int k = 0; k < 8; ++k)
@@ -322,7 +332,7 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
   s.cur = zero + start;
   s.prev = zero - 1;
   s.t = s.drawn = s.diagonal = s.ant = s.live = zero;
-  int64_t next = first;
+  int64_t next = c.ant_begin;
   int n_live = 0;
   // Lane l takes the next ant that has a step to take (an ant on the goal, or with no step
   // allowed by the limit, is finished at once), or idles.
