@@ -23,6 +23,23 @@ import jaco
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
 
+@pytest.fixture(autouse=True, scope="module")
+def sigint_reaches_python():
+    """A test run started as a background job (``cmd &`` in a script) inherits SIGINT ignored, and
+    so would every process these tests start: Python then installs no KeyboardInterrupt handler and
+    an interrupt does nothing. Ctrl-C reaches a foreground program, so these tests run as one: this
+    process takes Python's own handler, and its children start with SIGINT at its default."""
+    ignored = signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    if not ignored or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 CLI = [sys.executable, "-m", "jaco.cli"]
 LONG_SWEEP = ["sweep", "demo", "--variant", "acs", "--param", "beta=1:10:200", "--seeds", "50", "--ants", "20",
               "--iters", "2000", "--chunk", "100"]  # 10,000 runs in chunks of 100: minutes in all
