@@ -23,6 +23,7 @@ import jaco
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
 
+
 @pytest.fixture(autouse=True, scope="module")
 def sigint_reaches_python():
     """A test run started as a background job (``cmd &`` in a script) inherits SIGINT ignored, and
