@@ -60,16 +60,8 @@ inline void draw(uint32_t k0, uint32_t k1, uint32_t ant, uint32_t block0, float*
   draw_blocks<vu, vf>(k0, k1, ant, block0, out);
 }
 
-inline vi bits_of(vf x) {
-  vi y;
-  std::memcpy(&y, &x, sizeof y);
-  return y;
-}
-inline vf float_of(vi x) {
-  vf y;
-  std::memcpy(&y, &x, sizeof y);
-  return y;
-}
+inline vi bits_of(vf x) { return bits_as<vi>(x); }
+inline vf float_of(vi x) { return bits_as<vf>(x); }
 // base[index[l]] of every lane, the vector built in registers (element inserts): a vector
 // written lane by lane in memory and read back whole stalls the CPU (store forwarding fails).
 template <typename V, typename T, size_t... l>

@@ -8,6 +8,16 @@
 
 constexpr float kSqrt2 = static_cast<float>(1.4142135623730951);  // float32(hypot(1, 1)): a diagonal step
 
+// The bits of x as a To (C++20's std::bit_cast): a float vector as ints and back, for selects
+// that keep a float's bits.
+template <typename To, typename From>
+inline To bits_as(From x) {
+  static_assert(sizeof(To) == sizeof(From), "same size");
+  To y;
+  std::memcpy(&y, &x, sizeof y);
+  return y;
+}
+
 // std::min and std::max as the standard defines them (NaN: the first argument), of internal
 // linkage here: a template instance of std:: is shared between the objects (see above).
 template <typename T>

@@ -42,16 +42,8 @@ typedef float f8 __attribute__((vector_size(32)));
 typedef int32_t i8 __attribute__((vector_size(32)));
 typedef uint32_t u8 __attribute__((vector_size(32)));
 
-inline f8 as_f8(i8 x) {
-  f8 y;
-  std::memcpy(&y, &x, sizeof y);
-  return y;
-}
-inline i8 as_i8(f8 x) {
-  i8 y;
-  std::memcpy(&y, &x, sizeof y);
-  return y;
-}
+inline f8 as_f8(i8 x) { return bits_as<f8>(x); }
+inline i8 as_i8(f8 x) { return bits_as<i8>(x); }
 inline f8 select(i8 mask, f8 a, f8 b) { return as_f8((mask & as_i8(a)) | (~mask & as_i8(b))); }
 inline f8 splat(float x) { return f8{x, x, x, x, x, x, x, x}; }
 
