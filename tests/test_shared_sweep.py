@@ -82,8 +82,8 @@ def _finish(tmp_path, procs) -> dict:
     }
 
 
-def _chunks(path):
-    with sqlite3.connect(path) as con:
+def _chunks(path, timeout=5.0):
+    with sqlite3.connect(path, timeout=timeout) as con:
         rows = con.execute("SELECT rows, worker, attempt FROM chunks").fetchall()
     return [(np.frombuffer(r, "<i8"), w, a) for r, w, a in rows]
 
@@ -265,23 +265,29 @@ def test_three_workers_share_the_chunks_and_none_runs_one_twice(tmp_path):
     _check_workers(tables, chunks)
 
 
-def _claims(path):
-    with sqlite3.connect(path) as con:
+def _claims(path, timeout=5.0):
+    with sqlite3.connect(path, timeout=timeout) as con:
         return con.execute("SELECT lo, hi, worker FROM claims").fetchall()
 
 
 def _kill_holding(proc, path, host, timeout=120.0):
-    """SIGKILL ``proc`` while it holds a claim, once a chunk is stored; returns the claimed rows."""
+    """SIGKILL ``proc`` while it holds a claim, once a chunk is stored; returns the claimed rows.
+
+    The worker is stopped (SIGSTOP) before the store is read, so the claim read is the one it
+    holds when it dies: read while it runs, it could store that chunk before the kill lands."""
     deadline = time.time() + timeout
     while time.time() < deadline and proc.poll() is None:
+        os.kill(proc.pid, signal.SIGSTOP)
         try:
-            held = [(lo, hi) for lo, hi, w in _claims(path) if w.startswith(host + "/")]
-            if held and _chunks(path):
-                os.kill(proc.pid, signal.SIGKILL)
-                proc.wait()
-                return held[0], time.time()
-        except sqlite3.Error:
-            pass
+            held = [(lo, hi) for lo, hi, w in _claims(path, timeout=0.1) if w.startswith(host + "/")]
+            stored = _chunks(path, timeout=0.1)
+        except sqlite3.Error:  # stopped inside a write: let it finish
+            held = stored = []
+        if held and stored:
+            os.kill(proc.pid, signal.SIGKILL)
+            proc.wait()
+            return held[0], time.time()
+        os.kill(proc.pid, signal.SIGCONT)
         time.sleep(0.005)
     raise AssertionError(f"worker {host} ended before it could be killed while holding a claim")
 
