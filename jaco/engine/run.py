@@ -101,11 +101,9 @@ def _history_row(best: _Best, col: Any, b: jax.Array) -> History:
     return History(best.cost, col.cost[b], mean, count / col.cost.shape[0])
 
 
-def _report_iteration(t: jax.Array, report: bool | str, n_iters: int) -> None:
-    """Hand iteration ``t + 1`` to :func:`jaco.progress.report` as ``report`` asks (see :func:`make_run`)."""
-    if report == "every":  # each iteration: a sweep chunk's bar and its interrupts
-        jax.debug.callback(_progress.report, t + 1)
-    elif report:
+def _report_iteration(t: jax.Array, report: bool, n_iters: int) -> None:
+    """Hand iteration ``t + 1`` to :func:`jaco.progress.report` when ``report`` (see :func:`make_run`)."""
+    if report:  # every few iterations: a host callback each iteration cost up to a tenth of a sweep
         k = _progress.every(n_iters)
         jax.lax.cond((t + 1) % k == 0, lambda: jax.debug.callback(_progress.report, t + 1), lambda: None)
 
@@ -143,17 +141,17 @@ def make_run(
     n_iters: int,
     steplimit: int,
     keep_pheromone: bool | str = False,
-    report: bool | str = False,
+    report: bool = False,
 ) -> Callable[[jax.Array, Problem, Params], RunOutput]:
     """Build ``run(key, problem, params) -> RunOutput`` for fixed shapes (not jitted here).
 
     ``keep_pheromone``: False (none), True (the final pheromone ``(M,)``) or ``"history"`` (the
     pheromone after every iteration, ``(n_iters, M)``, e.g. for :func:`jaco.plot.animate_pheromone`).
     ``report``: hand the number of finished iterations to :func:`jaco.progress.report` every
-    :func:`jaco.progress.every` iterations, or with ``"every"`` after each iteration (a host
-    callback that reads nothing back; under vmap the iteration is the same for every run of the
-    batch, so the batch reports once). A report is also where an interrupted call ends
-    (:func:`jaco.progress.run_interruptibly`).
+    :func:`jaco.progress.every` iterations (a host callback that reads nothing back; under vmap
+    the iteration is the same for every run of the batch, so the batch reports once). An
+    interrupted call ends at its next iteration whether it reports or not
+    (:func:`jaco.engine.native.stop_requested`).
     """
     if not isinstance(planner, Planner):
         raise JacoError(f"make_run takes a Planner, got {planner!r} (by name: jaco.make_run or jaco.PLANNERS[name])")

@@ -71,8 +71,8 @@ def _program(planner: Planner, shape: RunShape, mesh: Mesh, paths: bool = False)
     key = ("sweep", planner, *shape.sizes.values(), tuple(d.id for d in mesh.devices.flat), paths)
 
     def build():
-        # reports every iteration: a bar inside the chunk, and an interrupt ends the chunk at once
-        batched = batch_runs(make_run(planner, **shape.sizes, report="every"))
+        # reports a few times a chunk (its bar); an interrupt ends the chunk at its next iteration
+        batched = batch_runs(make_run(planner, **shape.sizes, report=True))
 
         def chunk(seeds, problems, params):
             out = batched(jax.vmap(jax.random.key)(seeds), problems, params)
