@@ -16,6 +16,8 @@ import platform
 import shutil
 import subprocess
 import tempfile
+import threading
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from setuptools import Extension, setup
@@ -64,6 +66,22 @@ def _cpu_flags() -> str:
     return platform.processor()
 
 
+def _one_process_per_source(compile):
+    """``compile`` (a distutils compiler's) running the compiler on each source at once, one process
+    a source, as many at a time as the machine has cores; the objects in the sources' order."""
+    gate = threading.BoundedSemaphore(os.cpu_count() or 1)
+
+    def run(sources, *args, **kwargs):
+        def one(source):
+            with gate:
+                return compile([source], *args, **kwargs)
+
+        with ThreadPoolExecutor(len(sources) or 1) as pool:
+            return [obj for objects in pool.map(one, sources) for obj in objects]
+
+    return run
+
+
 class BuildNative(build_ext):
     def build_extension(self, ext):
         try:
@@ -82,8 +100,13 @@ class BuildNative(build_ext):
             shutil.copyfile(cached, out)
             print(f"jaco: reusing the native walk built before from the same sources, compiler and jaxlib: {cached}")
             return
-        self._build_lanes(ext)
-        super().build_extension(ext)
+        serial = self.compiler.compile
+        self.compiler.compile = _one_process_per_source(serial)  # a minute of compiling, on every core
+        try:
+            self._build_lanes(ext)
+            super().build_extension(ext)
+        finally:
+            self.compiler.compile = serial
         if cached is not None and out.is_file():
             try:  # a temporary file renamed into place: concurrent installs never see half a kernel
                 cached.parent.mkdir(parents=True, exist_ok=True)
@@ -96,17 +119,26 @@ class BuildNative(build_ext):
                 print(f"jaco: could not keep the native walk in {cached.parent} ({e}); it is installed all the same")
 
     def _build_lanes(self, ext):
-        """Compile walk_lanes.cc once per instruction set into objects linked with walk.cc. A set the
-        compiler refuses is left out (walk.cc then never offers it); the baseline must build."""
-        for isa, (flags, lanes) in _isas().items():
+        """Compile the lane kernels once per instruction set (the sets at once) into objects linked
+        with walk.cc. A set the compiler refuses is left out (walk.cc then never offers it); the
+        baseline must build."""
+        isas = _isas()
+
+        def compile_set(isa):
+            flags, lanes = isas[isa]
+            return self.compiler.compile(
+                _LANES,
+                output_dir=os.path.join(self.build_temp, f"lanes-{isa}"),
+                macros=[("JACO_ISA", isa), ("JACO_LANES", str(lanes))],
+                include_dirs=ext.include_dirs,
+                extra_postargs=[*ext.extra_compile_args, *flags],
+            )
+
+        with ThreadPoolExecutor(len(isas)) as pool:
+            built = {isa: pool.submit(compile_set, isa) for isa in isas}
+        for isa, job in built.items():
             try:
-                objects = self.compiler.compile(
-                    _LANES,
-                    output_dir=os.path.join(self.build_temp, f"lanes-{isa}"),
-                    macros=[("JACO_ISA", isa), ("JACO_LANES", str(lanes))],
-                    include_dirs=ext.include_dirs,
-                    extra_postargs=[*ext.extra_compile_args, *flags],
-                )
+                objects = job.result()
             except Exception as e:  # noqa: BLE001 - a compiler without this set
                 if isa == "baseline":
                     raise

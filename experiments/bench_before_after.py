@@ -88,8 +88,9 @@ def build_revision(rev: str, where: Path) -> Path:
     """A worktree of ``rev`` with its native kernel built in place; the folder to put on sys.path."""
     tree = where / "before"
     subprocess.run(["git", "worktree", "add", "--detach", "-q", str(tree), rev], cwd=ROOT, check=True)
+    # The user's kernel cache: a revision whose kernel sources match one built before is copied, not compiled.
     subprocess.run([sys.executable, "setup.py", "-q", "build_ext", "--inplace"], cwd=tree, check=True,
-                   capture_output=True, env=dict(os.environ, JACO_CACHE_DIR=str(where / "cache")))
+                   capture_output=True)
     return tree
 
 

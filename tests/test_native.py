@@ -519,7 +519,8 @@ def test_the_kernel_is_built_once_for_the_same_sources_compiler_and_jaxlib(tmp_p
     for other in list(cache.rglob("_walk*.so")):  # (the rest of the test counts the entries)
         if other != kept:
             shutil.rmtree(other.parent)
-    with open(src / "jaco" / "engine" / "walk.cc", "a") as f:
+    # A changed lane kernel (a file the extension lists as a dependency, compiled first) is compiled again.
+    with open(src / "jaco" / "engine" / "walk_lanes.cc", "a") as f:
         f.write("\n#error a changed source is compiled again\n")
     third, kernels, objects = build("third")
     assert "reusing" not in third and "a changed source is compiled again" in third
