@@ -66,8 +66,8 @@ def scaled(log_w: jax.Array, valid: jax.Array) -> jax.Array:
     when nothing else is allowed)."""
     log_w = jnp.where(valid, jnp.nan_to_num(log_w, nan=-jnp.inf), -jnp.inf)
     # The row maximum as elementwise maxima of the 8 columns: XLA:CPU runs a reduction over 8
-    # elements per row several times slower. The same maximum (only a zero's sign may differ,
-    # which x − top and exp do not see), so the same weights bit for bit.
+    # elements per row slowly, in a pass of its own. The same maximum (only a zero's sign may
+    # differ, which x − top and exp do not see), so the same weights bit for bit.
     top = functools.reduce(jnp.maximum, (log_w[:, k] for k in range(log_w.shape[1])))[:, None]
     top = jnp.where(jnp.isfinite(top), top, 0.0)  # rows with no allowed move, or only zero factors
     return jnp.where(valid, jnp.clip(jnp.exp(log_w - top), 1e-30, 1.0), 0.0)

