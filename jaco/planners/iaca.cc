@@ -61,10 +61,16 @@ struct Team {
 
 constexpr uint64_t kChunkBits = 0xFFFFFFFFull;
 
-inline void relax() {
+// A wait's spins-th turn: a pause at first, then the core given up now and then (a pool shared with
+// other work, or more threads than cores: the thread awaited may have lost its core).
+inline void wait_turn(int64_t spins) {
+  if (spins < 4096) {
 #if defined(__x86_64__) || defined(__i386__)
-  __builtin_ia32_pause();
+    __builtin_ia32_pause();
 #endif
+  } else {
+    std::this_thread::yield();
+  }
 }
 
 // Take and walk chunks of the published step until none is left.
@@ -92,7 +98,7 @@ void lead(Team& team, const BacktrackKernel& walk, void* colony, int64_t steplim
       team.done.store(0, std::memory_order_relaxed);
       team.ticket.store(uint64_t(t) << 32, std::memory_order_release);
       take_chunks(team, walk, colony);
-      while (team.done.load(std::memory_order_acquire) < team.n_chunks) relax();
+      for (int64_t spins = 0; team.done.load(std::memory_order_acquire) < team.n_chunks; ++spins) wait_turn(spins);
     }
     walking = walk.update(colony);
   }
@@ -107,10 +113,8 @@ void follow(Team& team, const BacktrackKernel& walk) {
     if (colony && seen != ~0ull && (seen & kChunkBits) < uint64_t(team.n_chunks)) {
       take_chunks(team, walk, colony);
       idle = 0;
-    } else if (++idle < 4096) {
-      relax();
     } else {
-      std::this_thread::yield();  // a pool shared with other work: give the core back now and then
+      wait_turn(idle++);
     }
   }
 }
