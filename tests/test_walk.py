@@ -134,28 +134,3 @@ def test_key_words_are_two_words_of_any_key():
     words = key_words(jax.random.key(0))
     assert words.shape == (2,) and words.dtype == jnp.uint32
     assert not np.array_equal(words, key_words(jax.random.key(1)))
-
-
-def test_scaled_weights_equal_the_row_reduction_bit_for_bit():
-    """colony.scaled takes each cell's maximum as elementwise maxima of its 8 columns (XLA:CPU's
-    8-element row reduction is slow): the weights must be those of ``jnp.max(axis=1)``, bit for
-    bit, also on signed zeros, infinities, NaN, forbidden moves and rows with nothing allowed."""
-    from jaco.engine.colony import scaled
-
-    def by_reduction(log_w, valid):
-        log_w = jnp.where(valid, jnp.nan_to_num(log_w, nan=-jnp.inf), -jnp.inf)
-        top = jnp.max(log_w, axis=1, keepdims=True)
-        top = jnp.where(jnp.isfinite(top), top, 0.0)
-        return jnp.where(valid, jnp.clip(jnp.exp(log_w - top), 1e-30, 1.0), 0.0)
-
-    rng = np.random.default_rng(0)
-    special = np.array([0.0, -0.0, np.inf, -np.inf, np.nan, 80.0, -80.0, 1e-30, -1e-30, 3.0], np.float32)
-    log_w = np.where(rng.random((4000, 8)) < 0.5, rng.choice(special, (4000, 8)), rng.normal(0, 30, (4000, 8)))
-    log_w[:10] = 0.0  # rows of zeros of either sign
-    log_w[:10, ::2] = -0.0
-    valid = rng.random((4000, 8)) < 0.8
-    valid[10:20] = False  # rows with no allowed move
-    log_w, valid = jnp.asarray(log_w, jnp.float32), jnp.asarray(valid)
-    got, want = np.asarray(jax.jit(scaled)(log_w, valid)), np.asarray(jax.jit(by_reduction)(log_w, valid))
-    assert np.array_equal(got.view(np.int32), want.view(np.int32))
-    assert np.all(got[10:20] == 0) and np.all(got[valid] >= 1e-30) and np.any(got == 1.0)

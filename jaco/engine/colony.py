@@ -9,7 +9,6 @@ provide their own. Everything after construction (best-so-far, pheromone rule, h
 
 from __future__ import annotations
 
-import functools
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import jax
@@ -65,10 +64,7 @@ def scaled(log_w: jax.Array, valid: jax.Array) -> jax.Array:
     float32's limits (a weight that would underflow, or a factor of 0, becomes 1e-30: taken only
     when nothing else is allowed)."""
     log_w = jnp.where(valid, jnp.nan_to_num(log_w, nan=-jnp.inf), -jnp.inf)
-    # The row maximum as elementwise maxima of the 8 columns: XLA:CPU runs a reduction over 8
-    # elements per row slowly, in a pass of its own. The same maximum (only a zero's sign may
-    # differ, which x − top and exp do not see), so the same weights bit for bit.
-    top = functools.reduce(jnp.maximum, (log_w[:, k] for k in range(log_w.shape[1])))[:, None]
+    top = jnp.max(log_w, axis=1, keepdims=True)
     top = jnp.where(jnp.isfinite(top), top, 0.0)  # rows with no allowed move, or only zero factors
     return jnp.where(valid, jnp.clip(jnp.exp(log_w - top), 1e-30, 1.0), 0.0)
 
