@@ -263,11 +263,14 @@ def walk(
     steplimit: int,
     exploit: bool,
 ) -> Any:
-    """The kernel's walk; same arguments and results as :func:`jaco.engine.walk.jax_walk`."""
+    """The kernel's walk; same arguments and results as :func:`jaco.engine.walk.jax_walk`.
+
+    The kernel writes each step's ``from·8 + move`` only; the cell it entered, ``from +
+    offsets[move]``, is computed here, so a program that never reads the cells (a sweep without
+    paths) neither fills nor writes an ``(S, A)`` buffer for them."""
     _load()
     n = weights.shape[-2]
     out = (
-        jax.ShapeDtypeStruct((steplimit, n_ants), jnp.int32),
         jax.ShapeDtypeStruct((steplimit, n_ants), jnp.int32),
         jax.ShapeDtypeStruct((n_ants,), jnp.int32),
         jax.ShapeDtypeStruct((n_ants,), jnp.int32),
@@ -275,7 +278,14 @@ def walk(
         jax.ShapeDtypeStruct((n,), jnp.bool_),
     )
     call = jax.ffi.ffi_call("jaco_walk", out, vmap_method="broadcast_all")
-    return call(weights, words, start, goal, q0, offsets, steplimit=np.int64(steplimit), exploit=bool(exploit))
+    edges, *rest = call(weights, words, start, goal, q0, offsets, steplimit=np.int64(steplimit), exploit=bool(exploit))
+    # offsets[move] as selects, not a gather: XLA fuses selects into whatever reads the cells (a
+    # path is one column), where it made a gather its own pass over every step slot.
+    move, offsets = edges & 7, jnp.asarray(offsets, jnp.int32)
+    offset = offsets[0]
+    for k in range(1, 8):
+        offset = jnp.where(move == k, offsets[k], offset)
+    return edges, jnp.where(edges < 8 * n, (edges >> 3) + offset, -1), *rest
 
 
 def deposit(tau: jax.Array, targets: jax.Array, amounts: jax.Array) -> jax.Array:

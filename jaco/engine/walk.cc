@@ -107,7 +107,7 @@ int32_t grid_width(const int32_t* off, int32_t* row_of, int32_t* col_of) {
 ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Buffer<ffi::U32> words,
                     ffi::Buffer<ffi::S32> start, ffi::Buffer<ffi::S32> goal, ffi::Buffer<ffi::F32> q0,
                     ffi::Buffer<ffi::S32> offsets, ffi::ResultBuffer<ffi::S32> edges,
-                    ffi::ResultBuffer<ffi::S32> cells, ffi::ResultBuffer<ffi::S32> n_steps,
+                    ffi::ResultBuffer<ffi::S32> n_steps,
                     ffi::ResultBuffer<ffi::S32> n_diagonal, ffi::ResultBuffer<ffi::PRED> arrived,
                     ffi::ResultBuffer<ffi::PRED> visited, int64_t steplimit, bool exploit) {
   const auto wd = weights.dimensions();
@@ -119,7 +119,6 @@ ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Bu
   const int32_t *st = start.typed_data(), *gl = goal.typed_data(), *off0 = offsets.typed_data();
   const float* q = q0.typed_data();
   int32_t* ed0 = edges->typed_data();
-  int32_t* cl0 = cells->typed_data();
   int32_t *ns0 = n_steps->typed_data(), *nd0 = n_diagonal->typed_data();
   bool *arr0 = arrived->typed_data(), *vis0 = visited->typed_data();
   const LaneWalk walk = lane_walk();
@@ -136,7 +135,7 @@ ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Bu
       const int64_t b = task / parts, p = task % parts;
       bool* vis = parts > 1 ? reinterpret_cast<bool*>(part_visited.data() + task * N) : vis0 + b * N;
       LaneColony colony{W0 + b * N * 8, off0 + b * 8, st[b], gl[b], int32_t(N), q[b], K[2 * b], K[2 * b + 1],
-                        A, S, A * p / parts, A * (p + 1) / parts, exploit, ed0 + b * S * A, cl0 + b * S * A,
+                        A, S, A * p / parts, A * (p + 1) / parts, exploit, ed0 + b * S * A,
                         ns0 + b * A, nd0 + b * A, arr0 + b * A, vis, nullptr, 0, {}, {}};
       colony.width = grid_width(colony.offsets, colony.row_of, colony.col_of);
       const int64_t pad = int64_t(colony.width) + 2;
@@ -200,7 +199,6 @@ XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoWalk, WalkImpl,
                                   .Arg<ffi::Buffer<ffi::F32>>()   // q0 (...)
                                   .Arg<ffi::Buffer<ffi::S32>>()   // move offsets (..., 8)
                                   .Ret<ffi::Buffer<ffi::S32>>()   // edges (..., S, A): from·8 + move, 8N where none
-                                  .Ret<ffi::Buffer<ffi::S32>>()   // cells (..., S, A)
                                   .Ret<ffi::Buffer<ffi::S32>>()   // steps (..., A)
                                   .Ret<ffi::Buffer<ffi::S32>>()   // diagonal steps (..., A)
                                   .Ret<ffi::Buffer<ffi::PRED>>()  // arrived (..., A)

@@ -290,18 +290,15 @@ inline vi move_offset(const int32_t* offsets, vi chosen) {
 }  // namespace
 
 namespace {
-// No step yet in this call's columns of the step buffers (loops, not std::fill_n: walk_shared.h
+// No step yet in this call's columns of the step buffer (loops, not std::fill_n: walk_shared.h
 // says why), no cell visited.
 void clear_columns(const LaneColony& c) {
   const int64_t A = c.n_ants, S = c.steplimit, first = c.ant_begin, end = c.ant_end;
   if (first == 0 && end == A) {
     for (int64_t i = 0; i < S * A; ++i) c.edges[i] = 8 * c.n_cells;
-    std::memset(c.cells, -1, S * A * sizeof(int32_t));
   } else {
-    for (int64_t t = 0; t < S; ++t) {
+    for (int64_t t = 0; t < S; ++t)
       for (int64_t a = first; a < end; ++a) c.edges[t * A + a] = 8 * c.n_cells;
-      std::memset(c.cells + t * A + first, -1, (end - first) * sizeof(int32_t));
-    }
   }
   std::memset(c.visited, 0, c.n_cells);
 }
@@ -348,15 +345,15 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
     s.live[l] = 0;
     s.t[l] = s.drawn[l] = 0;
   };
-  // The ant of lane l stops: its results, and its marks cleared (start and every cell entered).
+  // The ant of lane l stops: its results, and its marks cleared. Only cells it left are marked,
+  // and those are the cells its steps came from (from·8 + move in its edges).
   auto finish = [&](int l) {
     const int32_t a = s.ant[l], n = s.t[l];
     const uint32_t clear = ~(1u << l);
     c.n_steps[a] = n;
     c.n_diagonal[a] = s.diagonal[l];
     c.arrived[a] = s.cur[l] == goal;
-    tabu[start] &= clear;
-    for (int32_t i = 0; i < n; ++i) tabu[c.cells[int64_t(i) * A + a]] &= clear;
+    for (int32_t i = 0; i < n; ++i) tabu[c.edges[int64_t(i) * A + a] >> 3] &= clear;
     --n_live;
   };
   for (int l = 0; l < L; ++l) load(l);
@@ -371,16 +368,15 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
     const vi step = s.live & ok;
     const vi cell = pick(step, s.cur + move_offset(c.offsets, chosen), s.cur);
     const vi slot = s.t * int32_t(A) + s.ant;
-    int32_t marked[L], entered[L], at[L], move[L], from[L];
+    int32_t marked[L], entered[L], at[L], edge[L];
+    const vi from_move = s.cur * 8 + chosen;
     std::memcpy(marked, &s.prev, sizeof marked);
-    std::memcpy(from, &s.cur, sizeof from);
     std::memcpy(entered, &cell, sizeof entered);
     std::memcpy(at, &slot, sizeof at);
-    std::memcpy(move, &chosen, sizeof move);
+    std::memcpy(edge, &from_move, sizeof edge);
     for (unsigned m = lanes_set(step); m; m &= m - 1) {  // lane order: two lanes may share a cell's word
       const int l = __builtin_ctz(m);
-      c.edges[at[l]] = from[l] * 8 + move[l];
-      c.cells[at[l]] = entered[l];
+      c.edges[at[l]] = edge[l];
       c.visited[entered[l]] = true;
       if (marked[l] >= 0) tabu[marked[l]] |= 1u << l;
     }
