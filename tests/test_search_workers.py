@@ -19,6 +19,7 @@ pytest.importorskip("optuna")
 from postgres import postgres_url  # noqa: E402,F401  (a session fixture: a real server)
 
 import jaco  # noqa: E402
+from jaco.research.search_workers import BEAT  # noqa: E402
 
 #: One worker: logs every trial it evaluated (after the evaluation) to evals-PID.jsonl; with
 #: JACO_TEST_HANG it marks its first batch as asked and hangs there (to be killed mid-batch);
@@ -128,8 +129,8 @@ def _complete(db) -> int:
 def test_a_killed_workers_trials_are_retried_exactly_once(tmp_path, other_host):
     """Worker 0 hangs in its first batch and is SIGKILLed there while worker 1, having finished
     the rest, waits. On this host the dead process is seen at once; from another host only its
-    heartbeat stops, and its trials wait out the grace period (3 s here) before worker 1 retries
-    them, each exactly once, as new trials with the same parameters."""
+    heartbeat stops, and its trials wait out the grace period (3 s here) after its last heartbeat
+    before worker 1 retries them, each exactly once, as new trials with the same parameters."""
     db = tmp_path / "s.db"
     env = {"JACO_TEST_HANG": "1", **({"JACO_TEST_HOST": "elsewhere"} if other_host else {})}
     hung = _start(tmp_path, str(db), 0, env=env)
@@ -150,11 +151,12 @@ def test_a_killed_workers_trials_are_retried_exactly_once(tmp_path, other_host):
         assert by_number[n].state.name == "FAIL"
         again = [t for t in study.trials if t.user_attrs["jaco_trial"].get("retry_of") == n]
         assert len(again) == 1 and again[0].state.name == "COMPLETE" and again[0].params == by_number[n].params
-        after = again[0].datetime_start.timestamp() - killed_at
-        if other_host:  # its last heartbeat was at most 0.5 s before the kill
-            assert after >= 3.0 - 0.6
+        retried_at = again[0].datetime_start.timestamp()
+        if other_host:  # the grace period counts from the last heartbeat (on a loaded machine it can be late)
+            beat = float(study.user_attrs[BEAT + by_number[n].user_attrs["jaco_trial"]["owner"]])
+            assert 0 < beat <= killed_at and retried_at - beat >= 3.0 - 0.05
         else:
-            assert after < 3.0
+            assert retried_at - killed_at < 3.0
 
 
 # -- jaco search --workers N ----------------------------------------------------------------------
