@@ -368,17 +368,23 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
     const vi step = s.live & ok;
     const vi cell = pick(step, s.cur + move_offset(c.offsets, chosen), s.cur);
     const vi slot = s.t * int32_t(A) + s.ant;
-    int32_t marked[L], entered[L], at[L], edge[L];
-    const vi from_move = s.cur * 8 + chosen;
+    int32_t marked[L], entered[L], at[L], edge[L], stepped[L], marking[L];
+    const vi from_move = s.cur * 8 + chosen, marks = step & (s.prev >= s.t - s.t);
     std::memcpy(marked, &s.prev, sizeof marked);
     std::memcpy(entered, &cell, sizeof entered);
     std::memcpy(at, &slot, sizeof at);
     std::memcpy(edge, &from_move, sizeof edge);
-    for (unsigned m = lanes_set(step); m; m &= m - 1) {  // lane order: two lanes may share a cell's word
-      const int l = __builtin_ctz(m);
-      c.edges[at[l]] = edge[l];
+    std::memcpy(stepped, &step, sizeof stepped);
+    std::memcpy(marking, &marks, sizeof marking);
+    // Every lane's stores, with no branch on how many lanes stepped (a loop over the stepping
+    // lanes mispredicted its exit at most steps): a lane that did not step stores into a sink,
+    // and marks its own cell visited again (it is: the cell it stands on).
+    int32_t edge_sink;
+    uint32_t mark_sink;
+    for (int l = 0; l < L; ++l) {
+      *(stepped[l] ? c.edges + at[l] : &edge_sink) = edge[l];
       c.visited[entered[l]] = true;
-      if (marked[l] >= 0) tabu[marked[l]] |= 1u << l;
+      *(marking[l] ? tabu + marked[l] : &mark_sink) |= 1u << l;
     }
     s.prev = pick(step, s.cur, s.prev);
     s.cur = cell;
