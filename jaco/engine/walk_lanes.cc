@@ -369,7 +369,7 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
     const vi cell = pick(step, s.cur + move_offset(c.offsets, chosen), s.cur);
     const vi slot = s.t * int32_t(A) + s.ant;
     int32_t marked[L], entered[L], at[L], edge[L], stepped[L], marking[L];
-    const vi from_move = s.cur * 8 + chosen, marks = step & (s.prev >= s.t - s.t);
+    const vi from_move = s.cur * 8 + chosen, marks = step & (s.prev >= zero);
     std::memcpy(marked, &s.prev, sizeof marked);
     std::memcpy(entered, &cell, sizeof entered);
     std::memcpy(at, &slot, sizeof at);
