@@ -4,7 +4,9 @@
 // jaco/engine/bitexact.py; uniforms and the roulette from walk_shared.h.
 //
 // An ant's 8 moves are computed together in 8 vector lanes: the two table powers of each move
-// (eq. 4-1 with eq. 4-5), each lane doing exactly the operations of bitexact.power. setup.py
+// (eq. 4-1 with eq. 4-5), each lane doing exactly the operations of bitexact.power. τ^α depends
+// on the cell alone, so it is kept per cell and recomputed where the local update changed τ
+// (the same lanes, the same bits); η^β depends on the ant's tabu list, so each step. setup.py
 // compiles this file once per instruction set, as walk_lanes.cc (JACO_ISA names the set); with
 // AVX2 the table look-ups are gathers and the floor one instruction.
 //
@@ -136,6 +138,9 @@ class Colony {
     offsets_ = i8{in.offsets[0], in.offsets[1], in.offsets[2], in.offsets[3],
                   in.offsets[4], in.offsets[5], in.offsets[6], in.offsets[7]};
     std::memcpy(out.tau, in.tau, N * sizeof(float));
+    tau_power_.resize(N);
+    for (int64_t i = 0; i < N; i += 8)
+      set_tau_powers(std::min<int64_t>(8, N - i), [&](int64_t k) { return int32_t(i + k); });
     words_ = (A / n_chunks_ + 1 + 63) / 64;  // a chunk has at most A / n_chunks + 1 ants
     tabu_.assign(n_chunks_ * N * words_, 0);
     tabu_at_.resize(A);
@@ -166,6 +171,9 @@ class Colony {
     std::vector<int32_t>& entries = entries_[k];
     entries.clear();
     const int64_t begin = A_ * k / n_chunks_, end = A_ * (k + 1) / n_chunks_;
+    // On a large map the ants' rows are far from the cache, and each ant's weights wait on its
+    // row: asked for together first, their loads overlap (a 256x256 map: 15 % of the walk).
+    for (int64_t a = begin; a < end; ++a) __builtin_prefetch(in_.rows + int64_t(cur_[a]) * 8);
     for (int64_t a = begin; a < end; ++a)
       if (running_[a]) weigh(a);
     int32_t walking = 0;
@@ -198,6 +206,10 @@ class Colony {
       const float v = decay * out_.tau[cell] + deposit * mean_decay;
       out_.tau[cell] = std::min(std::max(v, lo_), hi_);
       counts_[cell] = 0;
+    }
+    for (size_t i = 0; i < touched_.size(); i += 8) {
+      const int64_t n = std::min<int64_t>(8, int64_t(touched_.size() - i));
+      set_tau_powers(n, [&](int64_t k) { return touched_[i + k]; });
     }
     return walking;
   }
@@ -237,6 +249,16 @@ class Colony {
     tabu_[at >> 6] |= 1ull << (at & 63);
   }
 
+  // τ^α of n ≤ 8 cells (cell_at(k), k < n) into tau_power_: power8 of the weights, once per cell
+  // and pheromone value rather than once per ant and step (the same lanes, so the same bits).
+  template <typename CellAt>
+  void set_tau_powers(int64_t n, CellAt cell_at) {
+    f8 x = splat(1.0f);
+    for (int64_t k = 0; k < n; ++k) x[k] = out_.tau[cell_at(k)];
+    const f8 p = power8(x, alpha_, in_.tables);
+    for (int64_t k = 0; k < n; ++k) tau_power_[cell_at(k)] = p[k];
+  }
+
   // The uniform of ant a at step t (AntRng::at), from 8 Threefry blocks drawn at once.
   float uniform(int64_t a, int64_t t) {
     float* u = uniforms_.data() + a * 16;
@@ -266,9 +288,8 @@ class Colony {
 #else
     for (int k = 0; k < 8; ++k) n_allowed -= allowed[k];
 #endif
-    f8 tau_nb;
-    for (int k = 0; k < 8; ++k) tau_nb[k] = out_.tau[cells[k]];
-    f8 v = power8(tau_nb, alpha_, in_.tables);
+    f8 v;  // τ^α of the 8 cells
+    for (int k = 0; k < 8; ++k) v[k] = tau_power_[cells[k]];
     if (table_) {  // another planner's factor, fixed for the iteration
       f8 factor;
       std::memcpy(&factor, in_.factors + int64_t(c) * 8, sizeof factor);
@@ -306,6 +327,8 @@ class Colony {
     const int k = choose(moves_[a].w, uniform(a, t), q0_, exploit_);
     const int32_t next = cur_[a] + in_.offsets[k];
     cur_[a] = next;
+    __builtin_prefetch(counts_.data() + next, 1);  // what update reads and writes for the cell
+    __builtin_prefetch(out_.tau + next, 1);
     o.sp[a] += 1;
     o.stack[a * D_ + o.sp[a]] = next;
     set_tabu(a, next);
@@ -329,6 +352,7 @@ class Colony {
   std::vector<uint64_t> tabu_;  // (n_chunks, N, words)
   std::vector<int64_t> tabu_at_;  // (A,)
   std::vector<int32_t> cur_, entered_, n_entered_;  // entered: (A, D) cells in the order entered, start first
+  std::vector<float> tau_power_;  // (N,): τ^α of every cell, as the pheromone is now
   std::vector<uint64_t> counts_;  // (N,): entries of this step, straight | diagonal << 32
   std::vector<std::vector<int32_t>> entries_;  // by chunk: 2·cell + diagonal of each forward step
   std::vector<int32_t> touched_;  // the cells entered in this step
