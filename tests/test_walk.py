@@ -145,3 +145,5 @@ def test_key_words_are_jax_random_bits_of_the_key():
     np.testing.assert_array_equal(key_words(keys[7]), expected[7])
     rbg = jax.random.key(5, impl="rbg")
     np.testing.assert_array_equal(key_words(rbg), jax.random.bits(rbg, (2,), jnp.uint32))
+    with jax.threefry_partitionable(False):  # jax's other counters: its own bits again
+        np.testing.assert_array_equal(key_words(keys[7]), jax.random.bits(keys[7], (2,), jnp.uint32))

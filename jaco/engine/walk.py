@@ -61,7 +61,7 @@ def key_words(key: jax.Array) -> jax.Array:
     counters jax uses, so that XLA fuses the hash into one small kernel; ``jax.random`` on CPU
     runs it as a loop of five passes, several operations each, and a solve paid that every
     iteration. The same words bit for bit (integer arithmetic; tests/test_walk.py compares)."""
-    if str(jax.random.key_impl(key)) != "threefry2x32" or not jax.config.jax_threefry_partitionable:
+    if str(jax.random.key_impl(key)) != "threefry2x32" or not jax.config.values["jax_threefry_partitionable"]:
         return jax.random.bits(key, (2,), jnp.uint32)
     data = jax.random.key_data(key)
     # jax.random.bits' counters for the shape (2,): high words 0, low words 0 and 1; the words
