@@ -5,7 +5,9 @@ No test here asserts a time: figures only have to be present, finite and positiv
 
 import json
 import math
+import os
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -286,3 +288,26 @@ def test_the_worker_benchmarks_run_at_smoke_size_and_write_their_section(tmp_pat
         assert "| 1 worker | 16 |" in text and "| 2 workers | 16 |" in text
     else:  # every worker's table equal to the first
         assert text.count("| True |") == 2 and "| False |" not in text
+
+
+@pytest.mark.slow  # compiles the IACA kernel once per revision, and the driver
+@pytest.mark.skipif(shutil.which(os.environ.get("CXX", "c++")) is None, reason="needs a C++ compiler")
+def test_iaca_kernel_bench_smoke_walks_two_builds_alike(tmp_path):
+    md = tmp_path / "BENCHMARKS.md"
+    script = str(ROOT / "experiments" / "bench_iaca_kernel.py")
+    proc = subprocess.run(
+        [sys.executable, script, "--revs", "HEAD", ".", "--smoke", "--out", str(md)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    text = md.read_text()
+    assert "<!-- bench_iaca_kernel:start -->" in text and "Every revision left the same pheromone" in text
+    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout
+    rows = [numbers(table_row(text, label)[1:]) for label in (head.strip(), "working tree")]
+    for vals in rows:  # ms median, ms best, steps, ns a step, ratio
+        assert len(vals) == 5 and all(math.isfinite(v) and v > 0 for v in vals)
+        assert vals[1] <= vals[0] and vals[3] == pytest.approx(vals[0] * 1e6 / vals[2], rel=0.02)
+    assert rows[0][2] == rows[1][2] > 0  # the same walks: as many steps
