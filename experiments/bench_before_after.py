@@ -109,9 +109,14 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--before", required=True, help="the earlier revision (a git commit)")
     ap.add_argument("--smoke", action="store_true", help="one round, few repetitions, no IACA")
+    ap.add_argument("--rounds", type=int, default=None, help="alternating rounds (default 2; 1 with --smoke)")
     ap.add_argument("--out", default=None, help="markdown file to update (default BENCHMARKS.md; nothing with --smoke)")
     args = ap.parse_args(argv)
-    cfg = SMOKE if args.smoke else FULL
+    cfg = dict(SMOKE if args.smoke else FULL)
+    if args.rounds is not None:
+        if args.rounds < 1:
+            ap.error("--rounds must be at least 1")
+        cfg["rounds"] = args.rounds
     rev = subprocess.run(["git", "rev-parse", "--short", args.before], cwd=ROOT, capture_output=True, text=True,
                          check=True).stdout.strip()
     now = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
@@ -141,7 +146,8 @@ def main(argv=None):
                      f["native_run_ms"] / f["solve_ms"]] + ([f["city_s"]] if cfg["city"] else []))
     header = ["jaco", "sweep CPU s (1 core)", "numba loop CPU s", "sweep × numba per core", "solve ms (median)",
               "numba run ms (median)", "solve × numba run"] + (["IACA Berlin_1_256 s"] if cfg["city"] else [])
-    command = f"python experiments/bench_before_after.py --before {args.before}" + (" --smoke" if args.smoke else "")
+    command = (f"python experiments/bench_before_after.py --before {args.before}" + (" --smoke" if args.smoke else "")
+               + (f" --rounds {args.rounds}" if args.rounds is not None else ""))
     speed = fig["before"]["jaco_s"] / fig["after"]["jaco_s"]
     text = "\n".join([
         "## Before and after, per core (`experiments/bench_before_after.py`)",
