@@ -54,39 +54,8 @@ class Tours(NamedTuple):
 
 
 def key_words(key: jax.Array) -> jax.Array:
-    """The two 32-bit words ``(2,) uint32`` the walk's uniforms are hashed with, from a key:
-    ``jax.random.bits(key, (2,), uint32)``.
-
-    For a Threefry key (jax's default) they are computed here, by :func:`threefry2x32` on the
-    counters jax uses, so that XLA fuses the hash into one small kernel; ``jax.random`` on CPU
-    runs it as a loop of five passes, several operations each, and a solve paid that every
-    iteration. The same words bit for bit (integer arithmetic; tests/test_walk.py compares)."""
-    if str(jax.random.key_impl(key)) != "threefry2x32" or not jax.config.values["jax_threefry_partitionable"]:
-        return jax.random.bits(key, (2,), jnp.uint32)
-    data = jax.random.key_data(key)
-    # jax.random.bits' counters for the shape (2,): high words 0, low words 0 and 1; the words
-    # are the two outputs' xor.
-    y0, y1 = threefry2x32(data[..., 0], data[..., 1], jnp.zeros(2, jnp.uint32), jnp.arange(2, dtype=jnp.uint32))
-    return y0 ^ y1
-
-
-_ROTATIONS = ((13, 15, 26, 6), (17, 29, 16, 24))
-
-
-def threefry2x32(k0: Any, k1: Any, x0: jax.Array, x1: jax.Array) -> tuple[jax.Array, jax.Array]:
-    """Threefry-2x32 with 20 rounds (Salmon et al. 2011), as ``jax.random`` computes it, written
-    out round by round (no loop)."""
-    k0, k1 = jnp.asarray(k0, jnp.uint32), jnp.asarray(k1, jnp.uint32)
-    ks = (k0, k1, k0 ^ k1 ^ np.uint32(0x1BD11BDA))
-    x0, x1 = x0 + ks[0], x1 + ks[1]
-    for i in range(5):
-        for r in _ROTATIONS[i % 2]:
-            x0 = x0 + x1
-            x1 = (x1 << np.uint32(r)) | (x1 >> np.uint32(32 - r))
-            x1 = x0 ^ x1
-        x0 = x0 + ks[(i + 1) % 3]
-        x1 = x1 + ks[(i + 2) % 3] + np.uint32(i + 1)
-    return x0, x1
+    """The two 32-bit words ``(2,) uint32`` the walk's uniforms are hashed with, from a key."""
+    return jax.random.bits(key, (2,), jnp.uint32)
 
 
 def step_uniforms(words: jax.Array, ants: jax.Array, t: Any) -> jax.Array:
