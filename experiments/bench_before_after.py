@@ -31,7 +31,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
-from report import table, write_section  # noqa: E402 (the experiments' shared helpers)
+from report import publish, table  # noqa: E402 (the experiments' shared helpers)
 
 SECTION = "bench_before_after"
 FULL = dict(rounds=2, sweep_reps=3, solve_calls=20, city=True)
@@ -162,11 +162,7 @@ def main(argv=None):
         f"The same sweep costs {speed:.2f}× less CPU on one core after than before; the two give the same costs, "
         "run for run.",
     ])
-    print(text)
-    out = args.out or (None if args.smoke else str(ROOT / "BENCHMARKS.md"))
-    if out:
-        write_section(Path(out), SECTION, text)
-        print(f"wrote {out}")
+    publish(text, SECTION, args.out, args.smoke)
     return 0
 
 

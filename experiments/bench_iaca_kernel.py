@@ -6,10 +6,9 @@
 
 A whole IACA solve on the machines here changes speed by up to 1.5x from one minute to the next,
 so two solves minutes apart cannot show a 10 % change in the walk. This script compiles
-``jaco/planners/iaca_lanes.cc`` of each revision (``.`` is the working tree) with this CPU's
-widest instruction set that jaco builds (AVX2 where the CPU has it, else the baseline), links them
-into one program (``iaca_kernel_driver.cc``) and walks one colony with each in turn, walk after
-walk: every revision sees the slow and the fast moments alike. The walk is IACA's defaults (50
+``jaco/planners/iaca_lanes.cc`` of each revision (``.`` is the working tree) with AVX2 where
+jaco's kernel runs its AVX2 lanes here (else the baseline), links them into one program
+(``iaca_kernel_driver.cc``) and walks one colony with each in turn, walk after walk: every revision sees the slow and the fast moments alike. The walk is IACA's defaults (50
 ants, q0 0.9, β 8) on the longest query of a bundled map, from the initial pheromone, one key per
 walk; the program checks that every revision leaves the same pheromone, stacks and steps. The
 revisions must share the kernel's interface (``iaca_lanes.h``) with the working tree. It needs a
@@ -20,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import platform
 import shutil
 import subprocess
 import sys
@@ -32,7 +30,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
-from report import table, write_section  # noqa: E402 (the experiments' shared helpers)
+from report import publish, table  # noqa: E402 (the experiments' shared helpers)
 
 SECTION = "bench_iaca_kernel"
 FULL = dict(map="Berlin_1_256.map", walks=15)
@@ -87,7 +85,9 @@ def sources(rev: str, out: Path) -> Path:
 def build(revs: list[str], tmp: Path) -> tuple[Path, str]:
     """The driver with one variant per revision (v0, v1, ...); the instruction set it uses."""
     cxx = os.environ.get("CXX", "c++")
-    isa = "avx2" if platform.machine().lower() in ("x86_64", "amd64") and "avx2" in cpu_flags() else "baseline"
+    from jaco.engine import native
+
+    isa = "avx2" if native.isas().get("avx2") in ("active", "runs") else "baseline"  # what jaco's build runs here
     flags = ["-std=c++17", "-O3", "-ffp-contract=off"] + (AVX2 + ["-DJACO_HAVE_AVX2"] if isa == "avx2" else [])
     objects = []
     for i, rev in enumerate(revs):
@@ -103,13 +103,6 @@ def build(revs: list[str], tmp: Path) -> tuple[Path, str]:
     subprocess.run([cxx, "-std=c++17", "-O2", f"-DVARIANTS={variants}", f"-I{tmp / 'v0'}",
                     str(HERE / "iaca_kernel_driver.cc"), *objects, "-o", str(driver)], check=True)
     return driver, isa
-
-
-def cpu_flags() -> str:
-    try:
-        return next((line for line in Path("/proc/cpuinfo").read_text().splitlines() if line.startswith("flags")), "")
-    except OSError:
-        return ""
 
 
 def main(argv=None):
@@ -153,11 +146,7 @@ def main(argv=None):
         "",
         table(header, rows),
     ])
-    print(text)
-    out = args.out or (None if args.smoke else str(ROOT / "BENCHMARKS.md"))
-    if out:
-        write_section(Path(out), SECTION, text)
-        print(f"wrote {out}")
+    publish(text, SECTION, args.out, args.smoke)
     return 0
 
 

@@ -41,7 +41,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 from movingai_suite import scenarios  # noqa: E402 (the suite's choice of queries)
-from report import fixed, table, write_section  # noqa: E402 (the experiments' shared helpers)
+from report import fixed, publish, table  # noqa: E402 (the experiments' shared helpers)
 
 SECTION = "bench_local_search"
 CHAOS = dict(construct="backtrack", heuristic="chaos", rule="iaca")
@@ -215,11 +215,7 @@ def main(argv=None):
         "compile included).", "",
         table(["map", "size", "step limit", "shortest of them", "longest", "solved", "median gap %", "s"], part4), "",
     ] if part4 else []))
-    print(text)
-    out = args.out or (None if args.smoke else HERE.parent / "BENCHMARKS.md")
-    if out is not None:
-        write_section(out, SECTION, text)
-        print(f"wrote {out}")
+    publish(text, SECTION, args.out, args.smoke)
     return 0
 
 

@@ -25,7 +25,7 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from report import fixed, table, write_section  # noqa: E402 (the experiments' shared helpers)
+from report import fixed, publish, table  # noqa: E402 (the experiments' shared helpers)
 
 SECTION = "bench_scale"
 
@@ -87,11 +87,7 @@ def main(argv=None):
         "one device, native walk; the first call includes the tables, tracing and XLA compile.", "",
         table(head, rows), "",
     ] + ([f"Left out on the 512×512 map (`--skip-largest`): {', '.join(args.skip_largest)}.", ""] if args.skip_largest else []))
-    print(text)
-    out = args.out or (None if args.smoke else HERE.parent / "BENCHMARKS.md")
-    if out is not None:
-        write_section(out, SECTION, text)
-        print(f"wrote {out}")
+    publish(text, SECTION, args.out, args.smoke)
     return 0
 
 

@@ -248,16 +248,12 @@ def main(argv=None):
     ap.add_argument("--smoke", action="store_true", help="tiny sizes")
     ap.add_argument("--out", default=None, help="markdown file to update (default BENCHMARKS.md; nothing with --smoke)")
     args = ap.parse_args(argv)
-    from report import write_section
+    from report import publish
 
     R = measure(SMOKE if args.smoke else FULL)
     command = "python experiments/profile_iteration.py" + (" --smoke" if args.smoke else "")
     text = report(R, command)
-    print(text)
-    out = args.out or (None if args.smoke else str(HERE.parent / "BENCHMARKS.md"))
-    if out:
-        write_section(Path(out), SECTION, text)
-        print(f"wrote {out}")
+    publish(text, SECTION, args.out, args.smoke)
     return 0 if R["same"] else 1
 
 

@@ -78,3 +78,13 @@ def write_section(path: Path, tag: str, body: str, intro: str = INTRO) -> None:
     else:
         text = text.rstrip() + "\n\n" + block
     write_text(path, text)
+
+
+def publish(text: str, tag: str, out, smoke: bool) -> None:
+    """Print a script's section and write it as section ``tag``: to ``out`` when given, else to
+    the repository's BENCHMARKS.md, except after a ``--smoke`` run (nothing then)."""
+    print(text)
+    path = out or (None if smoke else Path(__file__).resolve().parents[1] / "BENCHMARKS.md")
+    if path is not None:
+        write_section(Path(path), tag, text)
+        print(f"wrote {path}")

@@ -40,6 +40,19 @@ def table_row(text, label):
     raise AssertionError(f"no table row starting with {label!r}")
 
 
+def run_smoke(script, *args, md):
+    """Run ``experiments/<script>`` with ``args`` and ``--smoke --out md``; the text it wrote."""
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "experiments" / script), *args, "--smoke", "--out", str(md)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=1200,
+    )
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    return md.read_text()
+
+
 @pytest.fixture(scope="module")
 def smoke(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("bench")
@@ -201,16 +214,7 @@ def test_sweep_native_runs_every_configuration():
 def test_profile_smoke_both_walks_take_the_same_moves(tmp_path):
     """The per-part profile runs at smoke size for both walks; they take the same moves (the
     script exits 1 otherwise) and every timed part is reported."""
-    md = tmp_path / "BENCHMARKS.md"
-    proc = subprocess.run(
-        [sys.executable, str(ROOT / "experiments" / "profile_iteration.py"), "--smoke", "--out", str(md)],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=900,
-    )
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    text = md.read_text()
+    text = run_smoke("profile_iteration.py", md=tmp_path / "BENCHMARKS.md")
     assert "<!-- profile_iteration:start -->" in text and "The two walks' moves are identical: yes" in text
     for label in ("weights", "tours", "pheromone update", "whole iteration"):
         vals = numbers(table_row(text, label)[1:])
@@ -243,24 +247,7 @@ def test_scale_benchmark_smoke_writes_its_section(tmp_path):
 
 @pytest.mark.slow  # builds a revision's kernel in a worktree and runs both in processes of their own
 def test_before_after_smoke_compares_a_revision_with_itself(tmp_path):
-    md = tmp_path / "BENCHMARKS.md"
-    proc = subprocess.run(
-        [
-            sys.executable,
-            str(ROOT / "experiments" / "bench_before_after.py"),
-            "--before",
-            "HEAD",
-            "--smoke",
-            "--out",
-            str(md),
-        ],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=1200,
-    )
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    text = md.read_text()
+    text = run_smoke("bench_before_after.py", "--before", "HEAD", md=tmp_path / "BENCHMARKS.md")
     assert "<!-- bench_before_after:start -->" in text and "the two give the same costs" in text
     for label in ("before (", "after ("):
         vals = numbers(table_row(text, label)[1:])
@@ -293,17 +280,7 @@ def test_the_worker_benchmarks_run_at_smoke_size_and_write_their_section(tmp_pat
 @pytest.mark.slow  # compiles the IACA kernel once per revision, and the driver
 @pytest.mark.skipif(shutil.which(os.environ.get("CXX", "c++")) is None, reason="needs a C++ compiler")
 def test_iaca_kernel_bench_smoke_walks_two_builds_alike(tmp_path):
-    md = tmp_path / "BENCHMARKS.md"
-    script = str(ROOT / "experiments" / "bench_iaca_kernel.py")
-    proc = subprocess.run(
-        [sys.executable, script, "--revs", "HEAD", ".", "--smoke", "--out", str(md)],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=900,
-    )
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    text = md.read_text()
+    text = run_smoke("bench_iaca_kernel.py", "--revs", "HEAD", ".", md=tmp_path / "BENCHMARKS.md")
     assert "<!-- bench_iaca_kernel:start -->" in text and "Every revision left the same pheromone" in text
     head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout
     rows = [numbers(table_row(text, label)[1:]) for label in (head.strip(), "working tree")]

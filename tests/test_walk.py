@@ -134,4 +134,3 @@ def test_key_words_are_two_words_of_any_key():
     words = key_words(jax.random.key(0))
     assert words.shape == (2,) and words.dtype == jnp.uint32
     assert not np.array_equal(words, key_words(jax.random.key(1)))
-
