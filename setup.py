@@ -30,11 +30,11 @@ from setuptools.command.build_ext import build_ext
 _X86 = platform.machine().lower() in ("x86_64", "amd64")
 _ISAS = {
     "baseline": ([], 4),  # SSE2 on x86-64 (4 floats a vector), NEON on arm64
-    "avx2": (["-mavx2", "-mbmi", "-mbmi2", "-mpopcnt"], 8),
-    "avx512": (["-mavx512f", "-mavx512bw", "-mavx512vl", "-mavx512dq", "-mavx2", "-mbmi", "-mbmi2", "-mpopcnt",
+    "avx2": (["-mavx2", "-mfma", "-mbmi", "-mbmi2", "-mpopcnt"], 8),
+    "avx512": (["-mavx512f", "-mavx512bw", "-mavx512vl", "-mavx512dq", "-mavx2", "-mfma", "-mbmi", "-mbmi2", "-mpopcnt",
                 "-mprefer-vector-width=512"], 16),
 }
-_LANES = ["jaco/engine/walk_lanes.cc", "jaco/planners/iaca_lanes.cc"]
+_LANES = ["jaco/engine/walk_lanes.cc", "jaco/planners/iaca_lanes.cc", "jaco/engine/weights_lanes.cc"]
 
 
 def _isas() -> dict:
@@ -179,9 +179,9 @@ setup(
         Extension(
             "jaco.engine._walk",
             # One kernel per file, next to the code it serves; one library.
-            ["jaco/engine/walk.cc", "jaco/planners/iaca.cc", "jaco/engine/pheromone.cc", "jaco/engine/local_search.cc",
+            ["jaco/engine/walk.cc", "jaco/planners/iaca.cc", "jaco/engine/weights.cc", "jaco/engine/pheromone.cc", "jaco/engine/local_search.cc",
              "jaco/potential.cc"],
-            depends=[*_LANES, "jaco/engine/walk_lanes.h", "jaco/planners/iaca_lanes.h", "jaco/engine/walk_shared.h", "jaco/engine/kernel_threads.h"],
+            depends=[*_LANES, "jaco/engine/walk_lanes.h", "jaco/planners/iaca_lanes.h", "jaco/engine/weights_lanes.h", "jaco/engine/walk_shared.h", "jaco/engine/kernel_threads.h"],
             include_dirs=["jaco/engine"],
             language="c++",
             extra_compile_args=["-std=c++17", "-O3", "-ffp-contract=off"],

@@ -291,7 +291,7 @@ def test_best_half_fitness_weighted_deposit_by_hand():
 
 
 def test_weights_give_the_probabilities_of_eq6_without_underflow():
-    from jaco.engine.colony import _TINY, scaled
+    from jaco.engine.weights import _TINY, scaled
 
     valid = jnp.array([[True, True, True, False, False, False, False, False]])
     eta = jnp.array([[0.1, 0.05, 0.2, 0, 0, 0, 0, 0]])

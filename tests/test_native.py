@@ -22,7 +22,7 @@ from hypothesis import strategies as st
 
 import jaco
 from jaco import potential
-from jaco.engine import bitexact, native
+from jaco.engine import bitexact, native, weights
 from jaco.engine.problem import make_problem, stack
 from jaco.engine.walk import jax_walk, step_uniforms
 from jaco.moves import MOVES, neighbour_table
@@ -75,6 +75,46 @@ def test_table_powers_agree_with_the_kernel_and_with_float64_pow():
     assert (got[exact < 1e-39] == 0).all() and np.isinf(got[exact > 4e38]).all()
     special = np.asarray(bitexact.power(jnp.array([0.0, -1.0, 2.0, 1.0, 3.0]), jnp.array([2.0, 2.0, 1.0, 7.0, 0.0])))
     assert special.tolist() == [0.0, 0.0, 2.0, 1.0, 1.0]
+
+
+# -- the move weights: XLA's log and exp, reproduced ----------------------------------------------
+def test_the_kernels_move_weights_equal_xlas_with_every_instruction_set(isa_choice):
+    """The probe the kernel is checked on once per process, with every set this CPU runs, in both
+    pheromone layouts, colonies sharing the map's neighbours and each with its own α and factor."""
+    assert weights.kernel_mode() == "fused"  # x86-64 with FMA (every CPU with AVX2): XLA fuses each multiply-add
+    tau_cells, tau_moves, nbr, alphas, factor = weights.probe()
+    factors = np.stack([factor, factor[::-1], np.zeros_like(factor)])[np.arange(len(alphas)) % 3]
+    for cells, tau in ((False, tau_moves), (True, tau_cells)):
+        taus = np.stack([tau, tau * np.float32(0.37), np.roll(tau, 5)])[np.arange(len(alphas)) % 3]
+        xla = jax.jit(jax.vmap(functools.partial(weights.scaled_weights, cells=cells), in_axes=(0, None, 0, 0)))
+        want = np.asarray(xla(taus, nbr, alphas, factors))
+        assert (want[:, :16] == 0).all() and ((want > 0) == (nbr >= 0)).all() and (want.max(axis=2)[:, 16:] == 1).all()
+        for isa in RUNNABLE:
+            isa_choice(isa)
+            kernel = functools.partial(weights.native_move_weights, cells=cells, fused=True)
+            got = np.asarray(jax.jit(jax.vmap(kernel, in_axes=(0, None, 0, 0)))(taus, nbr, alphas, factors))
+            np.testing.assert_array_equal(got.view(np.uint32), want.view(np.uint32), err_msg=f"{isa}, cells={cells}")
+
+
+def test_the_kernels_log_and_exp_equal_xlas_on_every_binade():
+    sys.path.insert(0, str(ROOT / "experiments"))
+    import check_xla_math
+
+    assert check_xla_math.main(["--smoke"]) == 0
+
+
+def test_a_kernel_whose_weights_differ_from_xlas_is_not_used(monkeypatch):
+    args = (jnp.ones(8 * 6), jnp.asarray(np.arange(48).reshape(6, 8) % 7 - 1, jnp.int32), 1.5, jnp.zeros((6, 8)))
+
+    def program():
+        return jax.jit(functools.partial(weights.move_weights, cells=False)).lower(*args).as_text()
+
+    assert "jaco_move_weights" in program()
+    exact = weights.native_move_weights
+    monkeypatch.setattr(weights, "native_move_weights", lambda *a, **kw: exact(*a, **kw) * np.float32(1 + 2**-22))
+    assert weights.find_mode() is None
+    monkeypatch.setitem(weights._state, "mode", None)
+    assert "jaco_move_weights" not in program()
 
 
 # -- random walks on random maps ----------------------------------------------------------------

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import jax
 import jax.numpy as jnp
 
+from . import weights
 from .params import Param, declare
 from .walk import walk
 
@@ -46,9 +47,6 @@ class Colony(NamedTuple):
     visited: jax.Array
 
 
-_TINY = float(jnp.finfo(jnp.float32).tiny)
-
-
 def eta_factor(planner: Any, trail: Trail, problem: Any, params: Params, t: Any, n_iters: int) -> jax.Array:
     """log(η^β) of every move ``(N, 8)``: the part of a move's weight besides the pheromone, for
     a planner whose ``heuristic`` is an η table (thesis eq. 2-1). Planners whose weights have
@@ -57,37 +55,21 @@ def eta_factor(planner: Any, trail: Trail, problem: Any, params: Params, t: Any,
     return params.beta * jnp.log(jnp.where(valid, planner.heuristic(problem, params, t, n_iters), 1.0))
 
 
-def scaled(log_w: jax.Array, valid: jax.Array) -> jax.Array:
-    """``exp(log_w)`` scaled so that each cell's largest allowed weight is 1: exactly 0 where the
-    map forbids the move, in [1e-30, 1] elsewhere. The roulette and the argmax only compare the
-    weights of one cell, so the scaling changes no choice; it keeps large exponents away from
-    float32's limits (a weight that would underflow, or a factor of 0, becomes 1e-30: taken only
-    when nothing else is allowed)."""
-    log_w = jnp.where(valid, jnp.nan_to_num(log_w, nan=-jnp.inf), -jnp.inf)
-    top = jnp.max(log_w, axis=1, keepdims=True)
-    top = jnp.where(jnp.isfinite(top), top, 0.0)  # rows with no allowed move, or only zero factors
-    return jnp.where(valid, jnp.clip(jnp.exp(log_w - top), 1e-30, 1.0), 0.0)
-
-
 def move_tau(planner: Any, trail: Trail, problem: Any) -> jax.Array:
     """The pheromone of every move ``(N, 8)``: τ_ij, or τ_j of the cell it enters."""
-    if planner.pheromone_on == "cells":
-        return trail.tau[jnp.where(problem.nbr >= 0, problem.nbr, 0)]
-    return trail.tau.reshape(problem.nbr.shape)
+    return weights.tau_of_moves(trail.tau, problem.nbr, cells=planner.pheromone_on == "cells")
 
 
 def move_weights(planner: Any, trail: Trail, problem: Any, params: Params, t: Any, n_iters: int) -> jax.Array:
     """The roulette weights ``(N, 8)``: τ^α times the planner's factor (``planner.factor``, by
-    default η^β), :func:`scaled` per cell.
+    default η^β), :func:`jaco.engine.weights.scaled` per cell (:func:`jaco.engine.weights.move_weights`).
 
     Computed in log space, α·log τ + log factor: XLA:CPU's ``pow`` costs eight times as much, and
     a factor that does not change between iterations is computed once per run (XLA hoists it
-    out of the iteration loop). τ = 0 counts as the smallest normal float."""
-    tau = move_tau(planner, trail, problem)
-    log_w = params.alpha * jnp.log(jnp.maximum(tau, _TINY)) + planner.factor(
-        planner, trail, problem, params, t, n_iters
-    )
-    return scaled(log_w, problem.nbr >= 0)
+    out of the iteration loop). τ = 0 counts as the smallest normal float. On CPU with the native
+    walk, a kernel computes the same weights bit for bit."""
+    factor = planner.factor(planner, trail, problem, params, t, n_iters)
+    return weights.move_weights(trail.tau, problem.nbr, params.alpha, factor, cells=planner.pheromone_on == "cells")
 
 
 def step_targets(

@@ -42,6 +42,8 @@ _TARGETS = {
     "jaco_apf_next": "JacoApfNext",
     "jaco_shortcut": "JacoShortcut",
     "jaco_stopped": "JacoStopped",
+    "jaco_move_weights": "JacoMoveWeights",
+    "jaco_log_exp": "JacoLogExp",
 }
 _state: dict = {}
 
@@ -167,13 +169,13 @@ def active_walk() -> str:
     return choice
 
 
-def ffi_call(target: str, result_shapes: Any, **kwargs: Any) -> Callable[..., Any]:
+def ffi_call(target: str, result_shapes: Any, vmap_method: str = "broadcast_all", **kwargs: Any) -> Callable[..., Any]:
     """``jax.ffi.ffi_call`` of one of the kernels (``target``, a name of :data:`_TARGETS`),
-    the library loaded and its targets registered first; the planners' own kernel wrappers
-    (:func:`jaco.planners.iaca.native_backtrack_walk`, :func:`jaco.potential.native_apf_next`)
-    call their kernels through it."""
+    the library loaded and its targets registered first; the kernel wrappers beside the code they
+    serve (:func:`jaco.planners.iaca.native_backtrack_walk`, :func:`jaco.potential.native_apf_next`,
+    :func:`jaco.engine.weights.native_move_weights`) call their kernels through it."""
     _load()
-    return jax.ffi.ffi_call(target, result_shapes, vmap_method="broadcast_all", **kwargs)
+    return jax.ffi.ffi_call(target, result_shapes, vmap_method=vmap_method, **kwargs)
 
 
 def dispatch(native_fn: Callable[..., Any], jax_fn: Callable[..., Any], *args: Any) -> Any:

@@ -20,10 +20,11 @@ import numpy as np
 from ..engine import native
 from ..engine import pheromone as ph
 from ..engine.bitexact import power, rounded
-from ..engine.colony import ALPHA, BETA, Colony, eta_factor, scaled, step_targets
+from ..engine.colony import ALPHA, BETA, Colony, eta_factor, step_targets
 from ..engine.heuristics import goal_distance
 from ..engine.params import INF, Param, declare
 from ..engine.walk import CHUNK, Tours, choose, key_words, step_uniforms
+from ..engine.weights import scaled
 from ..moves import MOVE_LENGTHS, MOVES
 from .compose import component, compose
 

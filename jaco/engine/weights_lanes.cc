@@ -1,0 +1,319 @@
+// The roulette weights of a colony's moves, jaco.engine.weights.scaled_weights, bit for bit as
+// XLA:CPU computes them:
+//   w = where(valid, clip(exp(lw - top), 1e-30, 1), 0),
+//   lw = where(valid, nan_to_num(α·log(max(τ, tiny)) + f, nan=-inf), -inf),  top = max of the cell's lw.
+//
+// XLA does not call a math library for float32 log and exp: it emits its own polynomials (those
+// of Cephes, as Eigen has them), and LLVM fuses each multiply that feeds an add into one fused
+// multiply-add where the CPU has FMA. The functions below are those polynomials, operation for
+// operation, with the fused multiply-adds where XLA's code has them (`fused`) or a rounded
+// multiply and add where it has none, under XLA's floating-point mode (denormals flushed to zero).
+// experiments/check_xla_math.py compares them with XLA's on every float32 input, and
+// jaco.engine.weights compares the kernel's weights with XLA's once per process before it uses it.
+//
+// setup.py compiles this file once per instruction set (JACO_ISA): AVX2 and AVX-512 take one
+// cell's 8 moves in one 8-lane vector; the baseline computes the same operations one move at a time.
+// Nothing here may be shared with the other objects (see walk_shared.h).
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+
+#include "weights_lanes.h"
+
+#if defined(__AVX2__)
+#include <immintrin.h>
+#endif
+#if defined(__x86_64__) || defined(__i386__)
+#include <xmmintrin.h>
+#endif
+
+#ifndef JACO_ISA
+#define JACO_ISA baseline
+#endif
+#define JACO_CAT2(a, b) a##b
+#define JACO_CAT(a, b) JACO_CAT2(a, b)
+
+namespace {
+
+inline float from_bits(uint32_t u) {
+  float f;
+  std::memcpy(&f, &u, 4);
+  return f;
+}
+inline uint32_t to_bits(float f) {
+  uint32_t u;
+  std::memcpy(&u, &f, 4);
+  return u;
+}
+
+// The constants of XLA's polynomials (xla/codegen/math: log_f32, exp_f32), as bit patterns.
+constexpr uint32_t kTiny = 0x00800000u;            // the smallest normal float
+constexpr uint32_t kSqrtHalf = 0x3F3504F3u;
+constexpr uint32_t kLogP[9] = {0x3D9021BBu, 0xBDEBD1B8u, 0x3DEF251Au, 0xBDFE5D4Fu, 0x3E11E9BFu,
+                               0xBE2AAE50u, 0x3E4CCEACu, 0xBE7FFFFCu, 0x3EAAAAAAu};
+constexpr uint32_t kLn2Lo = 0xB95E8083u, kLn2Hi = 0x3F318000u, kLog2e = 0x3FB8AA3Bu;
+constexpr uint32_t kExpP[5] = {0x39506967u, 0x3AB743CEu, 0x3C088908u, 0x3D2AA9C1u, 0x3E2AAAAAu};
+constexpr float kFloatMax = 3.40282347e+38f;
+
+// XLA's floating-point mode while it computes: denormal results flushed to zero, denormal inputs
+// read as zero. Set for the kernel's work and put back after.
+struct FlushDenormals {
+#if defined(__x86_64__) || defined(__i386__)
+  unsigned saved = _mm_getcsr();
+  FlushDenormals() { _mm_setcsr(saved | 0x8040u); }
+  ~FlushDenormals() { _mm_setcsr(saved); }
+#endif
+};
+
+// ---- one move at a time ---------------------------------------------------------------------
+template <bool kFused>
+inline float mul_add(float a, float b, float c) {
+  if (kFused) return std::fma(a, b, c);
+  return a * b + c;  // two roundings (built with -ffp-contract=off)
+}
+
+// log(x) of x = max(τ, tiny): XLA's log_f32.
+template <bool kFused>
+float log_of(float x) {
+  const uint32_t nan_mask = !(x > 0.0f) ? 0xFFFFFFFFu : 0u;  // x <= 0 or NaN: NaN
+  const bool zero = x == 0.0f, inf = x == INFINITY;
+  const float xc = (from_bits(kTiny) >= x || x != x) ? from_bits(kTiny) : x;
+  const uint32_t b = to_bits(xc);
+  float e = 1.0f + float(int32_t(b >> 23) - 127);
+  const float m = from_bits((b & 0x807FFFFFu) | 0x3F000000u);
+  const bool below = m < from_bits(kSqrtHalf);
+  const float x1 = m - 1.0f;
+  e = e - (below ? 1.0f : 0.0f);
+  const float z = x1 + (below ? m : 0.0f);
+  const float z2 = z * z, z3 = z2 * z;
+  float y0 = mul_add<kFused>(z, from_bits(kLogP[0]), from_bits(kLogP[1]));
+  float y1 = mul_add<kFused>(z, from_bits(kLogP[3]), from_bits(kLogP[4]));
+  float y2 = mul_add<kFused>(z, from_bits(kLogP[6]), from_bits(kLogP[7]));
+  y0 = mul_add<kFused>(y0, z, from_bits(kLogP[2]));
+  y1 = mul_add<kFused>(y1, z, from_bits(kLogP[5]));
+  y2 = mul_add<kFused>(y2, z, from_bits(kLogP[8]));
+  float y = mul_add<kFused>(y0, z3, y1);
+  y = mul_add<kFused>(y, z3, y2);
+  const float s = mul_add<kFused>(y, z3, from_bits(kLn2Lo) * e);
+  const float t = mul_add<kFused>(-0.5f, z2, z);
+  const float r = mul_add<kFused>(from_bits(kLn2Hi), e, t + s);
+  if (zero) return -INFINITY;
+  if (inf) return INFINITY;
+  return from_bits(to_bits(r) | nan_mask);
+}
+
+// exp(x): XLA's exp_f32.
+template <bool kFused>
+float exp_of(float x) {
+  x = (x >= -87.8f || x != x) ? x : -87.8f;
+  x = (x <= 88.8f || x != x) ? x : 88.8f;
+  float n = std::floor(mul_add<kFused>(x, from_bits(kLog2e), 0.5f));
+  n = (n >= -127.0f || n != n) ? n : -127.0f;
+  n = (n <= 127.0f || n != n) ? n : 127.0f;
+  float r = mul_add<kFused>(-from_bits(kLn2Hi), n, x);
+  r = mul_add<kFused>(-from_bits(kLn2Lo), n, r);
+  float p = mul_add<kFused>(r, from_bits(kExpP[0]), from_bits(kExpP[1]));
+  for (int k = 2; k < 5; ++k) p = mul_add<kFused>(p, r, from_bits(kExpP[k]));
+  p = mul_add<kFused>(p, r, 0.5f);
+  const float y = 1.0f + mul_add<kFused>(p, r * r, r);
+  return y * from_bits(uint32_t(int32_t(n) + 127) << 23);
+}
+
+// nan_to_num(nan=-inf) of α·log τ + f: NaN -> -inf -> -max, ±inf -> ±max.
+inline float finite_or_max(float lw) {
+  lw = lw != lw ? -INFINITY : lw;
+  lw = lw == INFINITY ? kFloatMax : lw;
+  return lw == -INFINITY ? -kFloatMax : lw;
+}
+
+inline float max_tiny(float t) { return t != t ? t : (t > from_bits(kTiny) ? t : from_bits(kTiny)); }
+
+template <bool kFused>
+void weights_scalar(const WeightsColony& c) {
+  for (int64_t i = 0; c.cells && i < c.n_cells; ++i) c.log_tau[i] = log_of<kFused>(max_tiny(c.tau[i]));
+  for (int64_t i = 0; i < c.n_cells; ++i) {
+    float lw[8];
+    float top = -INFINITY;
+    for (int k = 0; k < 8; ++k) {
+      const int32_t to = c.nbr[i * 8 + k];
+      const float log_tau = c.cells ? c.log_tau[to >= 0 ? to : 0] : log_of<kFused>(max_tiny(c.tau[i * 8 + k]));
+      lw[k] = to >= 0 ? finite_or_max(mul_add<kFused>(c.alpha, log_tau, c.factor[i * 8 + k])) : -INFINITY;
+      top = lw[k] > top ? lw[k] : top;
+    }
+    top = std::isinf(top) ? 0.0f : top;
+    for (int k = 0; k < 8; ++k) {
+      float w = exp_of<kFused>(lw[k] - top);
+      w = w < 1e-30f ? 1e-30f : (w > 1.0f ? 1.0f : w);
+      c.out[i * 8 + k] = c.nbr[i * 8 + k] >= 0 ? w : 0.0f;
+    }
+  }
+}
+
+#if defined(__AVX2__)
+// ---- one cell's 8 moves in one vector (AVX2, FMA) ---------------------------------------------
+using V = __m256;
+inline V splat(uint32_t bits) { return _mm256_castsi256_ps(_mm256_set1_epi32(int32_t(bits))); }
+inline V splat(float x) { return _mm256_set1_ps(x); }
+inline V vand(V a, V b) { return _mm256_and_ps(a, b); }
+inline V vor(V a, V b) { return _mm256_or_ps(a, b); }
+inline V select(V mask, V yes, V no) { return _mm256_blendv_ps(no, yes, mask); }
+
+template <bool kFused>
+inline V mul_add(V a, V b, V c) {
+  if (kFused) return _mm256_fmadd_ps(a, b, c);
+  return _mm256_add_ps(_mm256_mul_ps(a, b), c);
+}
+template <bool kFused>
+inline V neg_mul_add(V a, V b, V c) {  // c - a·b
+  if (kFused) return _mm256_fnmadd_ps(a, b, c);
+  return _mm256_sub_ps(c, _mm256_mul_ps(a, b));
+}
+
+// Each function takes K cells (K vectors) at once, stage by stage: one cell's weights are a chain
+// of some 70 dependent operations, and K independent chains keep the vector units busy.
+#define EACH for (int k = 0; k < K; ++k)
+
+// log(x) of x = max(τ, tiny) >= tiny (or NaN): XLA's log_f32, whose cases for x <= tiny and x = 0
+// are left out (they cannot occur) and the others (NaN: NaN, +inf: +inf) kept.
+template <bool kFused, int K>
+inline void log_of(V (&x)[K]) {
+  const V one = splat(1.0f);
+  V e[K], z[K], z2[K], z3[K], y0[K], y1[K], y2[K], special[K];
+  EACH special[k] = _mm256_cmp_ps(x[k], splat(INFINITY), _CMP_NEQ_OQ);  // false for NaN and +inf
+  EACH {
+    const __m256i b = _mm256_castps_si256(x[k]);
+    e[k] = _mm256_add_ps(one, _mm256_cvtepi32_ps(_mm256_sub_epi32(_mm256_srli_epi32(b, 23), _mm256_set1_epi32(127))));
+  }
+  EACH z[k] = vor(vand(x[k], splat(0x807FFFFFu)), splat(0x3F000000u));  // the mantissa m in [0.5, 1)
+  EACH {
+    const V below = _mm256_cmp_ps(z[k], splat(kSqrtHalf), _CMP_LT_OQ);
+    e[k] = _mm256_sub_ps(e[k], vand(below, one));
+    z[k] = _mm256_add_ps(_mm256_sub_ps(z[k], one), vand(below, z[k]));
+  }
+  EACH z2[k] = _mm256_mul_ps(z[k], z[k]);
+  EACH z3[k] = _mm256_mul_ps(z2[k], z[k]);
+  EACH y0[k] = mul_add<kFused>(z[k], splat(kLogP[0]), splat(kLogP[1]));
+  EACH y1[k] = mul_add<kFused>(z[k], splat(kLogP[3]), splat(kLogP[4]));
+  EACH y2[k] = mul_add<kFused>(z[k], splat(kLogP[6]), splat(kLogP[7]));
+  EACH y0[k] = mul_add<kFused>(y0[k], z[k], splat(kLogP[2]));
+  EACH y1[k] = mul_add<kFused>(y1[k], z[k], splat(kLogP[5]));
+  EACH y2[k] = mul_add<kFused>(y2[k], z[k], splat(kLogP[8]));
+  EACH y0[k] = mul_add<kFused>(y0[k], z3[k], y1[k]);
+  EACH y0[k] = mul_add<kFused>(y0[k], z3[k], y2[k]);
+  EACH y0[k] = mul_add<kFused>(y0[k], z3[k], _mm256_mul_ps(splat(kLn2Lo), e[k]));
+  EACH y1[k] = neg_mul_add<kFused>(splat(0.5f), z2[k], z[k]);
+  EACH y0[k] = mul_add<kFused>(splat(kLn2Hi), e[k], _mm256_add_ps(y1[k], y0[k]));
+  // NaN: all bits set (XLA's NaN); +inf: +inf
+  EACH x[k] = select(special[k], y0[k], vor(_mm256_cmp_ps(x[k], x[k], _CMP_UNORD_Q), vand(x[k], splat(0x7F800000u))));
+}
+
+// exp(x) of x = lw - top in [-inf, 0]: XLA's exp_f32, whose clamps that cannot bind there (x <= 88.8,
+// and the exponent n in [-127, 127]) are left out.
+template <bool kFused, int K>
+inline void exp_of(V (&x)[K]) {
+  V n[K], r[K], p[K];
+  EACH x[k] = _mm256_max_ps(x[k], splat(-87.8f));  // x is never NaN here
+  EACH n[k] = _mm256_floor_ps(mul_add<kFused>(x[k], splat(kLog2e), splat(0.5f)));
+  EACH r[k] = neg_mul_add<kFused>(splat(kLn2Hi), n[k], x[k]);
+  EACH r[k] = neg_mul_add<kFused>(splat(kLn2Lo), n[k], r[k]);
+  EACH p[k] = mul_add<kFused>(r[k], splat(kExpP[0]), splat(kExpP[1]));
+  for (int j = 2; j < 5; ++j) EACH p[k] = mul_add<kFused>(p[k], r[k], splat(kExpP[j]));
+  EACH p[k] = mul_add<kFused>(p[k], r[k], splat(0.5f));
+  EACH p[k] = _mm256_add_ps(splat(1.0f), mul_add<kFused>(p[k], _mm256_mul_ps(r[k], r[k]), r[k]));
+  EACH {
+    const __m256i pow2 = _mm256_slli_epi32(_mm256_add_epi32(_mm256_cvttps_epi32(n[k]), _mm256_set1_epi32(127)), 23);
+    x[k] = _mm256_mul_ps(p[k], _mm256_castsi256_ps(pow2));
+  }
+}
+
+inline V max_tiny(V t) { return _mm256_max_ps(splat(kTiny), t); }  // maxps: a NaN τ (second) stays NaN
+
+// Cells i .. i + K - 1.
+template <bool kFused, int K>
+inline void weights_of_cells(const WeightsColony& c, int64_t i) {
+  const V minus_inf = splat(-INFINITY), max = splat(kFloatMax);
+  V lw[K], valid[K];
+  EACH {
+    const __m256i to = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(c.nbr + (i + k) * 8));
+    valid[k] = _mm256_castsi256_ps(_mm256_cmpgt_epi32(to, _mm256_set1_epi32(-1)));
+    lw[k] = c.cells ? _mm256_i32gather_ps(c.log_tau, _mm256_max_epi32(to, _mm256_setzero_si256()), 4)
+                    : max_tiny(_mm256_loadu_ps(c.tau + (i + k) * 8));
+  }
+  if (!c.cells) log_of<kFused, K>(lw);
+  EACH lw[k] = mul_add<kFused>(splat(c.alpha), lw[k], _mm256_loadu_ps(c.factor + (i + k) * 8));
+  // nan_to_num(nan=-inf): NaN and -inf -> -max, +inf -> max (maxps gives its second operand for a
+  // NaN); then -inf where the move is forbidden
+  EACH lw[k] = select(valid[k], _mm256_min_ps(_mm256_max_ps(lw[k], _mm256_sub_ps(_mm256_setzero_ps(), max)), max), minus_inf);
+  V top[K];
+  EACH top[k] = _mm256_max_ps(lw[k], _mm256_permute2f128_ps(lw[k], lw[k], 1));  // no NaN left: any order
+  EACH top[k] = _mm256_max_ps(top[k], _mm256_shuffle_ps(top[k], top[k], _MM_SHUFFLE(1, 0, 3, 2)));
+  EACH top[k] = _mm256_max_ps(top[k], _mm256_shuffle_ps(top[k], top[k], _MM_SHUFFLE(2, 3, 0, 1)));
+  EACH top[k] = _mm256_andnot_ps(_mm256_cmp_ps(top[k], minus_inf, _CMP_EQ_OQ), top[k]);  // no move allowed: 0
+  EACH lw[k] = _mm256_sub_ps(lw[k], top[k]);
+  exp_of<kFused, K>(lw);
+  EACH _mm256_storeu_ps(c.out + (i + k) * 8, vand(valid[k], _mm256_min_ps(_mm256_max_ps(lw[k], splat(1e-30f)), splat(1.0f))));
+}
+
+template <bool kFused>
+void weights_lanes(const WeightsColony& c) {
+  constexpr int K = 8;
+  int64_t i = 0;
+  for (; c.cells && i + 8 <= c.n_cells; i += 8) {
+    V x[1] = {max_tiny(_mm256_loadu_ps(c.tau + i))};
+    log_of<kFused, 1>(x);
+    _mm256_storeu_ps(c.log_tau + i, x[0]);
+  }
+  for (; c.cells && i < c.n_cells; ++i) c.log_tau[i] = log_of<kFused>(max_tiny(c.tau[i]));
+  for (i = 0; i + K <= c.n_cells; i += K) weights_of_cells<kFused, K>(c, i);
+  for (; i < c.n_cells; ++i) weights_of_cells<kFused, 1>(c, i);
+}
+#undef EACH
+#endif
+
+template <bool kFused>
+void log_exp(const float* x, int64_t n, float* log_out, float* exp_out) {
+#if defined(__AVX2__)
+  for (int64_t i = 0; i < n; i += 8) {  // the last vector padded, so that every x takes the vector code
+    float in[8] = {}, lg[8], ex[8];
+    std::memcpy(in, x + i, sizeof(float) * size_t(n - i < 8 ? n - i : 8));
+    V a[1] = {max_tiny(_mm256_loadu_ps(in))}, b[1] = {_mm256_loadu_ps(in)};
+    log_of<kFused, 1>(a);
+    exp_of<kFused, 1>(b);
+    _mm256_storeu_ps(lg, a[0]);
+    _mm256_storeu_ps(ex, b[0]);
+    std::memcpy(log_out + i, lg, sizeof(float) * size_t(n - i < 8 ? n - i : 8));
+    std::memcpy(exp_out + i, ex, sizeof(float) * size_t(n - i < 8 ? n - i : 8));
+  }
+#else
+  for (int64_t i = 0; i < n; ++i) {
+    log_out[i] = log_of<kFused>(max_tiny(x[i]));
+    exp_out[i] = exp_of<kFused>(x[i]);
+  }
+#endif
+}
+
+}  // namespace
+
+void JACO_CAT(log_exp_, JACO_ISA)(const float* x, int64_t n, bool fused, float* log_out, float* exp_out) {
+  FlushDenormals mode;
+  if (fused)
+    log_exp<true>(x, n, log_out, exp_out);
+  else
+    log_exp<false>(x, n, log_out, exp_out);
+}
+
+void JACO_CAT(move_weights_, JACO_ISA)(const WeightsColony& c) {
+  FlushDenormals mode;
+#if defined(__AVX2__)
+  if (c.fused)
+    weights_lanes<true>(c);
+  else
+    weights_lanes<false>(c);
+#else
+  if (c.fused)
+    weights_scalar<true>(c);
+  else
+    weights_scalar<false>(c);
+#endif
+}
