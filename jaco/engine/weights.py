@@ -103,19 +103,27 @@ def find_mode() -> str | None:
     """The form of the kernel (``"fused"``, ``"unfused"``) whose weights equal XLA's on
     :func:`probe` in both pheromone layouts, or None."""
     tau_cells, tau_moves, nbr, alphas, factor = probe()
-    found: set[str] = set()
-    for cells, tau in ((False, tau_moves), (True, tau_cells)):
-        batch = functools.partial(jax.vmap, in_axes=(None, None, 0, None))
-        want = np.asarray(jax.jit(batch(functools.partial(scaled_weights, cells=cells)))(tau, nbr, alphas, factor))
-        equal = set()
-        for mode in ("fused", "unfused"):
-            kernel = batch(functools.partial(native_move_weights, cells=cells, fused=mode == "fused"))
-            if np.array_equal(
-                np.asarray(jax.jit(kernel)(tau, nbr, alphas, factor)).view(np.uint32), want.view(np.uint32)
-            ):
-                equal.add(mode)
-        found = equal if not cells else found & equal
-    return "fused" if "fused" in found else "unfused" if found else None
+    forms = {"xla": scaled_weights} | {
+        mode: functools.partial(native_move_weights, fused=mode == "fused") for mode in ("fused", "unfused")
+    }
+
+    def all_weights(tau_cells, tau_moves, nbr, alphas, factor):  # one program: one compile
+        return {
+            (name, cells): jax.vmap(functools.partial(fn, cells=cells), in_axes=(None, None, 0, None))(
+                tau_cells if cells else tau_moves, nbr, alphas, factor
+            )
+            for name, fn in forms.items()
+            for cells in (False, True)
+        }
+
+    out = {
+        k: np.asarray(v).view(np.uint32)
+        for k, v in jax.jit(all_weights)(tau_cells, tau_moves, nbr, alphas, factor).items()
+    }
+    equal = [
+        mode for mode in ("fused", "unfused") if all(np.array_equal(out[mode, c], out["xla", c]) for c in (False, True))
+    ]
+    return equal[0] if equal else None
 
 
 def probe() -> tuple[np.ndarray, ...]:

@@ -229,19 +229,19 @@ inline void exp_of(V (&x)[K]) {
 
 inline V max_tiny(V t) { return _mm256_max_ps(splat(kTiny), t); }  // maxps: a NaN τ (second) stays NaN
 
-// Cells i .. i + K - 1.
+// The cells cell[0 .. K - 1].
 template <bool kFused, int K>
-inline void weights_of_cells(const WeightsColony& c, int64_t i) {
+inline void weights_of_cells(const WeightsColony& c, const int64_t* cell) {
   const V minus_inf = splat(-INFINITY), max = splat(kFloatMax);
   V lw[K], valid[K];
   EACH {
-    const __m256i to = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(c.nbr + (i + k) * 8));
+    const __m256i to = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(c.nbr + cell[k] * 8));
     valid[k] = _mm256_castsi256_ps(_mm256_cmpgt_epi32(to, _mm256_set1_epi32(-1)));
     lw[k] = c.cells ? _mm256_i32gather_ps(c.log_tau, _mm256_max_epi32(to, _mm256_setzero_si256()), 4)
-                    : max_tiny(_mm256_loadu_ps(c.tau + (i + k) * 8));
+                    : max_tiny(_mm256_loadu_ps(c.tau + cell[k] * 8));
   }
   if (!c.cells) log_of<kFused, K>(lw);
-  EACH lw[k] = mul_add<kFused>(splat(c.alpha), lw[k], _mm256_loadu_ps(c.factor + (i + k) * 8));
+  EACH lw[k] = mul_add<kFused>(splat(c.alpha), lw[k], _mm256_loadu_ps(c.factor + cell[k] * 8));
   // nan_to_num(nan=-inf): NaN and -inf -> -max, +inf -> max (maxps gives its second operand for a
   // NaN); then -inf where the move is forbidden
   EACH lw[k] = select(valid[k], _mm256_min_ps(_mm256_max_ps(lw[k], _mm256_sub_ps(_mm256_setzero_ps(), max)), max), minus_inf);
@@ -252,7 +252,7 @@ inline void weights_of_cells(const WeightsColony& c, int64_t i) {
   EACH top[k] = _mm256_andnot_ps(_mm256_cmp_ps(top[k], minus_inf, _CMP_EQ_OQ), top[k]);  // no move allowed: 0
   EACH lw[k] = _mm256_sub_ps(lw[k], top[k]);
   exp_of<kFused, K>(lw);
-  EACH _mm256_storeu_ps(c.out + (i + k) * 8, vand(valid[k], _mm256_min_ps(_mm256_max_ps(lw[k], splat(1e-30f)), splat(1.0f))));
+  EACH _mm256_storeu_ps(c.out + cell[k] * 8, vand(valid[k], _mm256_min_ps(_mm256_max_ps(lw[k], splat(1e-30f)), splat(1.0f))));
 }
 
 template <bool kFused>
@@ -265,8 +265,23 @@ void weights_lanes(const WeightsColony& c) {
     _mm256_storeu_ps(c.log_tau + i, x[0]);
   }
   for (; c.cells && i < c.n_cells; ++i) c.log_tau[i] = log_of<kFused>(max_tiny(c.tau[i]));
-  for (i = 0; i + K <= c.n_cells; i += K) weights_of_cells<kFused, K>(c, i);
-  for (; i < c.n_cells; ++i) weights_of_cells<kFused, 1>(c, i);
+  // A cell with no allowed move (an obstacle: a quarter of a typical map) has weights 0 and is
+  // never entered; the others are taken K at a time.
+  int64_t cell[K];
+  int n = 0;
+  for (i = 0; i < c.n_cells; ++i) {
+    const __m256i to = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(c.nbr + i * 8));
+    if (_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(to, _mm256_set1_epi32(-1)))) == 0) {
+      _mm256_storeu_ps(c.out + i * 8, _mm256_setzero_ps());
+      continue;
+    }
+    cell[n++] = i;
+    if (n == K) {
+      weights_of_cells<kFused, K>(c, cell);
+      n = 0;
+    }
+  }
+  for (int k = 0; k < n; ++k) weights_of_cells<kFused, 1>(c, cell + k);
 }
 #undef EACH
 #endif
