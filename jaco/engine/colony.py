@@ -55,11 +55,6 @@ def eta_factor(planner: Any, trail: Trail, problem: Any, params: Params, t: Any,
     return params.beta * jnp.log(jnp.where(valid, planner.heuristic(problem, params, t, n_iters), 1.0))
 
 
-def move_tau(planner: Any, trail: Trail, problem: Any) -> jax.Array:
-    """The pheromone of every move ``(N, 8)``: τ_ij, or τ_j of the cell it enters."""
-    return weights.tau_of_moves(trail.tau, problem.nbr, cells=planner.pheromone_on == "cells")
-
-
 def move_weights(planner: Any, trail: Trail, problem: Any, params: Params, t: Any, n_iters: int) -> jax.Array:
     """The roulette weights ``(N, 8)``: τ^α times the planner's factor (``planner.factor``, by
     default η^β), :func:`jaco.engine.weights.scaled` per cell (:func:`jaco.engine.weights.move_weights`).

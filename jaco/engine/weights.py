@@ -94,8 +94,15 @@ def kernel_mode() -> str | None:
     (another XLA or another CPU), so XLA computes the weights. Found once per process by
     computing a probe's weights both ways (:func:`probe`)."""
     if "mode" not in _state:
-        with jax.ensure_compile_time_eval():  # asked while tracing a run: the probe runs now, outside it
-            _state["mode"] = find_mode() if native.available() else None
+        _state["mode"] = None
+        if native.available():
+            try:
+                cpu = jax.devices("cpu")[0]  # the kernel's platform, whatever the default device
+            except RuntimeError:  # no CPU backend (JAX_PLATFORMS=cuda): no kernel call can run
+                return None
+            # asked while tracing a run: the probe runs now, outside it
+            with jax.default_device(cpu), jax.ensure_compile_time_eval():
+                _state["mode"] = find_mode()
     return _state["mode"]
 
 
