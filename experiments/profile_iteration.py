@@ -10,7 +10,8 @@ Workload: one iteration of the throughput benchmark's sweep (``bench_throughput.
 25 % map, step limit 240, all configurations vmapped as ``jaco.sweep`` runs them. Each part is
 jitted and timed alone (process CPU time and wall time, best of ``reps``), once per walk:
 
-* weights: τ^α η^β for every move (:func:`jaco.engine.colony.move_weights`);
+* weights: τ^α η^β for every move (:func:`jaco.engine.colony.move_weights`: the native kernel with
+  the native walk, XLA with the JAX walk; jitted alone, β·log η is computed every call);
 * walk: the ants' walks alone — the C++ kernel (:func:`jaco.engine.native.walk`) or the JAX walk
   (:func:`jaco.engine.walk.jax_walk`), the same moves;
 * tours: step lengths, path lengths and the pheromone element of every step (the walk gives the
@@ -237,8 +238,10 @@ def report(R, command) -> str:
         "the configurations over both cores. The JAX walk runs every ant on its own lane in lock-step until "
         "the batch's last ant stops, and XLA:CPU runs each operation of a step as its own kernel: "
         "microseconds per loop step and tens of ns per lane-step, most lanes idle. With the native walk, the "
-        "deposit is a kernel too (it adds the steps walked, not every step slot); weights and tours are "
-        "elementwise XLA kernels over every move and every step slot, whatever the ants used.",
+        "weights and the deposit are kernels too: the weights with XLA's own log and exp, 8 cells at a time "
+        "in AVX2 lanes, over every move of every cell an ant can enter (the weights row also computes the "
+        "factor β·log η, which a run computes once); the deposit adds the steps walked, not every step slot. "
+        "The tours are elementwise XLA code over every step slot.",
     ]
     return "\n".join(lines)
 
