@@ -97,7 +97,9 @@ def kernel_mode() -> str | None:
         _state["mode"] = None
         if native.available():
             try:
-                cpu = jax.devices("cpu")[0]  # the kernel's platform, whatever the default device
+                # the kernel's platform, whatever the default device; this process's own (under
+                # jax.distributed, jax.devices lists every process's)
+                cpu = jax.local_devices(backend="cpu")[0]
             except RuntimeError:  # no CPU backend (JAX_PLATFORMS=cuda): no kernel call can run
                 return None
             # asked while tracing a run: the probe runs now, outside it
