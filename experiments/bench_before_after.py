@@ -14,7 +14,9 @@ of ``native_reference.py`` in the same process as the yardstick; it reports the 
 Figures, each as in ``bench_throughput.py`` (same map, 50 ants x 100 iterations): the
 64-configuration AS sweep's real ant-steps per second against the numba loop's; one ``jaco.solve``
 against the numba loop's run of the same problem; IACA on the longest Berlin_1_256 query. The
-two revisions must give the same tables (the script checks the sweep's costs).
+two revisions must give the same tables (the script checks the sweep's costs). ``--smoke`` runs the
+same figures on a small workload (12x12 map, 8 configurations, 10 ants x 10 iterations, no IACA):
+a check that the script works, not a measurement.
 """
 
 from __future__ import annotations
@@ -34,8 +36,10 @@ sys.path.insert(0, str(HERE))
 from report import publish, table  # noqa: E402 (the experiments' shared helpers)
 
 SECTION = "bench_before_after"
-FULL = dict(rounds=2, sweep_reps=3, solve_calls=20, city=True)
-SMOKE = dict(rounds=1, sweep_reps=1, solve_calls=3, city=False)
+#: The workload (``side``: the random map's side, 25 % obstacles; ``values``: each of alpha, beta and
+#: rho takes the first ``values`` of its axis) and the repetitions.
+FULL = dict(rounds=2, sweep_reps=3, solve_calls=20, city=True, side=30, values=4, n_ants=50, n_iters=100)
+SMOKE = dict(rounds=1, sweep_reps=1, solve_calls=3, city=False, side=12, values=2, n_ants=10, n_iters=10)
 
 # Run in a child process pinned to one core, with the package to measure first on sys.path.
 CHILD = r"""
@@ -48,9 +52,11 @@ import native_reference as nr
 import jaco
 import jaco.engine.checks as jc
 cfg = json.loads(sys.argv[1])
-grid = jaco.maps.random_map(30, 0.25, seed=0)
-start, goal = (0, 0), (29, 29)
-axes = {"alpha": [0.5, 1.0, 2.0, 4.0], "beta": [1.0, 2.0, 4.0, 8.0], "rho": [0.1, 0.3, 0.5, 0.7]}
+side, n_ants, n_iters = cfg["side"], cfg["n_ants"], cfg["n_iters"]
+grid = jaco.maps.random_map(side, 0.25, seed=0)
+start, goal = (0, 0), (side - 1, side - 1)
+axes = {k: v[:cfg["values"]] for k, v in
+        {"alpha": [0.5, 1.0, 2.0, 4.0], "beta": [1.0, 2.0, 4.0, 8.0], "rho": [0.1, 0.3, 0.5, 0.7]}.items()}
 steplimit = jc.default_steplimit(grid)
 nbr, eta, s, g = nr.problem_arrays(grid, start, goal)
 cols = np.array(list(itertools.product(axes["alpha"], axes["beta"], axes["rho"])))
@@ -61,17 +67,19 @@ def timed(fn, n):
         c0 = time.process_time(); out = fn(); best = min(best, time.process_time() - c0)
     return best, out
 
-sweep = lambda: jaco.sweep(grid, start, goal, "as", axes, seeds=1, n_ants=50, n_iters=100, steplimit=steplimit)
-native = lambda: nr.sweep_native(cols, nbr, eta, s, g, q=1.0, tau0=0.1, n_ants=50, n_iters=100, steplimit=steplimit, seed=0)
+sweep = lambda: jaco.sweep(grid, start, goal, "as", axes, seeds=1, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit)
+native = lambda: nr.sweep_native(cols, nbr, eta, s, g, q=1.0, tau0=0.1, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit,
+                                  seed=0)
 table = sweep(); native()
 jaco_s, _ = timed(sweep, cfg["sweep_reps"])
 native_s, (lengths, steps) = timed(native, cfg["sweep_reps"])
-solve = lambda: jaco.solve(grid, start, goal, "as", n_ants=50, n_iters=100)
+solve = lambda: jaco.solve(grid, start, goal, "as", n_ants=n_ants, n_iters=n_iters)
 solve()
 lat = [timed(solve, 1)[0] for _ in range(cfg["solve_calls"])]
 p = jc.resolve_params(jaco.PLANNERS["as"], {}, where="as")
 one = [float(p[k]) for k in ("alpha", "beta", "rho", "q", "tau0")]
-nat = [timed(lambda: nr.as_colony(nbr, eta, s, g, *one, 50, 100, steplimit, 0), 1)[0] for _ in range(cfg["solve_calls"])]
+nat = [timed(lambda: nr.as_colony(nbr, eta, s, g, *one, n_ants, n_iters, steplimit, 0), 1)[0]
+       for _ in range(cfg["solve_calls"])]
 out = dict(jaco_s=jaco_s, native_s=native_s, native_steps=int(np.sum(steps)), costs=table["cost"].tolist(),
            solve_ms=1e3 * statistics.median(lat), native_run_ms=1e3 * statistics.median(nat))
 if cfg["city"]:
@@ -108,7 +116,7 @@ def measure(path: Path | None, cfg: dict) -> dict:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--before", required=True, help="the earlier revision (a git commit)")
-    ap.add_argument("--smoke", action="store_true", help="one round, few repetitions, no IACA")
+    ap.add_argument("--smoke", action="store_true", help="one round, few repetitions, a small workload, no IACA")
     ap.add_argument("--rounds", type=int, default=None, help="alternating rounds (default 2; 1 with --smoke)")
     ap.add_argument("--out", default=None, help="markdown file to update (default BENCHMARKS.md; nothing with --smoke)")
     args = ap.parse_args(argv)
@@ -160,7 +168,9 @@ def main(argv=None):
         table(header, rows),
         "",
         f"The same sweep costs {speed:.2f}× less CPU on one core after than before; the two give the same costs, "
-        "run for run.",
+        "run for run."
+        + (f" (--smoke: a {cfg['side']}x{cfg['side']} map, {cfg['values'] ** 3} configurations, {cfg['n_ants']} ants × "
+           f"{cfg['n_iters']} iterations: a check that the script runs, not a measurement.)" if args.smoke else ""),
     ])
     publish(text, SECTION, args.out, args.smoke)
     return 0
