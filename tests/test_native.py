@@ -332,11 +332,12 @@ def _runs(variant):
 
 def test_one_colony_split_between_threads_takes_the_jax_walks_moves(walk_choice):
     # One solve is one colony: with more threads than colonies the kernel splits a colony's ants
-    # between threads (at least 16 ants a part), and merges the cells each part visited.
+    # between threads (at least 100 ants a part, walk.cc's kPartAnts: 200 ants on this 196-cell
+    # map make two parts), and merges the cells each part visited.
     runs = {}
     for walk in ("native", "jax"):
         walk_choice(walk)
-        runs[walk] = [jaco.solve(GRID, (0, 0), (13, 13), planner, seed=5, n_ants=40, n_iters=6) for planner in ("as", "acs")]
+        runs[walk] = [jaco.solve(GRID, (0, 0), (13, 13), planner, seed=5, n_ants=200, n_iters=6) for planner in ("as", "acs")]
     for a, b in zip(runs["native"], runs["jax"], strict=True):
         np.testing.assert_array_equal(a.path, b.path)
         assert a.length == b.length and a.coverage == b.coverage
