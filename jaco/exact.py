@@ -34,11 +34,24 @@ def _check_cell(grid: Grid, cell, what: str) -> int:
     return grid.index(grid.check_cell(cell, what))
 
 
+#: Distance fields kept per grid and connectivity (the latest goals first): solving one query again
+#: (seeds, a search's trials, a notebook's cells) skips its Dijkstra, 9 ms on a 256x256 map.
+FIELDS_KEPT = 8
+
+
 def distance_field(grid: Grid, goal: Cell, *, connectivity: int = 8) -> np.ndarray:
-    """Exact distance ``(H, W)`` from every cell to ``goal`` in cell units (inf where unreachable)."""
+    """Exact distance ``(H, W)`` from every cell to ``goal`` in cell units (inf where unreachable).
+    Read-only: the fields of the last :data:`FIELDS_KEPT` goals are cached on the grid."""
     g = _check_cell(grid, goal, "goal")
-    dist = dijkstra(_graph(grid, connectivity), directed=True, indices=g)
-    return dist.reshape(grid.shape)
+    kept = grid.meta.setdefault(f"_fields{connectivity}", {})
+    dist = kept.pop(g, None)
+    if dist is None:
+        dist = dijkstra(_graph(grid, connectivity), directed=True, indices=g).reshape(grid.shape)
+        dist.setflags(write=False)
+        while len(kept) >= FIELDS_KEPT:
+            kept.pop(next(iter(kept), None), None)  # the goal used longest ago
+    kept[g] = dist  # now the latest
+    return dist
 
 
 def free_extent(grid: Grid, connectivity: int = 8) -> float:

@@ -55,6 +55,20 @@ def test_distance_field_agrees_with_point_queries():
     assert np.isinf(field[~grid.free]).all()
 
 
+def test_distance_fields_of_recent_goals_are_kept_read_only_and_the_oldest_dropped():
+    grid = maps.load(maps.bundled("room-32-32-4.map"))
+    goals = [tuple(int(v) for v in c) for c in np.argwhere(grid.free)[: exact.FIELDS_KEPT + 1]]
+    first = exact.distance_field(grid, goals[0])
+    assert not first.flags.writeable
+    assert exact.distance_field(grid, goals[0]) is first  # kept: no second search
+    assert exact.distance_field(grid, goals[0], connectivity=4) is not first  # per connectivity
+    for goal in goals[1:]:  # FIELDS_KEPT other goals push the first one out
+        exact.distance_field(grid, goal)
+    again = exact.distance_field(grid, goals[0])
+    assert again is not first and np.array_equal(again, first)
+    assert len(grid.meta["_fields8"]) == exact.FIELDS_KEPT
+
+
 def test_corner_cutting_is_forbidden_and_4_connectivity_is_an_option():
     grid = jaco.Grid.from_rows([".#", "#."])
     assert exact.shortest_path(grid, (0, 0), (1, 1))[0] == math.inf
