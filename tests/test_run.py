@@ -145,3 +145,14 @@ def test_a_failed_run_explains_what_usually_helps():
     for planner, tip in ((stepper, False), (dying, True)):
         failed = jaco.solve(trap, start, goal, planner, n_ants=2, n_iters=1, steplimit=3)
         assert not failed.success and ("a backtracking planner" in failed.hint) is tip
+
+
+def test_a_solves_key_is_jax_random_key_of_its_seed_at_every_width_of_the_seed():
+    import jax
+
+    from jaco.engine.run import seed_key
+
+    for seed in (0, 1, 7, 2**16 + 3, 2**31, 2**32 - 1):
+        np.testing.assert_array_equal(jax.random.key_data(seed_key(seed)), jax.random.key_data(jax.random.key(seed)))
+        a, b = jax.random.uniform(seed_key(seed), (4,)), jax.random.uniform(jax.random.key(seed), (4,))
+        np.testing.assert_array_equal(a, b)
