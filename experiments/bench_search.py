@@ -111,7 +111,7 @@ def main(argv=None):
         loop_trials = trials if args.smoke else min(trials, 128 if "Berlin" in label else trials)
         lw, ls = loop(jaco, optuna, grid, start, goal, loop_trials, args.seeds, sizes)
         loop_rate = loop_trials / lw
-        per_solve.append((label.split(" ")[0], (lw - ls) / (loop_trials * args.seeds)))
+        per_solve.append((label.split(" (")[0], (lw - ls) / (loop_trials * args.seeds)))
         rows.append([label, "loop: study.optimize + jaco.solve", "–", loop_trials, fixed(lw, 2), fixed(ls, 2),
                      fmt(loop_rate), "1×", fixed(solve_first, 2)])
         for batch in batches:

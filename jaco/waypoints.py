@@ -39,7 +39,7 @@ from .engine.checks import params_from, prepare
 from .engine.planner import Planner
 from .engine.problem import make_problem, stack
 from .engine.result import Result, to_result
-from .engine.run import make_run, paired_runs
+from .engine.run import make_run, paired_runs, seed_key
 from .engine.shape import RunShape
 from .errors import ProblemError
 from .exact import distance_field, shortest_path
@@ -82,7 +82,7 @@ def check_waypoints(
 
 def leg_keys(seed: int, n_legs: int) -> jax.Array:
     """Keys ``(n_legs,)``: ``key(seed)`` for leg 0, ``fold_in(key(seed), i)`` for leg i ≥ 1."""
-    base = jax.random.key(seed)
+    base = seed_key(seed)  # a solve's key: leg 0 is that solve
     return jnp.stack([base] + [jax.random.fold_in(base, i) for i in range(1, n_legs)])
 
 
