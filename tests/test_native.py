@@ -299,6 +299,44 @@ def test_native_apf_table_equals_the_jax_table_on_real_maps():
         assert (ours >= 0).sum() > 100
 
 
+def _walk_targets(rng, R, C, M):
+    """Targets ``(R, C)`` as walks record them: each column a random number of steps in ``[-M, M)``
+    (negative ones count from the end), then targets out of range (``M``, beyond, or below ``-M``)."""
+    targets = rng.choice(np.array([M, M + 3, -M - 1], np.int32), size=(R, C))
+    for c in range(C):
+        n = rng.integers(0, R + 1)
+        targets[:n, c] = rng.integers(-M, M, size=n) if rng.random() < 0.3 else rng.integers(0, M, size=n)
+    return targets
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (7, 5), (40, 8), (40, 13), (60, 50)])
+@pytest.mark.parametrize("form", ["scalar", "per column", "per target"])
+@pytest.mark.parametrize("pheromone", ["plain", "signed zeros and NaN"])
+def test_the_deposit_kernel_adds_as_xlas_scatter_add(shape, form, pheromone):
+    """jaco.engine.native.deposit equals XLA's scatter-add bit for bit: few elements (many adds
+    to one element, in order), amounts of +0.0 and -0.0 (skipped only where that changes no
+    element), three colonies in one vmapped call."""
+    R, C = shape
+    M = 37
+    rng = np.random.default_rng(R * 100 + C)
+    tau = rng.uniform(0.01, 5.0, size=(3, M)).astype(np.float32)
+    if pheromone != "plain":
+        tau[0, 3], tau[1, 5], tau[2, 7] = -0.0, np.nan, 0.0
+    targets = np.stack([_walk_targets(rng, R, C, M) for _ in range(3)])
+    size = {"scalar": (3,), "per column": (3, C), "per target": (3, R, C)}[form]
+    amounts = rng.choice(np.array([0.0, -0.0, 1e-7, 0.37, 3.0, 1e30], np.float32), size=size)
+    if form == "scalar":
+        amounts[1] = 0.0
+
+    def xla(t, g, a):
+        return t.at[g.ravel()].add(jnp.broadcast_to(a, g.shape).ravel(), mode="drop")
+
+    want = jax.jit(jax.vmap(xla))(tau, targets, amounts)
+    got = jax.jit(jax.vmap(native.deposit))(tau, targets, amounts)
+    np.testing.assert_array_equal(np.asarray(got).view(np.uint32), np.asarray(want).view(np.uint32))
+    assert not np.array_equal(np.asarray(want), tau) or form == "scalar"  # something was added
+
+
 def test_detour_rows_of_a_problem_are_what_the_walk_test_builds():
     """The backtracking test builds detour rows by hand; they are jaco.planners.iaca.detour's."""
     grid = jaco.maps.random_map(7, 0.2, seed=3)
