@@ -281,7 +281,10 @@ void weights_lanes(const WeightsColony& c) {
       n = 0;
     }
   }
-  for (int k = 0; k < n; ++k) weights_of_cells<kFused, 1>(c, cell + k);
+  if (n) {  // the last cells K at a time too, the last one repeated (its row written again, the same bits)
+    for (int k = n; k < K; ++k) cell[k] = cell[n - 1];
+    weights_of_cells<kFused, K>(c, cell);
+  }
 }
 #undef EACH
 #endif
