@@ -49,7 +49,7 @@ def distance_field(grid: Grid, goal: Cell, *, connectivity: int = 8) -> np.ndarr
         dist = dijkstra(_graph(grid, connectivity), directed=True, indices=g).reshape(grid.shape)
         dist.setflags(write=False)
         while len(kept) >= FIELDS_KEPT:
-            kept.pop(next(iter(kept), None), None)  # the goal used longest ago
+            kept.pop(next(iter(kept)))  # the goal used longest ago
     kept[g] = dist  # now the latest
     return dist
 

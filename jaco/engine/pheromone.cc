@@ -48,7 +48,8 @@ enum class Amounts { kOne, kPerColumn, kPerTarget };
 
 // The adds, row by row (XLA's order), of the columns in live[0, n_live); a column is left once it
 // has a target out of range (its later ones all are). Each form of the amounts has its own loop,
-// with no test of the form per add; a column of amounts +0.0 was never in live.
+// with no test of the form per add; with skip_zero, a column whose one amount is +0.0 was never
+// in live.
 template <Amounts form>
 void add_rows(float* dst, int64_t M, const int32_t* tg, int64_t R, int64_t C, const float* am, int32_t* live,
               int64_t n_live, bool skip_zero) {
