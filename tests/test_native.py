@@ -312,18 +312,21 @@ def _walk_targets(rng, R, C, M):
 @pytest.mark.parametrize("shape", [(1, 1), (7, 5), (40, 8), (40, 13), (60, 50)])
 @pytest.mark.parametrize("form", ["scalar", "per column", "per target"])
 @pytest.mark.parametrize("pheromone", ["plain", "signed zeros and NaN"])
-def test_the_deposit_kernel_adds_as_xlas_scatter_add(shape, form, pheromone):
+@pytest.mark.parametrize("colonies", [3, 19])
+def test_the_deposit_kernel_adds_as_xlas_scatter_add(shape, form, pheromone, colonies):
     """jaco.engine.native.deposit equals XLA's scatter-add bit for bit: few elements (many adds
     to one element, in order), amounts of +0.0 and -0.0 (skipped only where that changes no
-    element), three colonies in one vmapped call."""
+    element), several colonies in one vmapped call: 3 (on two threads, each colony added alone)
+    or 19 (colonies in groups whose adds interleave: groups of 8, 8 and 3, lists of unequal
+    lengths)."""
     R, C = shape
     M = 37
     rng = np.random.default_rng(R * 100 + C)
-    tau = rng.uniform(0.01, 5.0, size=(3, M)).astype(np.float32)
+    tau = rng.uniform(0.01, 5.0, size=(colonies, M)).astype(np.float32)
     if pheromone != "plain":
         tau[0, 3], tau[1, 5], tau[2, 7] = -0.0, np.nan, 0.0
-    targets = np.stack([_walk_targets(rng, R, C, M) for _ in range(3)])
-    size = {"scalar": (3,), "per column": (3, C), "per target": (3, R, C)}[form]
+    targets = np.stack([_walk_targets(rng, R, C, M) for _ in range(colonies)])
+    size = {"scalar": (colonies,), "per column": (colonies, C), "per target": (colonies, R, C)}[form]
     amounts = rng.choice(np.array([0.0, -0.0, 1e-7, 0.37, 3.0, 1e30], np.float32), size=size)
     if form == "scalar":
         amounts[1] = 0.0
