@@ -107,8 +107,9 @@ def _executable(
     on_compile=None,
     paths: bool = False,
 ):
-    """The compiled chunk program for ``chunk`` configurations per device (cached), and whether
-    it was compiled by this call (``on_compile()`` is called first when it is)."""
+    """The compiled chunk program for ``chunk`` configurations per device (cached), its bytes
+    per device (:func:`_footprint`, None where the backend does not say), and whether it was
+    compiled by this call (``on_compile()`` is called first when it is)."""
     pkey, program = _program(planner, shape, mesh, paths)
     key = (pkey, _shapes(batch), n_params, chunk)
     new = not is_cached(key)
@@ -124,7 +125,9 @@ def _executable(
         params = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, np.float32, sharding=on_cfg), params)
         return _progress.run_interruptibly(lambda: program.lower(seeds, problems, params).compile())
 
-    return cached(key, build), new
+    exe = cached(key, build)
+    # XLA's memory analysis takes milliseconds a call: asked once per program, not once per sweep
+    return exe, cached(("footprint", *key), lambda: _footprint(exe)), new
 
 
 def _agree(value: int) -> int:
@@ -168,10 +171,9 @@ def _plan(
     chunk = _agree(fit_chunk(budget, fixed, per, rows_per_device))
     compiles, tried = 0, []
     while True:
-        exe, new = _executable(planner, shape, mesh, batch, n_params, chunk, on_compile, paths)
+        exe, used, new = _executable(planner, shape, mesh, batch, n_params, chunk, on_compile, paths)
         compiles += new
         tried.append(chunk)
-        used = _footprint(exe)
         if used is None:
             break
         used = 1024 * _agree(math.ceil(used / 1024))  # KiB: fits an int32 broadcast
