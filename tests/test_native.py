@@ -316,9 +316,8 @@ def _walk_targets(rng, R, C, M):
 def test_the_deposit_kernel_adds_as_xlas_scatter_add(shape, form, pheromone, colonies):
     """jaco.engine.native.deposit equals XLA's scatter-add bit for bit: few elements (many adds
     to one element, in order), amounts of +0.0 and -0.0 (skipped only where that changes no
-    element), several colonies in one vmapped call: 3 (on two threads, each colony added alone)
-    or 19 (colonies in groups whose adds interleave: groups of 8, 8 and 3, lists of unequal
-    lengths)."""
+    element), several colonies in one vmapped call: 3 (on two threads or more, each colony added
+    alone) or 19 (in groups whose adds interleave: 8, 8 and 3 colonies, lists of unequal lengths)."""
     R, C = shape
     M = 37
     rng = np.random.default_rng(R * 100 + C)
