@@ -8,6 +8,7 @@
 #include <cstring>
 #include <memory>
 #include <mutex>
+#include <type_traits>
 #include <vector>
 
 #include "xla/ffi/api/ffi.h"
@@ -45,6 +46,14 @@ bool is_plus_zero(float x) {
 }
 
 enum class Amounts { kOne, kPerColumn, kPerTarget };
+
+// f(form) with the form of K amounts for C columns as a constant (one per column where K == C).
+template <typename F>
+auto with_form(int64_t K, int64_t C, F f) {
+  if (K == C) return f(std::integral_constant<Amounts, Amounts::kPerColumn>());
+  if (K == 1) return f(std::integral_constant<Amounts, Amounts::kOne>());
+  return f(std::integral_constant<Amounts, Amounts::kPerTarget>());
+}
 
 // How many rows each column of live[0, n) walked, into rows: a column's targets in range come first,
 // then only targets out of range (every walk records its steps so), so the first one out of range
@@ -168,23 +177,14 @@ ffi::Error DepositImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> tau, ffi::Buf
         int64_t n_live = 0;
         for (int64_t c = 0; c < C; ++c)  // a column whose one amount is +0.0 adds nothing
           if (!(skip_zero && (K == C || K == 1) && is_plus_zero(am[K == 1 ? 0 : c]))) live[n_live++] = int32_t(c);
-        if (n_col == 1) {  // a colony alone adds at once
-          if (K == C)
-            add_rows<Amounts::kPerColumn>(dst, M, tg, R, C, am, live.data(), n_live, rows.data(), false);
-          else if (K == 1)
-            add_rows<Amounts::kOne>(dst, M, tg, R, C, am, live.data(), n_live, rows.data(), false);
-          else
-            add_rows<Amounts::kPerTarget>(dst, M, tg, R, C, am, live.data(), n_live, rows.data(), skip_zero);
-          return;
-        }
-        Add* list = lists + used;
-        int64_t n;
-        if (K == C)
-          n = list_rows<Amounts::kPerColumn>(list, M, tg, R, C, am, live.data(), n_live, rows.data(), false);
-        else if (K == 1)
-          n = list_rows<Amounts::kOne>(list, M, tg, R, C, am, live.data(), n_live, rows.data(), false);
-        else
-          n = list_rows<Amounts::kPerTarget>(list, M, tg, R, C, am, live.data(), n_live, rows.data(), skip_zero);
+        if (n_col == 1)  // a colony alone adds at once
+          return with_form(K, C, [&](auto form) {
+            add_rows<decltype(form)::value>(dst, M, tg, R, C, am, live.data(), n_live, rows.data(), skip_zero);
+          });
+        const int64_t n = with_form(K, C, [&](auto form) {
+          return list_rows<decltype(form)::value>(lists + used, M, tg, R, C, am, live.data(), n_live, rows.data(),
+                                                  skip_zero);
+        });
         col[k] = Colony{dst, nullptr, n};
         used += n;
       }
