@@ -72,7 +72,8 @@ def test_mmas_bounds_and_clamp():
     octile = 3 + (np.sqrt(2) - 1) * 2
     assert float(trail.hi) == pytest.approx(P.q / (P.rho * octile))
     rule = ph.chain(ph.mmas_bounds(), ph.clamp())
-    walks = _walks()._replace(best_step_len=jnp.ones(40))  # a best path of 40 steps
+    # a best path of 40 steps (the rule counts its pheromone elements in range)
+    walks = _walks()._replace(best_targets=jnp.zeros(40, jnp.int32), best_step_len=jnp.ones(40))
     out = rule.update(ph.Trail(jnp.array([100.0, 0.0, 1.0, 1.0, 1.0, 1.0]), trail.lo, trail.hi), walks, problem, P)
     hi = P.q / (P.rho * 2.0)
     n, avg = 40, (np.sum(problem.nbr >= 0) / grid.n_free) / 2

@@ -15,6 +15,7 @@ import jax
 import jax.numpy as jnp
 
 from . import weights
+from .native import entered_cells
 from .params import Param, declare
 from .walk import walk
 
@@ -79,6 +80,14 @@ def step_targets(
         return edges
     prev = jnp.concatenate([jnp.broadcast_to(start, cells[:1].shape), cells[:-1]], axis=0)
     return jnp.where(moves >= 0, prev * 8 + moves, 8 * n_cells)
+
+
+def step_cells(pheromone_on: str, targets: jax.Array, offsets: Any, n_cells: int) -> jax.Array:
+    """The cells entered, from the steps' pheromone elements (the inverse of :func:`step_targets`):
+    -1 where no step was taken."""
+    if pheromone_on == "cells":
+        return jnp.where(targets < n_cells, targets, -1)
+    return entered_cells(targets, offsets, n_cells)
 
 
 def single_colony(

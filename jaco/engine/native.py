@@ -281,13 +281,19 @@ def walk(
     )
     call = jax.ffi.ffi_call("jaco_walk", out, vmap_method="broadcast_all")
     edges, *rest = call(weights, words, start, goal, q0, offsets, steplimit=np.int64(steplimit), exploit=bool(exploit))
+    return edges, entered_cells(edges, offsets, n), *rest
+
+
+def entered_cells(edges: jax.Array, offsets: Any, n_cells: int) -> jax.Array:
+    """The cell each step ``from·8 + move`` entered, ``from + offsets[move]``; -1 where ``edges``
+    is out of range (``8N``: no step)."""
     # offsets[move] as selects, not a gather: XLA fuses selects into whatever reads the cells (a
     # path is one column), where it made a gather its own pass over every step slot.
     move, offsets = edges & 7, jnp.asarray(offsets, jnp.int32)
     offset = offsets[0]
     for k in range(1, 8):
         offset = jnp.where(move == k, offsets[k], offset)
-    return edges, jnp.where(edges < 8 * n, (edges >> 3) + offset, -1), *rest
+    return jnp.where(edges < 8 * n_cells, (edges >> 3) + offset, -1)
 
 
 def deposit(tau: jax.Array, targets: jax.Array, amounts: jax.Array) -> jax.Array:

@@ -31,6 +31,7 @@ from ..grid import Grid
 from . import native
 from .cache import cached
 from .checks import check_keep_pheromone, check_sizes, params_from, prepare
+from .colony import step_cells
 from .params import Params
 from .pheromone import Trail, Walks
 from .planner import Planner
@@ -65,8 +66,7 @@ class RunOutput(NamedTuple):
 
 
 class _Best(NamedTuple):
-    cells: jax.Array
-    targets: jax.Array
+    targets: jax.Array  # its cells follow from them when the run ends (colony.step_cells)
     step_len: jax.Array
     cost: jax.Array
     length: jax.Array
@@ -78,7 +78,6 @@ def _no_best(path_len: int, size: int, problem: Problem) -> _Best:
     has arrived, its path empty)."""
     trivial = problem.start == problem.goal
     return _Best(
-        cells=jnp.full((path_len,), -1, jnp.int32),
         targets=jnp.full((path_len,), size, jnp.int32),
         step_len=jnp.zeros((path_len,), jnp.float32),
         cost=jnp.where(trivial, 0.0, jnp.inf).astype(jnp.float32),
@@ -88,9 +87,12 @@ def _no_best(path_len: int, size: int, problem: Problem) -> _Best:
 
 
 def _better_best(best: _Best, col: Any, b: jax.Array, t: jax.Array) -> _Best:
-    """The colony's ant ``b`` (its cheapest) where it beats ``best``, else ``best``."""
+    """The colony's ant ``b`` (its cheapest) where it beats ``best``, else ``best``. Its cells are
+    not carried: the cells' column of a native walk is derived from all of its steps' edges in
+    one XLA fusion, which XLA cuts into parts for two threads (a wake-up of the second thread
+    every iteration of a solve); the run derives the best's cells once, at its end."""
     better = col.cost[b] < best.cost
-    candidate = _Best(col.cells[:, b], col.targets[:, b], col.step_len[:, b], col.cost[b], col.length[b], t)
+    candidate = _Best(col.targets[:, b], col.step_len[:, b], col.cost[b], col.length[b], t)
     return jax.tree.map(lambda new, old: jnp.where(better, new, old), candidate, best)
 
 
@@ -196,7 +198,7 @@ def make_run(
         snapshot_size = size if keep_pheromone == "history" else None
         (trail, best, seen, steps), history, snapshots = _iterate(iteration, key, carry, n_iters, snapshot_size)
         return RunOutput(
-            best_cells=best.cells,
+            best_cells=step_cells(planner.pheromone_on, best.targets, problem.offsets, n),
             best_cost=best.cost,
             best_length=best.length,
             best_iteration=best.iteration,

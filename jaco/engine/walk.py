@@ -176,7 +176,9 @@ def jax_walk(
 def _tours(edges, cells, n_steps, n_diagonal, arrived, visited) -> Tours:
     """The walks as :class:`Tours`: the moves and step lengths from the edges (computed only
     where a planner uses them), the path lengths from the counts."""
-    moves = jnp.where(cells >= 0, edges & 7, -1)
+    # A step was taken where its edge is in range (8N: none); not `cells >= 0`, which would bring
+    # the native walk's derivation of the cells (8 selects a slot) into every reader of the moves.
+    moves = jnp.where(edges < 8 * visited.shape[-1], edges & 7, -1)
     # Moves 0-3 are straight, 4-7 diagonal (jaco.moves.MOVES): two selects, not a gather per step.
     straight, diagonal = (np.float32(MOVE_LENGTHS[k]) for k in (0, 4))
     return Tours(
