@@ -156,3 +156,25 @@ def test_a_solves_key_is_jax_random_key_of_its_seed_at_every_width_of_the_seed()
         np.testing.assert_array_equal(jax.random.key_data(seed_key(seed)), jax.random.key_data(jax.random.key(seed)))
         a, b = jax.random.uniform(seed_key(seed), (4,)), jax.random.uniform(jax.random.key(seed), (4,))
         np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("planner", ["as", "mmas"])
+def test_a_solves_loop_has_no_fusion_that_xla_splits_between_threads(planner):
+    """A fusion that XLA:CPU cuts into parts wakes its pool's second thread every iteration of a
+    solve (on a 2-core machine the benchmark's solve took 10.5 ms of CPU for 6.4 ms of wall time).
+    The best path's cells were one (its column fused with the cells of every step slot); they
+    are now derived once, after the loop. A map of the benchmark's size, 50 ants."""
+    import jax
+
+    import jaco.engine.checks as jc
+    from jaco.engine.run import make_run
+
+    grid = jaco.maps.random_map(30, 0.25, seed=0)
+    problem = jaco.make_problem(grid, (0, 0), (29, 29))
+    variant = jaco.PLANNERS[planner]
+    params = jc.params_from(jc.resolve_params(variant, {}, where=planner))
+    run = jax.jit(make_run(variant, n_ants=50, n_iters=10, steplimit=jc.default_steplimit(grid)))
+    text = run.lower(jax.random.key(0), problem, params).compile().as_text()
+    split = [line.split("=")[0].strip() for line in text.splitlines()
+             if "while/body" in line and 'outer_dimension_partitions":["' in line]
+    assert split == [], f"fusions of the loop that XLA splits between threads: {split}"

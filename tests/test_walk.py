@@ -10,6 +10,7 @@ import pytest
 from jax.extend.random import threefry_2x32
 
 import jaco
+from jaco.engine.colony import step_cells, step_targets
 from jaco.engine.problem import make_problem, to_device
 from jaco.engine.walk import choose, key_words, step_uniforms, walk
 from jaco.moves import MOVES
@@ -128,6 +129,23 @@ def test_a_colony_walks_the_same_alone_and_in_any_batch(exploit):
             arrived |= bool(np.asarray(alone.arrived).any())
     assert arrived
     assert not np.array_equal(batched.cells[0, 0], batched.cells[0, 1])  # other key, other walks
+
+
+@pytest.mark.parametrize("rows", [None, [".", ".", ".", "."], ["..", "..", "..", ".."]])
+def test_the_cells_follow_from_the_steps_pheromone_elements(rows):
+    """step_cells inverts step_targets for both layouts (a run derives its best path's cells from
+    them), from the walk's edges and from the targets made of cells and moves; on maps 1 and 2
+    cells wide too, where two moves can have one offset."""
+    grid = jaco.maps.random_map(12, 0.3, seed=1) if rows is None else jaco.Grid.from_rows(rows)
+    goal = (grid.height - 1, grid.width - 1)
+    p = to_device(make_problem(grid, (0, 0), goal))
+    n = p.nbr.shape[0]
+    tours = walk(p, jnp.where(p.nbr >= 0, 1.0, 0.0), jax.random.key(4), 0.0, n_ants=20, steplimit=40, exploit=False)
+    assert (np.asarray(tours.n_steps) > 1).any()
+    for layout in ("cells", "moves"):
+        for edges in (tours.edges, None):
+            targets = step_targets(layout, tours.cells, tours.moves, p.start, n, edges)
+            np.testing.assert_array_equal(step_cells(layout, targets, p.offsets, n), tours.cells)
 
 
 def test_key_words_are_two_words_of_any_key():
