@@ -304,8 +304,8 @@ def mmas_bounds() -> Rule:
     def update(trail, walks, problem, params):
         found = jnp.isfinite(walks.best_cost)
         hi = jnp.where(found, params.q * inverse(walks.best_cost) / params.rho, trail.hi)
-        # n from the best path's pheromone elements (out of range where no step): read from its step
-        # lengths, each iteration's best column would be derived from all of the walk's steps.
+        # n: the best path's pheromone elements in range (one a step), not its step lengths, whose
+        # column each iteration would be derived from every step slot of the walk.
         n = jnp.maximum(jnp.sum(walks.best_targets < trail.tau.shape[-1]), 1)
         degree = jnp.sum(problem.nbr >= 0) / jnp.maximum(jnp.sum(jnp.any(problem.nbr >= 0, axis=1)), 1)
         avg = jnp.maximum(degree / 2.0, 1.5)

@@ -87,10 +87,9 @@ def _no_best(path_len: int, size: int, problem: Problem) -> _Best:
 
 
 def _better_best(best: _Best, col: Any, b: jax.Array, t: jax.Array) -> _Best:
-    """The colony's ant ``b`` (its cheapest) where it beats ``best``, else ``best``. Its cells are
-    not carried: the cells' column of a native walk is derived from all of its steps' edges in
-    one XLA fusion, which XLA cuts into parts for two threads (a wake-up of the second thread
-    every iteration of a solve); the run derives the best's cells once, at its end."""
+    """The colony's ant ``b`` (its cheapest) where it beats ``best``, else ``best``. Not its cells:
+    in the loop their column fused with every step slot's cells into one XLA fusion that XLA splits
+    between threads (a wake-up each iteration); the run derives them once, at its end."""
     better = col.cost[b] < best.cost
     candidate = _Best(col.targets[:, b], col.step_len[:, b], col.cost[b], col.length[b], t)
     return jax.tree.map(lambda new, old: jnp.where(better, new, old), candidate, best)
