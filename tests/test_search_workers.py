@@ -137,7 +137,9 @@ def test_a_killed_workers_trials_are_retried_exactly_once(tmp_path, other_host):
     other = _start(tmp_path, str(db), 1)
     deadline = time.time() + 240
     while not (list(tmp_path.glob("hung-*.json")) and _complete(db) >= 6):  # worker 1 now waits for worker 0
-        assert hung.poll() is None and other.poll() is None and time.time() < deadline
+        for p in (hung, other):
+            assert p.poll() is None, p.communicate()[1][-3000:]
+        assert time.time() < deadline
         time.sleep(0.2)
     killed_at = time.time()
     os.kill(hung.pid, signal.SIGKILL)
@@ -157,6 +159,69 @@ def test_a_killed_workers_trials_are_retried_exactly_once(tmp_path, other_host):
             assert 0 < beat <= killed_at and retried_at - beat >= 3.0 - 0.05
         else:
             assert retried_at - killed_at < 3.0
+
+
+def _claim(trial) -> None:
+    """What another worker's claim does to a trial it took for a dead worker's: RUNNING -> FAIL."""
+    from optuna.trial import TrialState
+
+    trial.study._storage.set_trial_state_values(trial._trial_id, TrialState.FAIL)
+
+
+@pytest.mark.parametrize("fidelity", [None, "halving"])
+def test_a_worker_whose_trials_are_claimed_drops_them_and_goes_on(tmp_path, monkeypatch, fidelity):
+    """A live worker can look dead to the others: its heartbeats late past the grace period, or a
+    trial it asks still without parameters after it (a stalled machine). Its trial is then failed
+    by another worker's claim while it asks it or evaluates it. It drops that trial (asks another,
+    or drops the result: the claimer evaluates it again) and goes on; it no longer stops with
+    "Cannot tell a FAIL trial" (before the fix, the search raised at the first claim)."""
+    from jaco.research import search as S
+    from jaco.research.search_evaluation import Evaluator
+
+    claimed: list[int] = []
+    described, evaluate = S._Run._described, Evaluator.__call__
+
+    def claimed_while_asked(self, trial, extra):
+        if not claimed:  # the first trial asked
+            _claim(trial)
+            claimed.append(trial.number)
+        return described(self, trial, extra)
+
+    def claimed_while_evaluated(self, jobs):
+        out = evaluate(self, jobs)
+        if len(claimed) == 1:  # the first batch evaluated
+            _claim(jobs[-1].trial)
+            claimed.append(jobs[-1].trial.number)
+        return out
+
+    monkeypatch.setattr(S._Run, "_described", claimed_while_asked)
+    monkeypatch.setattr(Evaluator, "__call__", claimed_while_evaluated)
+    grid = jaco.maps.named("demo")
+    study = jaco.search(grid, grid.meta["start"], grid.meta["goal"], {"beta": (1.0, 8.0), "rho": (0.05, 0.5)},
+                        planner="as", trials=6, batch=3, seeds=2, n_ants=4, n_iters=6, sampler="random",
+                        fidelity=fidelity, storage=str(tmp_path / "s.db"), progress=False)  # fmt: skip
+    states = {t.number: t.state.name for t in study.study.trials}
+    assert [states[n] for n in claimed] == ["FAIL", "FAIL"]
+    assert sum(s in ("COMPLETE", "PRUNED") for s in states.values()) == 6 and "RUNNING" not in states.values()
+    assert study.timings["lost"] == 2
+    assert "jaco_runs" not in study.study.trials[claimed[1]].user_attrs  # its result dropped, not stored
+
+
+def test_asking_slower_than_the_grace_period_every_time_is_a_clear_error(tmp_path, monkeypatch):
+    from jaco.research import search as S
+
+    described = S._Run._described
+
+    def always_claimed(self, trial, extra):
+        _claim(trial)
+        return described(self, trial, extra)
+
+    monkeypatch.setattr(S._Run, "_described", always_claimed)
+    grid = jaco.maps.named("demo")
+    with pytest.raises(S.SearchError, match=r"longer than grace_period \(3 s\) three times.*longer grace_period"):
+        jaco.search(grid, grid.meta["start"], grid.meta["goal"], {"beta": (1.0, 8.0)}, planner="as", trials=4,
+                    batch=2, n_ants=4, n_iters=5, storage=str(tmp_path / "s.db"), heartbeat_interval=1,
+                    progress=False)  # fmt: skip
 
 
 # -- jaco search --workers N ----------------------------------------------------------------------

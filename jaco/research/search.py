@@ -236,7 +236,8 @@ class _Run:
         self.space, self.info, self.halving, self.sizes = setup.space, setup.info, setup.halving, setup.sizes
         self.batch, self.timeout, self.deadline = setup.batch, setup.timeout, deadline
         self.ran, self.timed_out, self.generation = False, False, 0
-        self.timings = {"sampler_s": 0.0, "evaluate_s": 0.0, "storage_s": 0.0, "generations": 0, "retried": 0}
+        times = {"sampler_s": 0.0, "evaluate_s": 0.0, "storage_s": 0.0}
+        self.timings = {**times, "generations": 0, "retried": 0, "lost": 0}  # lost: claimed by other workers
 
     def until(self, trials: int | None) -> None:
         """:meth:`_generations` until ``trials`` trials are finished (or the timeout passes), with the
@@ -301,16 +302,26 @@ class _Run:
         return 1 + max([g for g in stored if g is not None], default=-1)
 
     def _ask(self, n: int, extra_attrs=None) -> list[Job]:
+        from optuna.exceptions import UpdateFinishedTrialError
+        from optuna.trial import TrialState
+
         t0 = time.perf_counter()
-        jobs = []
-        for i in range(n):
+        jobs: list[Job] = []
+        lost = 0
+        while len(jobs) < n:
             trial = self.study.ask()
             try:
-                jobs.append(self._described(trial, extra_attrs(i) if extra_attrs else {}))
+                jobs.append(self._described(trial, extra_attrs(len(jobs)) if extra_attrs else {}))
+            except UpdateFinishedTrialError:  # asked for longer than the grace period: claimed as a dead worker's
+                self.timings["lost"] += 1
+                lost += 1
+                if lost == 3:
+                    raise SearchError(
+                        f"asking a trial took longer than grace_period ({self.workers.grace:g} s) three times, and "
+                        "other workers failed the trials as abandoned: give a longer grace_period"
+                    ) from None
             except BaseException:  # interrupted before its parameters were stored: never evaluated
-                from optuna.trial import TrialState
-
-                self.study.tell(trial, state=TrialState.FAIL)
+                self.study.tell(trial, state=TrialState.FAIL, skip_if_finished=True)
                 raise
         self.timings["sampler_s"] += time.perf_counter() - t0
         return jobs
@@ -342,7 +353,8 @@ class _Run:
         self.timings["retried"] += 1
         return job
 
-    def _evaluate(self, jobs, n_iters=None) -> None:
+    def _evaluate(self, jobs, n_iters=None) -> list[Job]:
+        """``jobs`` evaluated and their runs stored; returned: those still this worker's (:meth:`_kept`)."""
         if n_iters is not None:
             for j in jobs:
                 j.n_iters = int(n_iters)
@@ -352,17 +364,35 @@ class _Run:
         self.ran = self.ran or bool(jobs)
         for j in jobs:
             j.stored[str(j.n_iters)] = plain_json(j.runs)  # a failed run's inf length and gap: None
-            j.trial.set_user_attr("jaco_runs", j.stored)  # by iterations: a promoted trial has one per rung
+        # by iterations: a promoted trial has one per rung
+        return self._kept(jobs, lambda j: j.trial.set_user_attr("jaco_runs", j.stored))
+
+    def _kept(self, jobs, write) -> list[Job]:
+        """The ``jobs`` whose trial took ``write(job)``. A trial that another worker claimed while
+        this one evaluated it (this worker looked dead: its heartbeats were late past the grace
+        period) is dropped with its result; the claimer evaluates it again."""
+        from optuna.exceptions import UpdateFinishedTrialError
+
+        kept = []
+        for j in jobs:
+            try:
+                write(j)
+            except UpdateFinishedTrialError:
+                self.timings["lost"] += 1
+                continue
+            kept.append(j)
+        return kept
 
     def _tell(self, jobs, state=None) -> None:
         from optuna.trial import TrialState
 
         t0 = time.perf_counter()
         for j in jobs:
+            # skip_if_finished: claimed by another worker since its runs were stored (a dropped result)
             if state is TrialState.PRUNED:
-                self.study.tell(j.trial, state=TrialState.PRUNED)
+                self.study.tell(j.trial, state=TrialState.PRUNED, skip_if_finished=True)
             else:
-                self.study.tell(j.trial, j.objective)
+                self.study.tell(j.trial, j.objective, skip_if_finished=True)
         self.timings["sampler_s"] += time.perf_counter() - t0
 
     # the loop
@@ -408,8 +438,7 @@ class _Run:
                 continue
             self.generation = self._next_generation()
             if self.halving is None:
-                jobs = self._ask(n)
-                self._evaluate(jobs)
+                jobs = self._evaluate(self._ask(n))
                 self._tell(jobs)
             else:
                 brackets = self.halving.brackets(self.sizes["n_iters"])
@@ -432,8 +461,7 @@ class _Run:
         if not won or self.proposer is not None:
             return
         if self.halving is None:
-            jobs = [self._retry(t) for t in won]
-            self._evaluate(jobs)
+            jobs = self._evaluate([self._retry(t) for t in won])
             self._tell(jobs)
             return
         brackets = self.halving.brackets(self.sizes["n_iters"])
@@ -473,9 +501,9 @@ class _Run:
             numbers = {j.trial.number for j in alive}
             stored = {t.number: t for t in self._trials() if t.number in numbers}
             todo = [j for j in alive if budget not in stored[j.trial.number].intermediate_values]
-            self._evaluate(todo, budget)
-            for j in todo:
-                j.trial.report(j.objective[0], budget)
+            kept = self._kept(self._evaluate(todo, budget), lambda j, b=budget: j.trial.report(j.objective[0], b))
+            lost = {id(j) for j in todo} - {id(j) for j in kept}
+            alive = [j for j in alive if id(j) not in lost]
             for j in alive:
                 if j not in todo:
                     j.objective = [stored[j.trial.number].intermediate_values[budget]]
@@ -528,7 +556,7 @@ class _Run:
                 lambda i, missing=missing, z=z: {"member": missing[i], "z": [float(x) for x in z[missing[i]]]},
             )
             jobs += [replace(j, member=m) for j, m in zip(new, missing)]
-            self._evaluate(jobs)
+            self._evaluate(jobs)  # one worker per evosax study: no other claims its trials
             self._tell(jobs)
             for j in jobs:
                 fitness[j.member] = sign * j.objective[0]
