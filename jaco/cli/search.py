@@ -218,26 +218,34 @@ def _worker(state: dict, index: int, cores: list[int]) -> None:
     """One worker process of ``--workers N`` (spawned): its own process group (a Ctrl-C in the
     terminal reaches the parent, which stops the workers), its share of the cores, the search."""
     import os
+    import signal
     import sys
 
     from ..errors import JacoError
     from ..research.search import search
+    from . import TERMINATED, Terminated, stop_signals
 
     os.setpgrp()
+    # The parent stops a worker with SIGINT. A process started with SIGINT ignored (a shell's
+    # background job: `jaco search --workers 4 ... &`) passes that on, and Python keeps it ignored.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     if cores and hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, cores)  # before the first compile: XLA sizes its thread pool from it
     args = argparse.Namespace(**state)
     args.workers, args.worker = 1, state["worker"] + index
     code = 0
     try:
-        if getattr(args, "walk", None) is not None:  # as jaco.cli does for every command
-            from ..engine import native
+        with stop_signals():  # as every jaco command: an interrupt swallowed by a callback is sent again
+            if getattr(args, "walk", None) is not None:  # as jaco.cli does for every command
+                from ..engine import native
 
-            native.set_walk(args.walk)
-        job = _prepare(args)
-        search(job["grid"], job["start"], job["goal"], job["space"], **job["call"], progress=False)
+                native.set_walk(args.walk)
+            job = _prepare(args)
+            search(job["grid"], job["start"], job["goal"], job["space"], **job["call"], progress=False)
     except KeyboardInterrupt:  # stopped by the parent: the batch that ran is stored, the running one released
         code = 130
+    except Terminated:  # SIGTERM to the worker itself: the same
+        code = TERMINATED
     except (JacoError, UsageError) as e:
         print(f"jaco: error: worker {args.worker}: {' '.join(str(e).split())}", file=sys.stderr)
         code = 2

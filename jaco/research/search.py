@@ -101,7 +101,7 @@ from .search_setup import (  # noqa: F401  (importable from here)
     attach_info,
     prepare_search,
 )
-from .search_storage import claim_lock, opened, quiet
+from .search_storage import claim_lock, end_session, opened, quiet
 from .search_workers import BEAT, Workers  # noqa: F401  (importable from here)
 from .space import Space
 
@@ -407,6 +407,7 @@ class _Run:
                 return self._evosax(trials)
             self._loop(trials)
         finally:
+            end_session(self.workers.storage)  # an interrupt may have left a transaction open, and its locks
             self.workers.stop()
 
     def _counts(self) -> tuple[int, int]:
