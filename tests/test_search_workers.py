@@ -231,9 +231,8 @@ def test_an_interrupt_inside_a_storage_transaction_releases_its_lock(tmp_path, m
     """Ctrl-C (or the parent's SIGINT to a worker) that lands inside one of Optuna's storage calls
     leaves the main thread's transaction open, holding SQLite's write lock. The search ends that
     session before it stops its heartbeat, so the worker's last heartbeat (0: it stopped) is
-    written and the lock is free for the other workers. Before, the heartbeat thread and that
-    last write each waited out the 60 s busy timeout and failed: `jaco search --workers 2`, sent
-    SIGTERM, killed its workers after 120 s with their heartbeats still set."""
+    written at once and the lock is free for the other workers. Before, stopping the heartbeat
+    thread (blocked on that lock) waited out SQLite's 60 s busy timeout."""
     import sqlalchemy
 
     from jaco.research import search as S
@@ -241,14 +240,18 @@ def test_an_interrupt_inside_a_storage_transaction_releases_its_lock(tmp_path, m
     def interrupted_in_a_transaction(self, trials):
         session = self.workers.storage.scoped_session()
         session.execute(sqlalchemy.text("SELECT 1"))  # begins: BEGIN IMMEDIATE takes the write lock
+        time.sleep(1.0)  # the heartbeat thread now waits for the lock, in its busy timeout (60 s)
         raise KeyboardInterrupt
 
     monkeypatch.setattr(S._Run, "_loop", interrupted_in_a_transaction)
     grid = jaco.maps.named("demo")
     db = tmp_path / "s.db"
+    t0 = time.monotonic()
     with pytest.raises(KeyboardInterrupt):
         jaco.search(grid, grid.meta["start"], grid.meta["goal"], {"beta": (1.0, 8.0)}, planner="as", trials=4,
-                    batch=2, n_ants=4, n_iters=5, storage=str(db), progress=False)  # fmt: skip
+                    batch=2, n_ants=4, n_iters=5, storage=str(db), heartbeat_interval=0.2, progress=False)  # fmt: skip
+    # not a speed check: with the lock still held, stopping the heartbeat waits out SQLite's 60 s busy timeout
+    assert time.monotonic() - t0 < 45
     import sqlite3
 
     with sqlite3.connect(db, timeout=0.5) as con:  # the lock is free: a write does not wait

@@ -146,8 +146,8 @@ def end_session(storage) -> None:
     """Roll back and close this thread's database session of an RDB ``storage`` (SQLite,
     PostgreSQL; nothing for a journal file). An interrupt (Ctrl-C, the parent's SIGINT to a worker)
     that lands inside one of Optuna's storage calls can leave its transaction open: with SQLite it
-    holds the file's write lock, so this worker's own last heartbeat and every other worker would
-    wait for it (for the 60 s busy timeout each). Optuna opens a new session at the next call."""
+    holds the file's write lock, and the heartbeat thread (and every other worker) would wait for
+    it up to the 60 s busy timeout. Optuna opens a new session at the next call."""
     scoped = getattr(getattr(storage, "_backend", storage), "scoped_session", None)
     if scoped is not None:
         scoped.remove()
