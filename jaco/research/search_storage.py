@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import time
 import warnings
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -150,7 +150,8 @@ def end_session(storage) -> None:
     it up to the 60 s busy timeout. Optuna opens a new session at the next call."""
     scoped = getattr(getattr(storage, "_backend", storage), "scoped_session", None)
     if scoped is not None:
-        scoped.remove()
+        with suppress(Exception):  # closing a broken connection failed: the stop goes on regardless
+            scoped.remove()
 
 
 @contextmanager
