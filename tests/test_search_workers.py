@@ -286,8 +286,9 @@ def test_cli_workers_need_a_storage_before_anything_compiles(extra, match, capsy
 
 @pytest.mark.slow
 def test_cli_workers_share_the_study_and_sigterm_stops_them_all(tmp_path):
-    """Two workers finish the study; a second command, stopped by SIGTERM, stops its workers too
-    (exit 143), leaves nothing evaluated twice, and the same command again finishes the study."""
+    """Two workers finish the study; a second command (started with SIGINT ignored), stopped by
+    SIGTERM, stops its workers too (exit 143), leaves nothing evaluated twice, and the same command
+    again finishes the study."""
     db = tmp_path / "c.db"
     cmd = [sys.executable, "-m", "jaco.cli", *CLI, "--storage", str(db), "--workers", "2", "--grace-period", "2",
            "--heartbeat-interval", "0.5"]  # fmt: skip
@@ -299,7 +300,9 @@ def test_cli_workers_share_the_study_and_sigterm_stops_them_all(tmp_path):
     assert 8 <= sum(t.state.name == "COMPLETE" for t in study.trials) <= 10 and len(asked) <= 10, done.stderr[-3000:]
     big = [*cmd]
     big[big.index("--trials") + 1] = "400"
-    proc = subprocess.Popen(big, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # started with SIGINT ignored, as a shell's background job is: the workers must stop all the same
+    ignoring = ["sh", "-c", 'trap "" INT; exec "$0" "$@"', *big]
+    proc = subprocess.Popen(ignoring, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 120
     while sum(t.state.name == "COMPLETE" for t in jaco.load_study(str(db)).study.trials) < 14:
         assert proc.poll() is None and time.time() < deadline

@@ -14,7 +14,6 @@ parser and printing help cost nothing beyond importing the :mod:`jaco` package i
 
 from __future__ import annotations
 
-import contextlib
 import sys
 import time
 
@@ -23,6 +22,7 @@ _IMPORTED = [time.perf_counter()]  # before jax and the rest are imported: the r
 from ..errors import one_line  # noqa: E402
 from .args import UsageError  # noqa: E402
 from .parser import build_parser, join_negative_xy  # noqa: E402
+from .signals import Terminated, _terminate, stop_signals  # noqa: E402,F401  (jaco.cli's names)
 
 __all__ = ["main", "entry", "build_parser"]
 
@@ -30,51 +30,6 @@ __all__ = ["main", "entry", "build_parser"]
 #: 128 + the signal when interrupted (SIGINT: 130, SIGTERM: 143).
 USER_ERROR, INTERNAL_ERROR, INTERRUPTED, TERMINATED = 2, 3, 130, 143
 BROKEN_PIPE = 141  # 128 + SIGPIPE: what a shell reports for a writer whose reader left
-
-
-class Terminated(BaseException):
-    """SIGTERM, raised in the main thread like Ctrl-C's KeyboardInterrupt, so that the same
-    clean-up runs: temporary files removed, nothing half-written, finished chunks and trials kept."""
-
-
-def _terminate(signum, frame):
-    raise Terminated()
-
-
-def _redeliver(unraisable, previous_hook, signals) -> None:
-    """``sys.unraisablehook`` while a command runs. Python ignores an exception raised where it
-    cannot propagate: a garbage-collector callback (JAX registers one), a ``__del__``. A signal whose
-    handler ran there would be lost and the command would go on; it is sent again a moment later,
-    from another thread, so that the handler runs where the exception reaches the clean-up."""
-    import os
-    import threading
-
-    for exc_type, signum in signals:
-        if isinstance(unraisable.exc_value, exc_type):
-            threading.Timer(0.01, os.kill, (os.getpid(), signum)).start()
-            return
-    previous_hook(unraisable)
-
-
-@contextlib.contextmanager
-def stop_signals():
-    """While a command runs: SIGTERM raises :class:`Terminated` (SIGINT raises KeyboardInterrupt, as
-    always), and either one is delivered again if its exception was swallowed (:func:`_redeliver`)."""
-    import signal
-    import threading
-
-    if threading.current_thread() is not threading.main_thread():  # signals reach the main thread only
-        yield
-        return
-    previous = signal.signal(signal.SIGTERM, _terminate)
-    previous_hook = sys.unraisablehook
-    signals = ((KeyboardInterrupt, signal.SIGINT), (Terminated, signal.SIGTERM))
-    sys.unraisablehook = lambda u: _redeliver(u, previous_hook, signals)
-    try:
-        yield
-    finally:
-        sys.unraisablehook = previous_hook
-        signal.signal(signal.SIGTERM, previous)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -223,7 +223,7 @@ def _worker(state: dict, index: int, cores: list[int]) -> None:
 
     from ..errors import JacoError
     from ..research.search import search
-    from . import TERMINATED, Terminated, stop_signals
+    from .signals import Terminated, stop_signals
 
     os.setpgrp()
     # The parent stops a worker with SIGINT. A process started with SIGINT ignored (a shell's
@@ -245,7 +245,7 @@ def _worker(state: dict, index: int, cores: list[int]) -> None:
     except KeyboardInterrupt:  # stopped by the parent: the batch that ran is stored, the running one released
         code = 130
     except Terminated:  # SIGTERM to the worker itself: the same
-        code = TERMINATED
+        code = 143  # 128 + SIGTERM, as jaco.cli.TERMINATED
     except (JacoError, UsageError) as e:
         print(f"jaco: error: worker {args.worker}: {' '.join(str(e).split())}", file=sys.stderr)
         code = 2
