@@ -22,13 +22,13 @@ _IMPORTED = [time.perf_counter()]  # before jax and the rest are imported: the r
 from ..errors import one_line  # noqa: E402
 from .args import UsageError  # noqa: E402
 from .parser import build_parser, join_negative_xy  # noqa: E402
-from .signals import Terminated, _terminate, stop_signals  # noqa: E402,F401  (jaco.cli's names)
+from .signals import INTERRUPTED, TERMINATED, Terminated, _terminate, stop_signals  # noqa: E402,F401
 
 __all__ = ["main", "entry", "build_parser"]
 
 #: Exit codes: 2 a user error (a :class:`~jaco.errors.JacoError` or a bad argument), 3 a bug,
-#: 128 + the signal when interrupted (SIGINT: 130, SIGTERM: 143).
-USER_ERROR, INTERNAL_ERROR, INTERRUPTED, TERMINATED = 2, 3, 130, 143
+#: 128 + the signal when interrupted (INTERRUPTED, TERMINATED: :mod:`jaco.cli.signals`).
+USER_ERROR, INTERNAL_ERROR = 2, 3
 BROKEN_PIPE = 141  # 128 + SIGPIPE: what a shell reports for a writer whose reader left
 
 

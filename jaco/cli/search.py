@@ -223,7 +223,7 @@ def _worker(state: dict, index: int, cores: list[int]) -> None:
 
     from ..errors import JacoError
     from ..research.search import search
-    from .signals import Terminated, stop_signals
+    from .signals import INTERRUPTED, TERMINATED, Terminated, stop_signals
 
     os.setpgrp()
     # The parent stops a worker with SIGINT. A process started with SIGINT ignored (a shell's
@@ -243,9 +243,9 @@ def _worker(state: dict, index: int, cores: list[int]) -> None:
             job = _prepare(args)
             search(job["grid"], job["start"], job["goal"], job["space"], **job["call"], progress=False)
     except KeyboardInterrupt:  # stopped by the parent: the batch that ran is stored, the running one released
-        code = 130
+        code = INTERRUPTED
     except Terminated:  # SIGTERM to the worker itself: the same
-        code = 143  # 128 + SIGTERM, as jaco.cli.TERMINATED
+        code = TERMINATED
     except (JacoError, UsageError) as e:
         print(f"jaco: error: worker {args.worker}: {' '.join(str(e).split())}", file=sys.stderr)
         code = 2

@@ -7,6 +7,8 @@ from __future__ import annotations
 import contextlib
 import sys
 
+INTERRUPTED, TERMINATED = 130, 143  # exit codes: 128 + the signal (SIGINT, SIGTERM)
+
 
 class Terminated(BaseException):
     """SIGTERM, raised in the main thread like Ctrl-C's KeyboardInterrupt, so that the same
