@@ -103,6 +103,9 @@ def test_solve_progress_bar_changes_nothing_and_compiles_once(capsys, monkeypatc
 
     assert progress.enabled(None) is False  # auto: stderr is no terminal under pytest
     monkeypatch.setattr(progress, "SOLVE_DELAY", 0.0)  # show the bar at once, not after two seconds
+    callbacks = []  # the host callbacks the run made (none with the native walk: the host reads its count)
+    real_report = progress.report
+    monkeypatch.setattr(progress, "report", lambda done: (callbacks.append(done), real_report(done)))
     kw = dict(seed=5, n_ants=6, n_iters=30, steplimit=40)
     plain = jaco.solve(GRID, (0, 0), (3, 5), "acs", progress=False, **kw)
     assert capsys.readouterr().err == ""
@@ -110,6 +113,7 @@ def test_solve_progress_bar_changes_nothing_and_compiles_once(capsys, monkeypatc
     shown = [jaco.solve(GRID, (0, 0), (3, 5), "acs", progress=True, **kw) for _ in range(2)]
     err = capsys.readouterr().err
     assert "solve acs" in err and "30/30" in err and err.count("30/30") >= 2
+    assert len(callbacks) == (0 if jaco.engine.native.active_walk() == "native" else 2 * 15), callbacks
     assert TRACES["acs"] == before + 1  # the reporting run: compiled once, reused
     for r in shown:  # bit for bit the run without a bar
         assert np.array_equal(r.path, plain.path) and r.length == plain.length

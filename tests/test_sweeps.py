@@ -405,13 +405,25 @@ def test_sweep_progress_bar_says_compiling_then_counts_and_changes_nothing(capsy
     pd.testing.assert_frame_equal(chunked, plain)
 
 
-def test_the_bar_moves_inside_one_chunk(monkeypatch):
-    """A chunk reports its iterations: a sweep of one chunk counts its runs up while it runs."""
+@pytest.mark.parametrize("walk", ["native", "jax"])
+def test_the_bar_moves_inside_one_chunk(walk, monkeypatch):
+    """A chunk's progress reaches its bar while it runs: a sweep of one chunk counts its runs up.
+    The native walk's runs make no callback (the waiting thread reads the kernel's count of
+    finished iterations every ``POLL`` seconds, shortened here); the JAX walk's report."""
+    if walk == "native" and jaco.engine.native.active_walk() != "native":
+        pytest.skip("the native walk is not built here")
+    monkeypatch.setattr(jaco.progress, "POLL", 0.0005)
     kw = dict(params={"beta": [1.0, 2.0, 3.0, 4.0]}, seeds=10, n_ants=8, n_iters=30)  # 40 runs, one chunk
+    if walk == "native":
+        kw["n_iters"] = 3000  # long enough for the polls to see it move
     seen = []
     real = jaco.progress.Bar.update
     monkeypatch.setattr(jaco.progress.Bar, "update", lambda self, done: (seen.append(int(done)), real(self, done)))
-    table = jaco.sweep(GRID, *ENDS, "as", progress=True, **kw)
+    jaco.set_walk(walk)
+    try:
+        table = jaco.sweep(GRID, *ENDS, "as", progress=True, **kw)
+    finally:
+        jaco.set_walk(None)
     assert table.attrs["sweep"]["chunks"] == 1
     inside = sorted({d for d in seen if 0 < d < 40})
     assert len(inside) >= 10 and seen == sorted(seen) and seen[-1] == 40  # iteration by iteration, never back

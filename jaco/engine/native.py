@@ -77,6 +77,7 @@ def _bind_isa(lib) -> JacoError | None:
     for name in ("jaco_isa_count", "jaco_isa_built", "jaco_isa_runs", "jaco_isa_get", "jaco_isa_set"):
         getattr(lib, name).restype = ctypes.c_int
     lib.jaco_stop_set.restype, lib.jaco_stop_set.argtypes = None, [ctypes.c_int]
+    lib.jaco_iterations_done.restype, lib.jaco_iterations_done.argtypes = ctypes.c_int, [ctypes.c_int]
     choice = os.environ.get("JACO_NATIVE_ISA")
     try:
         if choice:
@@ -207,6 +208,15 @@ def stop_is_set() -> bool:
     return _STOP.is_set()
 
 
+def iterations_done(reset: bool = False) -> int:
+    """The most iterations a compiled run on the kernel has finished since the last reset (each
+    iteration loop hands its count to the kernel's stop flag, :func:`stop_requested`); 0 without
+    the kernel or when only JAX-walk runs ran. ``reset``: set it back to 0 (after reading it).
+    :mod:`jaco.progress` reads it to move a bar without a host callback."""
+    lib = _state.get("lib")
+    return 0 if lib is None else int(lib.jaco_iterations_done(int(reset)))
+
+
 def stop_requested(t: jax.Array) -> jax.Array:
     """Traced: whether the loop at iteration ``t`` should end because the call was interrupted
     (:func:`set_stop`): the kernel's flag, every iteration, on CPU with the native walk; else the
@@ -216,7 +226,8 @@ def stop_requested(t: jax.Array) -> jax.Array:
 
 
 def _kernel_stopped(t: jax.Array) -> jax.Array:
-    # The iteration as operand keeps the call in the loop and apart from other iterations' calls.
+    # The iteration as operand keeps the call in the loop and apart from other iterations' calls;
+    # the kernel also keeps it as the run's progress (iterations_done).
     # (Not marked has_side_effect: that orders XLA's work around it and cost 20 µs an iteration.)
     return jax.ffi.ffi_call("jaco_stopped", jax.ShapeDtypeStruct((), jnp.bool_))(t)
 

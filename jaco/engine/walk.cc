@@ -185,9 +185,16 @@ ffi::Error PowerImpl(ffi::Buffer<ffi::F32> x, ffi::Buffer<ffi::F32> a, ffi::Buff
 // Set from Python when the user interrupts a call (jaco.progress.run_interruptibly); read once per
 // iteration, so an interrupted run stops within one iteration and uses no CPU after.
 std::atomic<int32_t> stop_requested{0};
+// The most iterations a run has finished since Python last reset it: the iteration the loop asks
+// about is the number finished, so the host reads a run's progress without a callback (a host
+// callback costs about 100 µs; jaco.progress polls this instead).
+std::atomic<int32_t> iterations_done{0};
 
-ffi::Error StoppedImpl(ffi::Buffer<ffi::S32> /*iteration: keeps the call inside the loop*/,
-                       ffi::ResultBuffer<ffi::PRED> out) {
+ffi::Error StoppedImpl(ffi::Buffer<ffi::S32> iteration, ffi::ResultBuffer<ffi::PRED> out) {
+  const int32_t t = iteration.typed_data()[0];
+  int32_t seen = iterations_done.load(std::memory_order_relaxed);
+  while (t > seen && !iterations_done.compare_exchange_weak(seen, t, std::memory_order_relaxed)) {
+  }
   out->typed_data()[0] = stop_requested.load(std::memory_order_relaxed) != 0;
   return ffi::Error::Success();
 }
@@ -243,6 +250,10 @@ __attribute__((visibility("default"))) int jaco_isa_get() {
   return current_isa.load();
 }
 __attribute__((visibility("default"))) void jaco_stop_set(int on) { stop_requested.store(on != 0); }
+// The iterations finished (see iterations_done), set back to 0 when `reset`.
+__attribute__((visibility("default"))) int jaco_iterations_done(int reset) {
+  return reset ? iterations_done.exchange(0) : iterations_done.load();
+}
 // -1: the widest set this CPU runs; another set is taken only where it was built and the CPU runs it.
 __attribute__((visibility("default"))) int jaco_isa_set(int i) {
   if (i == -1) i = widest_isa();
