@@ -163,7 +163,7 @@ def run_interruptibly(fn: Callable[..., T], *args: Any, **kwargs: Any) -> T:
     While a bar counts runs' iterations (:class:`listening` with ``runs``, :class:`reporting`),
     the waiting thread also moves it to the native walk's count of finished iterations (from
     another thread than the main one, a helper thread does)."""
-    listener = _LISTENER[0] if _RUNS[0] else None
+    listener = _LISTENER[0] if _RUNS[0] and getattr(_LISTENER[0], "show", True) else None  # a hidden bar: no polls
     if listener is not None:
         native.iterations_done(reset=True)
     if threading.current_thread() is not threading.main_thread():
