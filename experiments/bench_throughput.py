@@ -59,14 +59,14 @@ SECTION = "bench_throughput"
 FULL = dict(
     side=30, p=0.25, map_seed=0, n_ants=50, n_iters=100,
     axes={"alpha": [0.5, 1.0, 2.0, 4.0], "beta": [1.0, 2.0, 4.0, 8.0], "rho": [0.1, 0.3, 0.5, 0.7]},
-    reps=5, latency_calls=20, city="Berlin_1_256.map", city_reps=3,
+    reps=5, latency_calls=20, solve_rounds=3, city="Berlin_1_256.map", city_reps=3,
     sides=[16, 32, 64, 128, 256, 384, 512], ants=[10, 50, 200, 800], batches=[1, 8, 64, 256],
     scale_iters=20, scale_reps=3,
 )
 SMOKE = dict(
     side=12, p=0.25, map_seed=0, n_ants=10, n_iters=5,
     axes={"alpha": [1.0, 2.0], "beta": [2.0, 4.0], "rho": [0.3, 0.5]},
-    reps=1, latency_calls=3, city=None, city_reps=1,
+    reps=1, latency_calls=3, solve_rounds=1, city=None, city_reps=1,
     sides=[8, 12], ants=[10], batches=[4],  # one row per table where a row needs no compile of its own
     scale_iters=3, scale_reps=1,
 )
@@ -360,9 +360,10 @@ def run_benchmark(args) -> dict:
     problem = jaco.make_problem(grid, start, goal)
     p1 = jc.params_from(base)
     one = [float(base[k]) for k in ("alpha", "beta", "rho", "q", "tau0")]
-    native_run = [timed(lambda: nr.as_colony(nbr, eta, s_idx, g_idx, *one, n_ants, n_iters, steplimit, 0))[0]
-                  for _ in range(cfg["latency_calls"])]
-    R["native_run_ms"] = 1e3 * statistics.median(native_run)
+    def native_solve():
+        return nr.as_colony(nbr, eta, s_idx, g_idx, *one, n_ants, n_iters, steplimit, 0)
+
+    native_run: list = []
     R["solve"] = {}
     for walk in R["walks"]:
         with walking(walk):
@@ -370,11 +371,22 @@ def run_benchmark(args) -> dict:
                 return jaco.solve(grid, start, goal, "as", n_ants=n_ants, n_iters=n_iters, progress=progress)
 
             w_first, _, _ = timed(solve)
-            lat = [timed(solve)[0] for _ in range(cfg["latency_calls"])]
-            # As in a terminal or a notebook: the program that keeps a progress bar moving (the bar
-            # itself opens only after two seconds, so none is drawn here).
             timed(lambda: solve(True))
-            lat_bar = [timed(lambda: solve(True))[0] for _ in range(cfg["latency_calls"])]
+            # In rounds: the numba loop's run (with the first walk), the solve, and the solve with a
+            # progress bar (the program a terminal or notebook runs; the bar itself opens only after
+            # two seconds, so none is drawn here), calls in a row each. The machines here switch
+            # between a fast and a slow state from one moment to the next (the numba run: 12 or 20
+            # ms), so each series keeps its best round's median, as the sweeps keep their best.
+            lat, lat_bar = [], []
+            for _ in range(cfg["solve_rounds"]):
+                if walk == R["walks"][0]:
+                    native_run.append([timed(native_solve)[0] for _ in range(cfg["latency_calls"])])
+                lat.append([timed(solve)[0] for _ in range(cfg["latency_calls"])])
+                lat_bar.append([timed(lambda: solve(True))[0] for _ in range(cfg["latency_calls"])])
+            lat = min(lat, key=statistics.median)
+            lat_bar = min(lat_bar, key=statistics.median)
+            if walk == R["walks"][0]:
+                R["native_run_ms"] = 1e3 * min(statistics.median(r) for r in native_run)
             run_1 = jr.compiled_run(variant, RunShape(n_ants, n_iters, steplimit), batched=False)
             raw = [timed(lambda: run_1(jax.random.key(0), problem, p1))[0] for _ in range(cfg["latency_calls"])]
             t0 = time.perf_counter()
@@ -397,13 +409,13 @@ def run_benchmark(args) -> dict:
             ["compile time (first call − median call), s"] + [sv[w]["compile_s"] for w in R["walks"]],
             ["  of which tracing + lowering, s"] + [sv[w]["trace_s"] for w in R["walks"]],
             ["  of which XLA compile, s"] + [sv[w]["xla_compile_s"] for w in R["walks"]],
-            [f"`solve` latency after compile, median of {cfg['latency_calls']}, ms"] + [sv[w]["median_ms"] for w in R["walks"]],
+            [f"`solve` latency after compile, median of {cfg['latency_calls']} (best of {cfg['solve_rounds']} rounds), ms"] + [sv[w]["median_ms"] for w in R["walks"]],
             ["`solve` latency, min / max, ms"] + [f"{sv[w]['min_ms']:.1f} / {sv[w]['max_ms']:.1f}" for w in R["walks"]],
             ["`solve` latency with a progress bar (`progress=True`, as in a terminal or notebook), median, ms"]
             + [sv[w]["bar_median_ms"] for w in R["walks"]],
             ["compiled run alone (no problem building / result), median, ms"]
             + [sv[w]["compiled_run_median_ms"] for w in R["walks"]],
-            ["the numba loop's run of the same problem and parameters, median, ms"]
+            ["the numba loop's run of the same problem and parameters, median (best round), ms"]
             + [R["native_run_ms"] for w in R["walks"]],
             ["`solve` speed-up over the numba loop's run (median / median)"]
             + [R["native_run_ms"] / sv[w]["median_ms"] for w in R["walks"]],
