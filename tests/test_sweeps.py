@@ -409,7 +409,7 @@ def test_sweep_progress_bar_says_compiling_then_counts_and_changes_nothing(capsy
 def test_the_bar_moves_inside_one_chunk(walk, monkeypatch):
     """A chunk's progress reaches its bar while it runs: a sweep of one chunk counts its runs up.
     The native walk's runs make no callback (the waiting thread reads the kernel's count of
-    finished iterations every ``POLL`` seconds, shortened here); the JAX walk's report."""
+    finished iterations every ``POLL`` seconds, shortened here); the JAX walk's runs report by callback."""
     if walk == "native" and jaco.engine.native.active_walk() != "native":
         pytest.skip("the native walk is not built here")
     monkeypatch.setattr(jaco.progress, "POLL", 0.0005)
