@@ -7,8 +7,8 @@ kernel, so a test run or a redirected script prints none), ``True`` (always) or 
 How a bar learns of a compiled loop's progress:
 
 - A run on the native walk (CPU) hands its number of finished iterations to the kernel's stop
-  flag every iteration anyway (:func:`jaco.engine.native.stop_requested`); the thread that waits
-  for the run (:func:`run_interruptibly`) reads that count every :data:`POLL` seconds
+  flag every iteration anyway (:func:`jaco.engine.native.stop_requested`); while
+  :func:`run_interruptibly` waits for the run, a helper thread reads that count every :data:`POLL` seconds
   (:func:`jaco.engine.native.iterations_done`). The run makes no host callback, so a solve costs
   the same with a bar as without (a callback costs about 100 µs: 25 of them made a solve of 6 ms
   take 10).
@@ -38,7 +38,7 @@ T = TypeVar("T")
 
 REPORTS = 25  # a compiled loop reports at most this often per run (every ceil(n / REPORTS) steps)
 SOLVE_DELAY = 2.0  # seconds: a solve shows its bar only once it has taken this long
-POLL = 0.05  # seconds between a waiting thread's looks at an interrupt and at the kernel's count
+POLL = 0.05  # seconds between the looks at an interrupt, and at the kernel's count of iterations
 
 
 def enabled(progress: bool | None) -> bool:
@@ -160,28 +160,21 @@ def run_interruptibly(fn: Callable[..., T], *args: Any, **kwargs: Any) -> T:
     be stopped and finishes in the background, then its program ends at once). The next call
     runs normally. Called from any other thread, it just calls ``fn``.
 
-    While a bar counts runs' iterations (:class:`listening` with ``runs``, :class:`reporting`),
-    the waiting thread also moves it to the native walk's count of finished iterations (from
-    another thread than the main one, a helper thread does)."""
+    While a shown bar counts runs' iterations (:class:`listening` with ``runs``, :class:`reporting`),
+    a helper thread moves it to the native walk's count of finished iterations (:func:`_polling`)."""
     listener = _LISTENER[0] if _RUNS[0] and getattr(_LISTENER[0], "show", True) else None  # a hidden bar: no polls
-    if listener is not None:
-        native.iterations_done(reset=True)
+    polling = _polling(listener) if listener is not None else contextlib.nullcontext()
     if threading.current_thread() is not threading.main_thread():
-        if listener is None:
-            return fn(*args, **kwargs)
-        with _polling(listener):
+        with polling:
             return fn(*args, **kwargs)
     future = _WORKER.submit(fn, *args, **kwargs)
-    seen = 0
     try:
-        while True:
-            try:
-                out = future.result(timeout=POLL)
-            except concurrent.futures.TimeoutError:
-                seen = _move(listener, seen)
-                continue
-            _move(listener, seen)
-            return out
+        with polling:
+            while True:
+                try:
+                    return future.result(timeout=POLL)
+                except concurrent.futures.TimeoutError:
+                    continue
     except BaseException:  # KeyboardInterrupt, the CLI's SIGTERM exception
         if not future.done():
             native.set_stop(True)
@@ -194,7 +187,7 @@ def run_interruptibly(fn: Callable[..., T], *args: Any, **kwargs: Any) -> T:
 def _move(listener: Any, seen: int) -> int:
     """Move ``listener`` to the kernel's count of finished iterations if it grew past ``seen``
     (it stays 0 under a JAX-walk run, whose callbacks move the bar); returns the larger."""
-    done = native.iterations_done() if listener is not None else 0
+    done = native.iterations_done()
     if done > seen:
         listener.update(done)
     return max(done, seen)
@@ -202,8 +195,10 @@ def _move(listener: Any, seen: int) -> int:
 
 @contextlib.contextmanager
 def _polling(listener: Any):
-    """``with _polling(listener):`` a helper thread moves ``listener`` (:func:`_move`) every
-    :data:`POLL` seconds, and once more at the end."""
+    """``with _polling(listener):`` the kernel's count set back to 0, then a helper thread moves
+    ``listener`` (:func:`_move`) every :data:`POLL` seconds while the work runs, and once more at
+    the end."""
+    native.iterations_done(reset=True)
     finished = threading.Event()
     seen = [0]
 
