@@ -9,9 +9,9 @@ How a bar learns of a compiled loop's progress:
 - A run on the native walk (CPU) hands its number of finished iterations to the kernel's stop
   flag every iteration anyway (:func:`jaco.engine.native.stop_requested`); while
   :func:`run_interruptibly` waits for the run, a helper thread reads that count every :data:`POLL` seconds
-  (:func:`jaco.engine.native.iterations_done`). The run makes no host callback, so a solve costs
-  the same with a bar as without (a callback costs about 100 µs: 25 of them made a solve of 6 ms
-  take 10).
+  (:func:`jaco.engine.native.iterations_done`). The run makes no host callback, so a solve with a
+  bar costs only the helper thread's start more than one without (a callback costs about 100 µs:
+  25 of them made a solve of 6 ms take 10).
 - A run on the JAX walk (GPU/TPU, or no kernel) reports through :func:`jax.debug.callback` to
   :func:`report`, at most :data:`REPORTS` times per call; ``jaco.solve`` compiles such a run only
   when a bar is shown (one more program). ``jaco.tune``'s loop always reports (once per step,
