@@ -647,3 +647,39 @@ def test_cli_bad_space_is_one_line_and_exit_2(param, match, capsys, monkeypatch)
     assert main(["search", "demo", "--param", param, "--trials", "2"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("jaco: error:") and match in err and "\n" not in err
+
+
+def test_a_study_opened_by_two_workers_at_once_is_jacos_and_a_foreign_one_is_refused(tmp_path):
+    """attach_info reads the study's info, then its trials. Another worker that opened the study at
+    the same moment may attach its info and ask a trial between the two reads: the info is read
+    again then, not taken for a study someone else made. A study with trials and no info is
+    refused with one line."""
+    import optuna
+
+    from jaco.research.search_checks import SearchError
+    from jaco.research.search_setup import ATTR, attach_info
+
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    storage = f"sqlite:///{tmp_path / 's.db'}"
+    info = {"space": {"beta": [1.0, 8.0]}}
+    mine = optuna.create_study(storage=storage, study_name="s")
+    other = optuna.load_study(storage=storage, study_name="s")
+    first = type(mine).user_attrs.fget(mine)  # what this worker read first: no info yet
+    assert first == {}
+    other.set_user_attr(ATTR, info)  # the other worker attaches its info, then asks a trial
+    other.ask()
+
+    class FirstReadEarly:  # this worker's first read happened before the other worker's writes
+        study_name, trials = mine.study_name, mine.trials
+        reads = iter([first])
+
+        @property
+        def user_attrs(self):
+            early = next(self.reads, None)
+            return mine.user_attrs if early is None else early
+
+    attach_info(FirstReadEarly(), info, storage)  # the same search: no error
+    foreign = optuna.create_study(storage=storage, study_name="plain")
+    foreign.ask()
+    with pytest.raises(SearchError, match="was not made by jaco.search"):
+        attach_info(foreign, info, storage)

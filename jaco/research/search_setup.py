@@ -275,12 +275,16 @@ def attach_info(study, info: dict, where: str) -> None:
     """Store ``info`` with a new study, or check that an existing one is the same search."""
     old = study.user_attrs.get(ATTR)
     if old is None:
-        if study.trials:
+        if not study.trials:
+            study.set_user_attr(ATTR, json.loads(json.dumps(info)))
+            return
+        # Read again: another worker that opened the study at the same time may have attached its
+        # info (jaco does so before it asks for a trial) between the first read and the trials'.
+        old = study.user_attrs.get(ATTR)
+        if old is None:
             raise SearchError(
                 f"study {study.study_name!r} in {where} was not made by jaco.search: use another study_name"
             )
-        study.set_user_attr(ATTR, json.loads(json.dumps(info)))
-        return
     now = json.loads(json.dumps(info))
     differ = [k for k in SAME_SEARCH if old.get(k) != now.get(k)]
     if differ:
