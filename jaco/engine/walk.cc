@@ -88,19 +88,14 @@ LaneWalk lane_walk() {
   return kIsas[i].walk;
 }
 
-// The width w of the grid whose 8 moves the offsets are (each r·w + c with (r, c) in {-1, 0, 1}^2,
-// all 8 different and none (0, 0)), when w >= 3, with each move's (r, c) in row_of, col_of; else 0.
-int32_t grid_width(const int32_t* off, int32_t* row_of, int32_t* col_of) {
-  const int32_t w = *std::max_element(off, off + 8) - 1;
-  if (w < 3) return 0;
-  bool seen[9] = {};
-  for (int k = 0; k < 8; ++k) {
-    const int32_t r = (off[k] + w + 1) / w - 1, c = off[k] - r * w;  // off in [-w-1, w+1]
-    if (off[k] < -w - 1 || r < -1 || r > 1 || c < -1 || c > 1 || (r == 0 && c == 0) || seen[3 * r + c + 4]) return 0;
-    seen[3 * r + c + 4] = true;
-    row_of[k] = r;
-    col_of[k] = c;
-  }
+// The width w of the grid whose moves the offsets are, in jaco.moves.MOVES's order (move k is
+// dr[k]·w + dc[k]), when w >= 3; else 0.
+int32_t grid_width(const int32_t* off) {
+  static const int32_t dr[8] = {-1, 0, 1, 0, -1, 1, 1, -1}, dc[8] = {0, 1, 0, -1, 1, 1, -1, -1};
+  if (off[5] < 4) return 0;
+  const int32_t w = off[5] - 1;
+  for (int k = 0; k < 8; ++k)
+    if (off[k] != dr[k] * w + dc[k]) return 0;
   return w;
 }
 
@@ -146,8 +141,8 @@ ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Bu
       bool* vis = parts > 1 ? reinterpret_cast<bool*>(part_visited.data() + task * N) : vis0 + b * N;
       LaneColony colony{W0 + b * N * 8, off0 + b * 8, st[b], gl[b], int32_t(N), q[b], K[2 * b], K[2 * b + 1],
                         A, S, A * p / parts, A * (p + 1) / parts, exploit, ed0 + b * S * A,
-                        ns0 + b * A, nd0 + b * A, arr0 + b * A, vis, nullptr, 0, {}, {}};
-      colony.width = grid_width(colony.offsets, colony.row_of, colony.col_of);
+                        ns0 + b * A, nd0 + b * A, arr0 + b * A, vis, nullptr, 0};
+      colony.width = grid_width(colony.offsets);
       const int64_t pad = int64_t(colony.width) + 2;
       if (int64_t(tabu.size()) < N + 2 * pad) tabu.assign(N + 2 * pad, 0u);  // zero between colonies
       colony.tabu = tabu.data() + pad;

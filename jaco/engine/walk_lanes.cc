@@ -182,6 +182,10 @@ inline void neighbourhood(const uint32_t* tabu, vi cell, int32_t width, vi marks
 #define JACO_ROWS 0
 #endif
 
+// Where move k of jaco.moves.MOVES, (dr, dc), is in a 3x3 neighbourhood: 3 (dr + 1) + dc + 1 (a
+// constant index: the 8 vectors stay in registers).
+constexpr int kAround[8] = {1, 5, 7, 3, 2, 8, 6, 0};
+
 inline vi pick(vi mask, vi a, vi b) { return (a & mask) | (b & ~mask); }
 inline vf pick(vi mask, vf a, vf b) { return float_of(pick(mask, bits_of(a), bits_of(b))); }
 
@@ -219,7 +223,7 @@ inline void choose_lanes(const Lanes& s, const LaneColony& c, const vi offset[8]
   for (int k = 0; k < 8; ++k) {  // a forbidden move has weight 0: any cell will do for its tabu look-up
     vi nb = s.cur + offset[k], marks;
     if (rows) {  // a cell off the map or in the next row: its weight is 0, its marks do not matter
-      marks = around[3 * (c.row_of[k] + 1) + c.col_of[k] + 1];
+      marks = around[kAround[k]];
     } else {
       const vi in = pick(nb < zero, zero, pick(nb > top_cell, top_cell, nb));
       marks = gather(reinterpret_cast<const int32_t*>(tabu), in);

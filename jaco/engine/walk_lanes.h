@@ -24,10 +24,9 @@ struct LaneColony {
   uint32_t* tabu;         // (N,) scratch of the thread, all zero on entry and on return; valid
                           // from tabu[-pad] to tabu[N - 1 + pad], pad = width + 2 (the rows above
                           // the first and below the last, always zero)
-  int32_t width;          // row length when the offsets are the 8 moves of a grid of that width
+  int32_t width;          // row length when the offsets are jaco.moves.MOVES on a grid of that width
                           // (at least 3), so a cell's 3x3 neighbourhood is 3 runs of 3 cells;
                           // 0 otherwise (each neighbour is looked up on its own)
-  int32_t row_of[8], col_of[8];  // with width: move k is (row_of[k], col_of[k]) in {-1, 0, 1}^2
 };
 
 // The instruction sets, widest last. Each walk_lanes_<isa> is the same source compiled with that
