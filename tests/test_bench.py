@@ -277,6 +277,20 @@ def test_the_worker_benchmarks_run_at_smoke_size_and_write_their_section(tmp_pat
         assert text.count("| True |") == 2 and "| False |" not in text
 
 
+@pytest.mark.slow  # compiles the lane walk once per revision, and the driver
+@pytest.mark.skipif(shutil.which(os.environ.get("CXX", "c++")) is None, reason="needs a C++ compiler")
+def test_walk_kernel_bench_smoke_walks_two_builds_alike(tmp_path):
+    text = run_smoke("bench_walk_kernel.py", "--revs", "HEAD", ".", md=tmp_path / "BENCHMARKS.md")
+    assert "<!-- bench_walk_kernel:start -->" in text and "Every revision took the same steps" in text
+    steps = int(re.search(r"solve: ([\d,]+) steps a round", text).group(1).replace(",", ""))
+    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout
+    rows = [numbers(table_row(text, label)[1:5]) for label in (head.strip(), "working tree")]
+    for ms, best, ns, ns_best in rows:  # the CPU times and their ns a step, of the one step count
+        assert 0 < best <= ms and ns == pytest.approx(ms * 1e6 / steps, rel=0.02) and ns_best <= ns
+    ratio = table_row(text, "working tree")[5]
+    assert re.fullmatch(r"\d+\.\d{3} \(\d+\.\d{3}–\d+\.\d{3}\)", ratio) and table_row(text, head.strip())[5].startswith("1.000")
+
+
 @pytest.mark.slow  # compiles the IACA kernel once per revision, and the driver
 @pytest.mark.skipif(shutil.which(os.environ.get("CXX", "c++")) is None, reason="needs a C++ compiler")
 def test_iaca_kernel_bench_smoke_walks_two_builds_alike(tmp_path):
