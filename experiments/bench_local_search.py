@@ -41,6 +41,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 from movingai_suite import scenarios  # noqa: E402 (the suite's choice of queries)
+
 from report import fixed, publish, table  # noqa: E402 (the experiments' shared helpers)
 
 SECTION = "bench_local_search"
@@ -108,8 +109,8 @@ def step_limit_cost(jaco, name, n_scen, ants, iters):
     """Rows of measurement 3."""
     from jaco.engine import checks as jc
     from jaco.engine import run as jr
-    from jaco.engine.shape import RunShape
     from jaco.engine.problem import make_problem
+    from jaco.engine.shape import RunShape
 
     grid = _grid(jaco, name)
     scen = scenarios(jaco, name, n_scen)

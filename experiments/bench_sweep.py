@@ -36,6 +36,7 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
 from report import write_section, write_text  # noqa: E402 (the experiments' shared helpers)
+
 SECTION = "bench_sweep"
 RANGES = {"alpha": (0.5, 4.0), "beta": (1.0, 8.0), "rho": (0.02, 0.5)}
 FULL = dict(configs=10_000, n_ants=20, n_iters=20, budget=2 << 30, variants=["mmas", "daca"], estimate=True)

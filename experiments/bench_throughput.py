@@ -208,8 +208,8 @@ def run_benchmark(args) -> dict:
     import jaco
     import jaco.engine.checks as jc
     import jaco.engine.run as jr
-    from jaco.engine.shape import RunShape
     from jaco.engine.problem import stack
+    from jaco.engine.shape import RunShape
 
     import native_reference as nr
 
@@ -391,7 +391,7 @@ def run_benchmark(args) -> dict:
                 R["native_run_rounds_ms"] = [1e3 * statistics.median(r) for r in native_run]
                 R["native_run_ms"] = min(R["native_run_rounds_ms"])
             run_1 = jr.compiled_run(variant, RunShape(n_ants, n_iters, steplimit), batched=False)
-            raw = [timed(lambda: run_1(jax.random.key(0), problem, p1))[0] for _ in range(cfg["latency_calls"])]
+            raw = [timed(lambda run_1=run_1: run_1(jax.random.key(0), problem, p1))[0] for _ in range(cfg["latency_calls"])]
             t0 = time.perf_counter()
             lowered = jax.jit(jr.make_run(variant, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit)).lower(
                 jax.random.key(0), problem, p1)
@@ -531,7 +531,7 @@ def scaling(cfg, jax, np, jaco, jr, nr, variant, base, stack, walk_list) -> dict
         steps = None
         for walk in walk_list:
             with walking(walk):
-                def sweep():
+                def sweep(b=b):
                     return jaco.sweep(grid, start, goal, "as", {}, seeds=b, n_ants=n_ants, n_iters=it, steplimit=steplimit)
 
                 w_first = timed(sweep)[0]
@@ -541,7 +541,7 @@ def scaling(cfg, jax, np, jaco, jr, nr, variant, base, stack, walk_list) -> dict
                 steps = int(np.sum(np.asarray(run_b(keys, problems, jc.params_from(base, (b,))).steps, np.int64)))
             cols += [compile_s(w_first, w), w, steps / w]
 
-        def native():
+        def native(b=b):
             total = 0
             for seed in range(b):
                 total += nr.as_colony(nbr, eta, s, g, alpha, beta, rho, q, tau0, n_ants, it, steplimit, seed)[2]

@@ -43,7 +43,8 @@ from jaco.outputs import atomic_path
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
-from report import fixed as decimals, output_dir, table, write_section, write_text  # noqa: E402 (the experiments' shared helpers)
+from report import fixed as decimals  # noqa: E402 (the experiments' shared helpers)
+from report import output_dir, table, write_section, write_text  # noqa: E402
 
 SECTION = "movingai_suite"
 

@@ -94,7 +94,7 @@ def as_colony_stats(nbr, weights_eta, start, goal, alpha, beta, rho, q, tau0, n_
     real_steps = 0
     arrivals = 0
 
-    for it in range(n_iters):
+    for _ in range(n_iters):
         # move weights, once per iteration
         for i in range(n):
             for k in range(8):

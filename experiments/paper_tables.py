@@ -43,7 +43,8 @@ from jaco.engine.planner import make_planner
 from jaco.metrics import SAFETY_RADIUS, path_metrics, validate_path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from report import fixed as fmt, output_dir, write_section  # noqa: E402 (the experiments' shared helpers)
+from report import fixed as fmt  # noqa: E402 (the experiments' shared helpers)
+from report import output_dir, write_section
 
 MAPS = ["simple-20", "complex-30"]
 BASE = ("alpha", "beta", "rho", "q", "tau0")  # the classic family's parameters
@@ -123,8 +124,8 @@ def _batch(grid, variant, seeds, n_ants, n_iters, steplimit, values=None):
     alone (compiled ahead of time with ``lower().compile()``, so compilation is outside the timing)."""
     import jax
 
-    from jaco.engine.problem import make_problem, stack
     from jaco.engine.checks import params_from, resolve_params
+    from jaco.engine.problem import make_problem, stack
     from jaco.engine.run import compiled_run
     from jaco.engine.shape import RunShape
 

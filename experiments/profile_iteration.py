@@ -91,7 +91,7 @@ def measure(cfg) -> dict:
         try:
             weights = jax.jit(jax.vmap(lambda tr, p: move_weights(var, tr, prob, p, 0, 100)))
             W = weights(trail, P)
-            walk_only = jax.jit(jax.vmap(lambda w, k: walk_fns[walk](
+            walk_only = jax.jit(jax.vmap(lambda w, k, walk=walk: walk_fns[walk](
                 w, k, prob.start, prob.goal, jnp.float32(0), prob.offsets, n_ants=A, steplimit=steplimit, exploit=False)))
             out = walk_only(W, words)
             moves[walk] = np.asarray(out[0])

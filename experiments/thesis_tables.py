@@ -25,7 +25,8 @@ import jaco
 from jaco.metrics import performance_indices, validate_path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from report import fixed as fmt, output_dir, write_section  # noqa: E402 (the experiments' shared helpers)
+from report import fixed as fmt  # noqa: E402 (the experiments' shared helpers)
+from report import output_dir, write_section
 
 RANDOM = [f"random-{n}-{p}" for n in (20, 30, 40) for p in ("05", "10", "30", "50")]
 TRAPS = ["utrap-15", "utrap-20", "utrap-30"]
@@ -136,7 +137,7 @@ def main(argv=None):
             ours = [10 * rows[name][k]["best"] if k in rows[name] else None for k in ("ACA", "IDACA", "IACA")]
             lines.append(f"| {name} | {pub[0]} | {fmt(ours[0])} | {pub[1]} | {fmt(ours[1])} | {pub[2]} | {fmt(ours[2])} |")
     ordering = []
-    for name, cells in rows.items():
+    for cells in rows.values():
         b = {k: cells[k]["best"] for k in ("ACA", "IDACA", "IACA") if k in cells}
         if len(b) == 3:
             ordering.append(b["IACA"] <= b["IDACA"] + 1e-9 <= b["ACA"] + 2e-9)

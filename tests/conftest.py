@@ -9,7 +9,6 @@ jax.config.update("jax_numpy_rank_promotion", "raise")
 
 import pytest  # noqa: E402
 
-
 #: Memory maps a test process may hold before the compiled programs are forgotten (Linux allows
 #: 65,530 by default; every XLA:CPU executable holds some).
 MAP_BUDGET = 25_000

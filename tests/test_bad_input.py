@@ -24,10 +24,10 @@ from hypothesis import strategies as st
 import jaco
 from jaco import maps
 from jaco.cli import main
-from jaco.engine.params import SPECS
-from jaco.engine.problem import make_problem
 from jaco.engine.checks import prepare
 from jaco.engine.memory import memory_budget
+from jaco.engine.params import SPECS
+from jaco.engine.problem import make_problem
 from jaco.planners.registry import get_planner
 from jaco.research.records import RecordError, load_run
 

@@ -10,9 +10,9 @@ import pytest
 import jaco
 from jaco.engine import schedules
 from jaco.engine.params import Params
-from jaco.engine.schedules import IDACA_PARAMS
 from jaco.engine.pheromone import Trail
 from jaco.engine.problem import make_problem
+from jaco.engine.schedules import IDACA_PARAMS
 from jaco.metrics import validate_path
 from jaco.moves import MOVES
 from jaco.planners.double import DACA, IDACA, SPLICED, assemble, best_population, crossover, double_walk, mean_feasible

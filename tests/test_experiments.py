@@ -53,7 +53,7 @@ def test_paper_tables_smoke(tmp_path):
     exact, _ = jaco.exact.shortest_path(grid, grid.meta["start"], grid.meta["goal"])
     (r0, c0), (r1, c1) = grid.meta["start"], grid.meta["goal"]
     sg = ((r1 - r0) ** 2 + (c1 - c0) ** 2) ** 0.5  # straight start-goal distance (cell centres)
-    for label, c in rows.items():
+    for c in rows.values():
         optimum = float(c[5])
         assert abs(optimum - exact) < 0.01
         if c[3] != "–":  # best >= optimum, mean >= best, best / L_SG as printed

@@ -19,8 +19,8 @@ from hypothesis import strategies as st
 import jaco
 from jaco.engine import local_search as ls
 from jaco.engine import native
-from jaco.engine.problem import make_problem
 from jaco.engine.checks import default_steplimit, legacy_steplimit
+from jaco.engine.problem import make_problem
 from jaco.engine.run import TRACES
 from jaco.metrics import validate_path
 from jaco.moves import MOVE_LENGTHS, MOVES, neighbour_table

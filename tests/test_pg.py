@@ -9,10 +9,10 @@ import optax
 import pytest
 
 import jaco
+from jaco.engine.checks import params_from, resolve_params
 from jaco.engine.colony import move_weights
 from jaco.engine.pheromone import Trail
 from jaco.engine.problem import make_problem, to_device
-from jaco.engine.checks import params_from, resolve_params
 from jaco.moves import MOVES
 from jaco.planners.pg import LOGIT_MAX, PG_ACO, advantages, make_pg_aco, score, step_probabilities
 

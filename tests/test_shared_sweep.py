@@ -16,8 +16,8 @@ import pandas as pd
 import pytest
 
 import jaco
-from jaco.research import store as jstore
 from jaco.research import chunks, sweeps
+from jaco.research import store as jstore
 
 GRID = jaco.maps.named("demo")
 ENDS = (jaco.maps.DEMO_START, jaco.maps.DEMO_GOAL)
