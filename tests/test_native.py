@@ -8,6 +8,7 @@ choice of walk (option, environment variable, fallback when the kernel is missin
 
 import functools
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -426,6 +427,34 @@ def test_each_instruction_set_this_cpu_runs_takes_the_jax_walks_moves(case, isa_
         _same(expected, _dying("native", *key)(*args))
 
 
+#: Each wider set's compiler flags (setup.py) and an intrinsic of that set, for the check below.
+_SET_PROBES = {
+    "avx2": (["-mavx2", "-mfma", "-mbmi", "-mbmi2", "-mpopcnt"], "_mm256_movemask_ps(_mm256_setzero_ps())"),
+    "avx512": (["-mavx512f", "-mavx512bw", "-mavx512vl", "-mavx512dq", "-mavx2"],
+               "_mm512_reduce_add_epi32(_mm512_setzero_si512())"),
+}
+
+
+@pytest.mark.skipif(os.environ.get("JACO_NATIVE_ISAS") is not None, reason="a build narrowed on purpose")
+@pytest.mark.parametrize("name", sorted(_SET_PROBES))
+def test_a_lane_kernel_the_compiler_can_build_was_built(name, tmp_path):
+    """setup.py leaves out a set whose lane kernels fail to compile (a compiler without the set),
+    with no error; so a compile error in a lane kernel would leave the set out and the kernel
+    would run the baseline lanes. Where the compiler takes the set's flags and intrinsics, the
+    set must have been built."""
+    cxx = os.environ.get("CXX", "c++")
+    if not (os.uname().machine in ("x86_64", "amd64") and shutil.which(cxx)):
+        pytest.skip("the wider sets are built on x86-64 with a C++ compiler")
+    flags, call = _SET_PROBES[name]
+    src = tmp_path / "probe.cc"
+    src.write_text(f"#include <immintrin.h>\nint probe() {{ return int({call}); }}\n")
+    probe = subprocess.run([cxx, "-std=c++17", *flags, "-c", str(src), "-o", str(tmp_path / "probe.o")],
+                           capture_output=True, text=True, timeout=120)
+    if probe.returncode != 0:
+        pytest.skip(f"{cxx} does not build {name} code here")
+    assert native.isas()[name] != "not built", f"{name} lane kernels failed to compile: see the install log"
+
+
 def test_the_widest_instruction_set_is_the_default_and_others_are_chosen_or_refused(isa_choice):
     states = native.isas()
     assert list(states) == ["baseline", "avx2", "avx512"] and states["baseline"] in ("active", "runs")
@@ -507,7 +536,6 @@ def test_without_a_compiler_the_package_builds_and_walks_in_jax(tmp_path):
     kernel, and the package from that wheel plans with the JAX walk and says so in ``jaco info``.
     The builds here use this environment's build requirements (no build isolation, which would
     install jax and jaxlib into a fresh one for each build); CI's install builds isolated."""
-    import shutil
     import zipfile
 
     # A copy of the sources only: the checkout may hold a build/ folder or an in-place kernel from
@@ -562,7 +590,6 @@ def test_the_kernel_is_built_once_for_the_same_sources_compiler_and_jaxlib(tmp_p
     it without running the compiler; a build for other instruction sets is another kernel (and a
     baseline-only one passes the walk tests: :func:`_check_baseline_only`); a changed source runs
     the compiler again."""
-    import shutil
     import zipfile
 
     src = tmp_path / "src"
