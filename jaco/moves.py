@@ -14,6 +14,8 @@ from .errors import ProblemError
 from .grid import Grid
 
 # The eight moves as (d_row, d_col): the four straight ones first, so 4-connectivity is a prefix.
+# The lane walk has this order built in (walk.cc's grid_width, walk_lanes.cc's kAround); with
+# another order it would still walk alike, through its slower per-move look-ups.
 MOVES = np.array([(-1, 0), (0, 1), (1, 0), (0, -1), (-1, 1), (1, 1), (1, -1), (-1, -1)], dtype=np.int32)
 MOVE_LENGTHS = np.hypot(MOVES[:, 0], MOVES[:, 1]).astype(np.float64)
 
