@@ -28,9 +28,8 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
-from report import publish, table  # noqa: E402 (the experiments' shared helpers)
+from report import kernel_isa, publish, revision_labels, revision_sources, table  # noqa: E402 (the experiments' shared helpers)
 
 SECTION = "bench_iaca_kernel"
 FULL = dict(map="Berlin_1_256.map", walks=15)
@@ -69,29 +68,14 @@ def write_inputs(name: str, out: Path) -> dict:
     return dict(map=name, start=scen.start, goal=scen.goal, cells=grid.n_cells, ants=n_ants, steplimit=steplimit)
 
 
-def sources(rev: str, out: Path) -> Path:
-    """The kernel's sources of revision ``rev`` (``.``: the working tree) in folder ``out``."""
-    out.mkdir()
-    for path in SOURCES:
-        dst = out / Path(path).name
-        if rev == ".":
-            shutil.copy(ROOT / path, dst)
-        else:
-            text = subprocess.run(["git", "show", f"{rev}:{path}"], cwd=ROOT, capture_output=True, check=True).stdout
-            dst.write_bytes(text)
-    return out
-
-
 def build(revs: list[str], tmp: Path) -> tuple[Path, str]:
     """The driver with one variant per revision (v0, v1, ...); the instruction set it uses."""
     cxx = os.environ.get("CXX", "c++")
-    from jaco.engine import native
-
-    isa = "avx2" if native.isas().get("avx2") in ("active", "runs") else "baseline"  # what jaco's build runs here
+    isa = kernel_isa()
     flags = ["-std=c++17", "-O3", "-ffp-contract=off"] + (AVX2 + ["-DJACO_HAVE_AVX2"] if isa == "avx2" else [])
     objects = []
     for i, rev in enumerate(revs):
-        src = sources(rev, tmp / f"v{i}")
+        src = revision_sources(rev, SOURCES, tmp / f"v{i}")
         # The kernel's entry points are declared only for jaco's own sets: declare this one's.
         (src / "declare.h").write_text(f'#include "iaca_lanes.h"\nextern const BacktrackKernel backtrack_v{i};\n')
         obj = tmp / f"v{i}.o"
@@ -112,8 +96,7 @@ def main(argv=None):
     ap.add_argument("--out", default=None, help="markdown file to update (default BENCHMARKS.md; nothing with --smoke)")
     args = ap.parse_args(argv)
     cfg = SMOKE if args.smoke else FULL
-    labels = [r if r == "." else subprocess.run(["git", "rev-parse", "--short", r], cwd=ROOT, capture_output=True,
-                                                text=True, check=True).stdout.strip() for r in args.revs]
+    labels = revision_labels(args.revs)
     tmp = Path(tempfile.mkdtemp(prefix="jaco-iaca-kernel-"))
     try:
         query = write_inputs(cfg["map"], tmp)

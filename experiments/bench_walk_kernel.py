@@ -33,9 +33,8 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
-from report import publish, table  # noqa: E402 (the experiments' shared helpers)
+from report import kernel_isa, publish, revision_labels, revision_sources, table  # noqa: E402 (the experiments' shared helpers)
 
 SECTION = "bench_walk_kernel"
 FULL = dict(side=30, colonies=64, n_ants=50, train_iters=60, rounds=300)
@@ -81,29 +80,14 @@ def write_inputs(cfg: dict, out: Path) -> dict:
     return dict(side=side, colonies=B, ants=cfg["n_ants"], steplimit=steplimit)
 
 
-def sources(rev: str, out: Path) -> Path:
-    """The walk's sources of revision ``rev`` (``.``: the working tree) in folder ``out``."""
-    out.mkdir()
-    for path in SOURCES:
-        dst = out / Path(path).name
-        if rev == ".":
-            shutil.copy(ROOT / path, dst)
-        else:
-            text = subprocess.run(["git", "show", f"{rev}:{path}"], cwd=ROOT, capture_output=True, check=True).stdout
-            dst.write_bytes(text)
-    return out
-
-
 def build(revs: list[str], tmp: Path) -> tuple[Path, str]:
     """The driver with one variant per revision (v0, v1, ...); the instruction set it uses."""
     cxx = os.environ.get("CXX", "c++")
-    from jaco.engine import native
-
-    isa = "avx2" if native.isas().get("avx2") in ("active", "runs") else "baseline"  # what jaco's build runs here
+    isa = kernel_isa()
     flags = ["-std=c++17", "-O3", "-ffp-contract=off", *ISA_FLAGS[isa]]
     objects = []
     for i, rev in enumerate(revs):
-        src = sources(rev, tmp / f"v{i}")
+        src = revision_sources(rev, SOURCES, tmp / f"v{i}")
         for name, extra in (("walk_lanes.cc", []), (str(HERE / "walk_kernel_driver.cc"), ["-DJACO_ADAPTER"])):
             obj = tmp / f"v{i}-{Path(name).stem}.o"
             subprocess.run([cxx, *flags, *extra, f"-DJACO_ISA=v{i}", f"-I{src}", "-c", str(src / name), "-o", str(obj)],
@@ -125,8 +109,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     cfg = SMOKE if args.smoke else FULL
     rounds = args.rounds or cfg["rounds"]
-    labels = [r if r == "." else subprocess.run(["git", "rev-parse", "--short", r], cwd=ROOT, capture_output=True,
-                                                text=True, check=True).stdout.strip() for r in args.revs]
+    labels = revision_labels(args.revs)
     tmp = Path(tempfile.mkdtemp(prefix="jaco-walk-kernel-"))
     try:
         work = write_inputs(cfg, tmp)

@@ -1,9 +1,12 @@
-"""What the experiment scripts share: number formatting, markdown tables, and writing one marked
-section of a markdown file (BENCHMARKS.md, docs/results.md) without touching the rest."""
+"""What the experiment scripts share: number formatting, markdown tables, writing one marked
+section of a markdown file (BENCHMARKS.md, docs/results.md) without touching the rest, and the
+sources of git revisions for the scripts that compile kernels of several revisions side by side."""
 
 from __future__ import annotations
 
 import math
+import shutil
+import subprocess
 import tempfile
 from pathlib import Path
 
@@ -88,3 +91,34 @@ def publish(text: str, tag: str, out, smoke: bool) -> None:
     if path is not None:
         write_section(Path(path), tag, text)
         print(f"wrote {path}")
+
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def revision_sources(rev: str, paths: list[str], out: Path) -> Path:
+    """The files ``paths`` (relative to the repository) of git revision ``rev`` (``.``: the
+    working tree), flat in folder ``out``."""
+    out.mkdir()
+    for path in paths:
+        dst = out / Path(path).name
+        if rev == ".":
+            shutil.copy(ROOT / path, dst)
+        else:
+            text = subprocess.run(["git", "show", f"{rev}:{path}"], cwd=ROOT, capture_output=True, check=True).stdout
+            dst.write_bytes(text)
+    return out
+
+
+def revision_labels(revs: list[str]) -> list[str]:
+    """Each revision's short hash, ``.`` as it is (the working tree)."""
+    return [r if r == "." else subprocess.run(["git", "rev-parse", "--short", r], cwd=ROOT, capture_output=True,
+                                              text=True, check=True).stdout.strip() for r in revs]
+
+
+def kernel_isa() -> str:
+    """The widest lane set of jaco's kernel that a side-by-side build can use here: avx2 where the
+    installed kernel runs its AVX2 lanes on this CPU, else baseline."""
+    from jaco.engine import native
+
+    return "avx2" if native.isas().get("avx2") in ("active", "runs") else "baseline"
