@@ -105,6 +105,8 @@ def main(argv=None):
     ap.add_argument("--revs", nargs="+", default=["HEAD", "."], help="git revisions, '.' for the working tree")
     ap.add_argument("--smoke", action="store_true", help="a small map, three rounds")
     ap.add_argument("--rounds", type=int, default=None, help="rounds (default 300; 3 with --smoke)")
+    ap.add_argument("--group", type=int, default=8,
+                    help="colonies a group, for revisions whose walk takes groups (walk.cc's size for this sweep)")
     ap.add_argument("--out", default=None, help="markdown file to update (default BENCHMARKS.md; nothing with --smoke)")
     args = ap.parse_args(argv)
     cfg = SMOKE if args.smoke else FULL
@@ -115,7 +117,7 @@ def main(argv=None):
         work = write_inputs(cfg, tmp)
         driver, isa = build(args.revs, tmp)
         pin = ["taskset", "-c", "0"] if shutil.which("taskset") else []  # one core: the CPU time is the walk's
-        proc = subprocess.run([*pin, str(driver), str(tmp), str(rounds)], capture_output=True, text=True)
+        proc = subprocess.run([*pin, str(driver), str(tmp), str(rounds), str(args.group)], capture_output=True, text=True)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     if proc.returncode != 0:

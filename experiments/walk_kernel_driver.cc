@@ -7,12 +7,15 @@
 #include <cstdint>
 
 #ifdef JACO_ADAPTER
+#include <algorithm>
+#include <type_traits>
 #include <utility>
 
 #include "walk_lanes.h"
 #define JACO_CAT2(a, b) a##b
 #define JACO_CAT(a, b) JACO_CAT2(a, b)
-void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony&);
+// This revision's walk, built as walk_lanes_v<i>, of the type its header gives every set's walk.
+decltype(walk_lanes_baseline) JACO_CAT(walk_lanes_, JACO_ISA);
 
 // Revisions before 90eca43 read each move's place in the 3x3 neighbourhood from the colony.
 template <typename C>
@@ -23,17 +26,36 @@ auto set_places(C& c, int) -> decltype(c.row_of[0], void()) {
 template <typename C>
 void set_places(C&, long) {}
 
+template <typename Walk>
+void walk_group(Walk* walk, const LaneColony* c, int64_t n) {
+  if constexpr (std::is_invocable_v<Walk*, const LaneColony*, int64_t>)
+    walk(c, n);
+  else
+    for (int64_t j = 0; j < n; ++j) walk(c[j]);
+}
+
+// Every colony of the inputs: one at a time where the revision's walk takes one colony, in groups
+// of `group` consecutive colonies where it takes a group (as walk.cc hands them out).
 extern "C" void JACO_CAT(run_, JACO_ISA)(const float* weights, const int32_t* offsets, int32_t start, int32_t goal,
-                                        int32_t n_cells, uint32_t k0, uint32_t k1, int64_t n_ants, int64_t steplimit,
+                                        int32_t N, const uint32_t* words, int64_t A, int64_t S, int64_t B,
                                         int32_t* edges, int32_t* n_steps, int32_t* n_diagonal, bool* arrived,
-                                        bool* visited, uint32_t* tabu, int32_t width) {
-  LaneColony c{};
-  c.weights = weights, c.offsets = offsets, c.start = start, c.goal = goal, c.n_cells = n_cells, c.q0 = 0.0f;
-  c.k0 = k0, c.k1 = k1, c.n_ants = n_ants, c.steplimit = steplimit, c.ant_begin = 0, c.ant_end = n_ants;
-  c.exploit = false, c.edges = edges, c.n_steps = n_steps, c.n_diagonal = n_diagonal, c.arrived = arrived;
-  c.visited = visited, c.tabu = tabu, c.width = width;
-  set_places(c, 0);
-  JACO_CAT(walk_lanes_, JACO_ISA)(c);
+                                        bool* visited, uint32_t* tabu, int32_t width, int64_t group) {
+  if (!std::is_invocable_v<decltype(walk_lanes_baseline), const LaneColony*, int64_t>) group = 1;
+  LaneColony c[64];
+  for (int64_t first = 0; first < B; first += group) {
+    const int64_t n = std::min<int64_t>({group, B - first, 64});
+    for (int64_t j = 0; j < n; ++j) {
+      const int64_t b = first + j;
+      c[j] = LaneColony{};
+      c[j].weights = weights + b * N * 8, c[j].offsets = offsets, c[j].start = start, c[j].goal = goal;
+      c[j].n_cells = N, c[j].q0 = 0.0f, c[j].k0 = words[2 * b], c[j].k1 = words[2 * b + 1], c[j].n_ants = A;
+      c[j].steplimit = S, c[j].ant_begin = 0, c[j].ant_end = A, c[j].exploit = false, c[j].edges = edges + b * S * A;
+      c[j].n_steps = n_steps + b * A, c[j].n_diagonal = n_diagonal + b * A, c[j].arrived = arrived + b * A;
+      c[j].visited = visited + b * N, c[j].tabu = tabu, c[j].width = width;
+      set_places(c[j], 0);
+    }
+    walk_group(JACO_CAT(walk_lanes_, JACO_ISA), c, n);
+  }
 }
 
 #else
@@ -44,11 +66,11 @@ extern "C" void JACO_CAT(run_, JACO_ISA)(const float* weights, const int32_t* of
 #include <string>
 #include <vector>
 
-typedef void (*Run)(const float*, const int32_t*, int32_t, int32_t, int32_t, uint32_t, uint32_t, int64_t, int64_t,
-                    int32_t*, int32_t*, int32_t*, bool*, bool*, uint32_t*, int32_t);
-#define X(v)                                                                                                        \
-  extern "C" void run_##v(const float*, const int32_t*, int32_t, int32_t, int32_t, uint32_t, uint32_t, int64_t,   \
-                          int64_t, int32_t*, int32_t*, int32_t*, bool*, bool*, uint32_t*, int32_t);
+typedef void (*Run)(const float*, const int32_t*, int32_t, int32_t, int32_t, const uint32_t*, int64_t, int64_t,
+                    int64_t, int32_t*, int32_t*, int32_t*, bool*, bool*, uint32_t*, int32_t, int64_t);
+#define X(v)                                                                                                       \
+  extern "C" void run_##v(const float*, const int32_t*, int32_t, int32_t, int32_t, const uint32_t*, int64_t,     \
+                          int64_t, int64_t, int32_t*, int32_t*, int32_t*, bool*, bool*, uint32_t*, int32_t, int64_t);
 VARIANTS
 #undef X
 #define X(v) run_##v,
@@ -78,6 +100,7 @@ int main(int argc, char** argv) {
   if (argc < 3) return 2;
   const std::string dir = argv[1];
   const int rounds = std::atoi(argv[2]);
+  const int64_t group = argc > 3 ? std::atoll(argv[3]) : 8;  // colonies a group, where a revision takes groups
   const auto sizes = read<int64_t>(dir + "/sizes.bin", 6);  // colonies, cells, ants, step limit, start, goal
   const int64_t B = sizes[0], N = sizes[1], A = sizes[2], S = sizes[3];
   const auto offsets = read<int32_t>(dir + "/offsets.bin", 8);
@@ -92,15 +115,13 @@ int main(int argc, char** argv) {
   } out[kN];
   for (auto& o : out) {
     o.edges.resize(size_t(B * S * A)), o.n_steps.resize(size_t(B * A)), o.n_diagonal.resize(size_t(B * A));
-    o.arrived.resize(size_t(B * A)), o.visited.resize(size_t(B * N)), o.tabu.assign(size_t(N + 2 * pad), 0u);
+    o.arrived.resize(size_t(B * A)), o.visited.resize(size_t(B * N)), o.tabu.assign(size_t(std::min<int64_t>(B, 64) * N + 2 * pad), 0u);
   }
   auto walk_all = [&](int v) {
     Out& o = out[v];
-    for (int64_t b = 0; b < B; ++b)
-      kRuns[v](weights.data() + b * N * 8, offsets.data(), int32_t(sizes[4]), int32_t(sizes[5]), int32_t(N),
-               words[2 * b], words[2 * b + 1], A, S, o.edges.data() + b * S * A, o.n_steps.data() + b * A,
-               o.n_diagonal.data() + b * A, reinterpret_cast<bool*>(o.arrived.data() + b * A),
-               reinterpret_cast<bool*>(o.visited.data() + b * N), o.tabu.data() + pad, width);
+    kRuns[v](weights.data(), offsets.data(), int32_t(sizes[4]), int32_t(sizes[5]), int32_t(N), words.data(), A, S, B,
+             o.edges.data(), o.n_steps.data(), o.n_diagonal.data(), reinterpret_cast<bool*>(o.arrived.data()),
+             reinterpret_cast<bool*>(o.visited.data()), o.tabu.data() + pad, width, group);
   };
   for (int v = 0; v < kN; ++v) walk_all(v);
   int64_t steps = 0;

@@ -199,6 +199,30 @@ def test_native_dying_walk_takes_the_jax_walks_moves(case):
         native.set_isa(None)
 
 
+
+@pytest.mark.parametrize("exploit", [False, True])
+@pytest.mark.parametrize("shape", [(12, 12), (9, 2)])  # width 2: each neighbour looked up on its own
+def test_colonies_walked_in_groups_of_one_pool_of_lanes_take_the_jax_walks_moves(shape, exploit, isa_choice):
+    """A call of 37 colonies (a sweep's chunk): the kernel walks them in groups of consecutive
+    colonies that share one pool of lanes (4 colonies a group on two threads: 9 groups of 4 and one
+    of 1), a lane taking the next colony's ant when its colony has none left. Each colony has its
+    own start, goal (some equal, some cut off), key and q0, and 13 ants (not a multiple of any lane
+    count); every instruction set this CPU runs gives each colony the JAX walk's results."""
+    case = dict(h=shape[0], w=shape[1], shape=shape, density=0.25, seed=4, n_ants=13, steplimit=60,
+                exploit=exploit, connectivity=8)
+    args = _arrays(case, colonies=37)
+    start, goal = np.asarray(args[2]).copy(), np.asarray(args[3]).copy()
+    goal[5], goal[17] = start[5], start[17]  # ants that start on the goal take no step
+    args = (*args[:2], jnp.asarray(start), jnp.asarray(goal), *args[4:])
+    key = (case["n_ants"], case["steplimit"], exploit)
+    expected = _dying("jax", *key)(*args)
+    steps, arrived = np.asarray(expected[2]), np.asarray(expected[4])
+    assert steps.sum() > 37 * 13 * 2 and arrived.any() and not arrived.all()  # ants walk, arrive and fail
+    for isa in RUNNABLE:
+        isa_choice(isa)
+        _same(expected, _dying("native", *key)(*args))
+
+
 @pytest.mark.slow  # the normal run compares IACA's whole runs with both walks (below)
 @settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(walk_cases(), st.sampled_from([(1.0, 8.0, 0.1, 0.1), (2.5, 3.0, 0.4, 1.0), (0.0, 0.0, 0.0, 0.5)]),

@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <climits>
 #include <condition_variable>
 #include <cstdint>
 #include <cstring>
@@ -38,7 +39,7 @@ namespace {
 // Each instruction set that setup.py built is used only where this CPU has it: the widest such one
 // by default, another by jaco_isa_set (jaco.engine.native.set_isa, JACO_NATIVE_ISA). Every set
 // takes the same moves, so the choice changes speed alone.
-using LaneWalk = void (*)(const LaneColony&);
+using LaneWalk = void (*)(const LaneColony*, int64_t);
 
 bool cpu_has(const char* isa) {
 #if defined(__x86_64__) || defined(__i386__)
@@ -106,6 +107,15 @@ int32_t grid_width(const int32_t* off) {
 // 800 ants 1.4x faster; 200 ants on 128x128 ran 1.18x slower split, 400 on 64x64 the same.
 constexpr int64_t kPartAnts = 100;
 
+// Colonies in a group of the lane walk: up to 8 (the lanes then idle at the end of every 8
+// colonies' walks instead of every colony's), fewer where the call has few colonies for its
+// threads (at least 4 groups a thread, so that they share the work out evenly), and few enough
+// that the group's step slots (S·A a colony) and weight elements (8N) have 32-bit indices.
+int64_t group_size(int64_t colonies, int64_t threads, int64_t cells, int64_t slots) {
+  const int64_t limit = int64_t(INT32_MAX) / std::max<int64_t>({8 * cells, slots, 1});
+  return std::max<int64_t>(1, std::min<int64_t>({8, colonies / (4 * threads), limit}));
+}
+
 ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Buffer<ffi::U32> words,
                     ffi::Buffer<ffi::S32> start, ffi::Buffer<ffi::S32> goal, ffi::Buffer<ffi::F32> q0,
                     ffi::Buffer<ffi::S32> offsets, ffi::ResultBuffer<ffi::S32> edges,
@@ -134,19 +144,30 @@ ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Bu
   const int64_t part_ants = std::max<int64_t>(kPartAnts, N / 16);
   const int64_t parts = B > 0 && B < n_threads ? std::min<int64_t>((n_threads + B - 1) / B, std::max<int64_t>(A / part_ants, 1)) : 1;
   std::vector<uint8_t> part_visited(parts > 1 ? B * parts * N : 0);
+  // Unsplit colonies are walked in groups of consecutive colonies, each group in one pool of lanes
+  // (walk_lanes.h): a colony's last ants then walk beside the next colony's first, where alone
+  // they left most lanes idle. The colonies of a call share one map shape, so their move offsets
+  // are the same; where a caller passed others, each colony is walked on its own.
+  bool same_offsets = true;
+  for (int64_t b = 1; b < B; ++b) same_offsets &= std::memcmp(off0 + b * 8, off0, 8 * sizeof(int32_t)) == 0;
+  const int64_t per_group = parts > 1 || !same_offsets ? 1 : group_size(B, n_threads, N, S * A);
+  const int64_t tasks = parts > 1 ? B * parts : (B + per_group - 1) / per_group;
 
-  for_each_colony(pool, B * parts, [=, &part_visited]() {
-    return [=, &part_visited, tabu = std::vector<uint32_t>()](int64_t task) mutable {
-      const int64_t b = task / parts, p = task % parts;
-      bool* vis = parts > 1 ? reinterpret_cast<bool*>(part_visited.data() + task * N) : vis0 + b * N;
-      LaneColony colony{W0 + b * N * 8, off0 + b * 8, st[b], gl[b], int32_t(N), q[b], K[2 * b], K[2 * b + 1],
-                        A, S, A * p / parts, A * (p + 1) / parts, exploit, ed0 + b * S * A,
-                        ns0 + b * A, nd0 + b * A, arr0 + b * A, vis, nullptr, 0};
-      colony.width = grid_width(colony.offsets);
-      const int64_t pad = int64_t(colony.width) + 2;
-      if (int64_t(tabu.size()) < N + 2 * pad) tabu.assign(N + 2 * pad, 0u);  // zero between colonies
-      colony.tabu = tabu.data() + pad;
-      walk(colony);
+  for_each_colony(pool, tasks, [=, &part_visited]() {
+    return [=, &part_visited, tabu = std::vector<uint32_t>(), group = std::vector<LaneColony>()](int64_t task) mutable {
+      const int64_t first = parts > 1 ? task / parts : task * per_group, p = parts > 1 ? task % parts : 0;
+      const int32_t width = grid_width(off0 + first * 8);
+      group.clear();
+      for (int64_t b = first; b < std::min(first + per_group, B); ++b) {
+        bool* vis = parts > 1 ? reinterpret_cast<bool*>(part_visited.data() + task * N) : vis0 + b * N;
+        group.push_back(LaneColony{W0 + b * N * 8, off0 + b * 8, st[b], gl[b], int32_t(N), q[b], K[2 * b],
+                                   K[2 * b + 1], A, S, A * p / parts, A * (p + 1) / parts, exploit, ed0 + b * S * A,
+                                   ns0 + b * A, nd0 + b * A, arr0 + b * A, vis, nullptr, width});
+      }
+      const int64_t pad = int64_t(width) + 2, cells = int64_t(group.size()) * N;
+      if (int64_t(tabu.size()) < cells + 2 * pad) tabu.assign(cells + 2 * pad, 0u);  // zero between groups
+      for (LaneColony& colony : group) colony.tabu = tabu.data() + pad;
+      walk(group.data(), int64_t(group.size()));
     };
   });
   for (int64_t b = 0; b < B && parts > 1; ++b)

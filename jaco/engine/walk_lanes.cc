@@ -9,7 +9,10 @@
 // Every lane does its ant's float operations of the JAX walk in the same order (the running sums
 // added left to right, one multiply for the target, no fused multiply-add: -ffp-contract=off), so
 // the moves are the JAX walk's bit for bit. A lane whose ant stops (goal, dead end, step limit)
-// takes the colony's next ant at once, so the lanes stay busy however long the walks are.
+// takes the next ant at once, of its colony or of the group's next colony, so the lanes stay busy
+// however long the walks are, and idle only when the group's last ants walk. A lane's cells are
+// indices into the group's tables (colony j's cell i is j·N + i: its weights row, tabu word and
+// visited flag), so a step reads every lane's row from one base whatever colony each lane walks.
 //
 // Tabu lists are bits: tabu[cell] has bit l set once the ant of lane l has left the cell after it
 // (the cell it just left is compared in a register); the bits of an ant are cleared along its path
@@ -189,10 +192,14 @@ constexpr int kAround[8] = {1, 5, 7, 3, 2, 8, 6, 0};
 inline vi pick(vi mask, vi a, vi b) { return (a & mask) | (b & ~mask); }
 inline vf pick(vi mask, vf a, vf b) { return float_of(pick(mask, bits_of(a), bits_of(b))); }
 
-// The lanes' state: lane l walks ant `ant[l]`, stands on `cur[l]`, came from `prev[l]` (-1 at the
-// start) and has taken `t[l]` steps; `uniform[l][i]` is the uniform of its step drawn[l] + i.
+// The lanes' state: lane l walks the ant whose step slots start at `ant[l]` (its colony's j·S·A
+// plus its index), stands on `cur[l]`, came from `prev[l]` (-1 at the start) and has taken `t[l]`
+// steps; `uniform[l][i]` is the uniform of its step drawn[l] + i. Its colony's goal, first edge
+// (j·N·8) and q0 (with 1 − q0 as the wheel's scale) are per lane too; they are read, not carried.
 struct Lanes {
   vi cur, prev, t, drawn, diagonal, ant, live;  // live: -1 while the lane walks an ant
+  vi goal, first_edge;
+  vf q0, q_scale;
   float uniform[L][U];
 };
 
@@ -201,10 +208,10 @@ struct Lanes {
 // are the marked ones and its previous cell, which is marked only when the ant leaves the cell
 // after it (so the gathers of a step never wait for the marks of the step before).
 template <bool Exploit>
-inline void choose_lanes(const Lanes& s, const LaneColony& c, const vi offset[8], vi& chosen, vi& ok) {
+inline void choose_lanes(const Lanes& s, const LaneColony& c, int32_t n_cells, const vi offset[8], vi& chosen,
+                         vi& ok) {
   const uint32_t* tabu = c.tabu;
-  const float q0 = c.q0;
-  const vi zero = s.cur - s.cur, top_cell = zero + (c.n_cells - 1), row = s.cur * 8;
+  const vi zero = s.cur - s.cur, top_cell = zero + (n_cells - 1), row = s.cur * 8;
   vi bit, at;
   for (int l = 0; l < L; ++l) {
     bit[l] = int32_t(1u << l);
@@ -243,8 +250,8 @@ inline void choose_lanes(const Lanes& s, const LaneColony& c, const vi offset[8]
       best = pick(higher, zero + k, best);
       top = pick(higher, w[k], top);
     }
-    greedy = u < q0;
-    u = (u - q0) / max_of(1.0f - q0, 1e-12f);
+    greedy = u < s.q0;
+    u = (u - s.q0) / s.q_scale;
   }
   const vf target = u * total, below = float_of(bits_of(total) - 1);
   const vf x = pick(below < target, below, target);  // min_of(target, below)
@@ -310,41 +317,62 @@ void clear_columns(const LaneColony& c) {
 
 // One function for the lanes' loop and its two per-lane steps (load, finish): longer than the
 // rest of jaco's functions, but the lane state stays in registers and the loop reads as one.
-void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
-  const int64_t A = c.n_ants, S = c.steplimit, end = c.ant_end;
-  const int32_t start = c.start, goal = c.goal;
+void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colonies) {
+  const LaneColony& c = colonies[0];  // the group's tables start at colony 0's (walk_lanes.h)
+  const int64_t A = c.n_ants, S = c.steplimit;
+  const int32_t N = c.n_cells;
   uint32_t* tabu = c.tabu;
-  clear_columns(c);
-  c.visited[start] = true;
+  // A colony's step slots are cleared when its first ant starts, so that they are still in the
+  // cache when its ants write them (all of a group's at once: 8 colonies' slots, 384 KB on the
+  // benchmark, went out of the cache before the walks reached them).
+  auto open = [&](int64_t j) {
+    clear_columns(colonies[j]);
+    colonies[j].visited[colonies[j].start] = true;
+  };
+  open(0);
   vi offset[8];
   for (int k = 0; k < 8; ++k)
     for (int l = 0; l < L; ++l) offset[k][l] = c.offsets[k];
 
   Lanes s;
   const vi zero = offset[0] - offset[0];
-  s.cur = zero + start;
+  s.cur = zero + c.start;  // an idle lane marks its cell visited at every step: colony 0's start is
+  s.goal = s.first_edge = zero;
   s.prev = zero - 1;
   s.t = s.drawn = s.diagonal = s.ant = s.live = zero;
-  int64_t next = c.ant_begin;
+  s.q0 = s.q_scale = float_of(zero);
+  int64_t colony = 0, next = c.ant_begin;
+  int32_t ant_of[L], colony_of[L];  // the lane's ant and colony, for its results
   int n_live = 0;
   // Lane l takes the next ant that has a step to take (an ant on the goal, or with no step
   // allowed by the limit, is finished at once), or idles.
   auto load = [&](int l) {
-    for (; next < end; ++next) {
-      if (start == goal || S == 0) {
-        c.n_steps[next] = 0;
-        c.n_diagonal[next] = 0;
-        c.arrived[next] = start == goal;
-        continue;
+    for (; colony < n_colonies; ++colony, next = colony < n_colonies ? colonies[colony].ant_begin : 0) {
+      if (next == colonies[colony].ant_begin && colony > 0) open(colony);
+      const LaneColony& k = colonies[colony];
+      for (; next < k.ant_end; ++next) {
+        if (k.start == k.goal || S == 0) {
+          k.n_steps[next] = 0;
+          k.n_diagonal[next] = 0;
+          k.arrived[next] = k.start == k.goal;
+          continue;
+        }
+        const int32_t cells = int32_t(colony) * N;
+        ant_of[l] = int32_t(next);
+        colony_of[l] = int32_t(colony);
+        s.ant[l] = int32_t(colony * S * A + next++);
+        s.cur[l] = cells + k.start;
+        s.goal[l] = cells + k.goal;
+        s.first_edge[l] = 8 * cells;
+        s.q0[l] = k.q0;
+        s.q_scale[l] = max_of(1.0f - k.q0, 1e-12f);
+        s.prev[l] = -1;
+        s.t[l] = s.diagonal[l] = s.drawn[l] = 0;
+        s.live[l] = -1;
+        draw(k.k0, k.k1, uint32_t(ant_of[l]), 0, s.uniform[l]);
+        ++n_live;
+        return;
       }
-      s.ant[l] = int32_t(next++);
-      s.cur[l] = start;
-      s.prev[l] = -1;
-      s.t[l] = s.diagonal[l] = s.drawn[l] = 0;
-      s.live[l] = -1;
-      draw(c.k0, c.k1, uint32_t(s.ant[l]), 0, s.uniform[l]);
-      ++n_live;
-      return;
     }
     s.live[l] = 0;
     s.t[l] = s.drawn[l] = 0;
@@ -352,28 +380,30 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
   // The ant of lane l stops: its results, and its marks cleared. Only cells it left are marked,
   // and those are the cells its steps came from (from·8 + move in its edges).
   auto finish = [&](int l) {
-    const int32_t a = s.ant[l], n = s.t[l];
+    const LaneColony& k = colonies[colony_of[l]];
+    const int32_t a = ant_of[l], n = s.t[l], cells = colony_of[l] * N;
     const uint32_t clear = ~(1u << l);
-    c.n_steps[a] = n;
-    c.n_diagonal[a] = s.diagonal[l];
-    c.arrived[a] = s.cur[l] == goal;
-    for (int32_t i = 0; i < n; ++i) tabu[c.edges[int64_t(i) * A + a] >> 3] &= clear;
+    k.n_steps[a] = n;
+    k.n_diagonal[a] = s.diagonal[l];
+    k.arrived[a] = s.cur[l] == s.goal[l];
+    for (int32_t i = 0; i < n; ++i) tabu[cells + (k.edges[int64_t(i) * A + a] >> 3)] &= clear;
     --n_live;
   };
   for (int l = 0; l < L; ++l) load(l);
 
+  const int32_t group_cells = int32_t(n_colonies) * N;
   while (n_live > 0) {
     vi chosen, ok;
     if (c.exploit)
-      choose_lanes<true>(s, c, offset, chosen, ok);
+      choose_lanes<true>(s, c, group_cells, offset, chosen, ok);
     else
-      choose_lanes<false>(s, c, offset, chosen, ok);
+      choose_lanes<false>(s, c, group_cells, offset, chosen, ok);
     // The step of every walking lane with a move (the others keep their cell).
     const vi step = s.live & ok;
     const vi cell = pick(step, s.cur + move_offset(c.offsets, chosen), s.cur);
     const vi slot = s.t * int32_t(A) + s.ant;
     int32_t marked[L], entered[L], at[L], edge[L], stepped[L], marking[L];
-    const vi from_move = s.cur * 8 + chosen, marks = step & (s.prev >= zero);
+    const vi from_move = s.cur * 8 - s.first_edge + chosen, marks = step & (s.prev >= zero);
     std::memcpy(marked, &s.prev, sizeof marked);
     std::memcpy(entered, &cell, sizeof entered);
     std::memcpy(at, &slot, sizeof at);
@@ -394,7 +424,7 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
     s.cur = cell;
     s.t -= step;
     s.diagonal -= step & (chosen >= 4);
-    const vi ended = s.live & (~ok | (cell == goal) | (s.t == int32_t(S)));
+    const vi ended = s.live & (~ok | (cell == s.goal) | (s.t == int32_t(S)));
     for (unsigned m = lanes_set(ended); m; m &= m - 1) {
       const int l = __builtin_ctz(m);
       finish(l);
@@ -404,7 +434,8 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony& c) {
     for (unsigned m = lanes_set(refill); m; m &= m - 1) {
       const int l = __builtin_ctz(m);
       s.drawn[l] = s.t[l];
-      draw(c.k0, c.k1, uint32_t(s.ant[l]), uint32_t(s.t[l]) >> 1, s.uniform[l]);
+      const LaneColony& k = colonies[colony_of[l]];
+      draw(k.k0, k.k1, uint32_t(ant_of[l]), uint32_t(s.t[l]) >> 1, s.uniform[l]);
     }
   }
 }

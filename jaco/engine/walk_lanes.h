@@ -1,5 +1,5 @@
-// The dying-ant walk of one colony with its ants in SIMD lanes (walk_lanes.cc), and the
-// instruction sets it is built for. walk.cc chooses one at run time (jaco_set_isa), never one
+// The dying-ant walk of a group of colonies with their ants in one pool of SIMD lanes
+// (walk_lanes.cc), and the instruction sets it is built for. walk.cc chooses one at run time (jaco_set_isa), never one
 // the CPU lacks.
 #pragma once
 
@@ -32,6 +32,12 @@ struct LaneColony {
 // The instruction sets, widest last. Each walk_lanes_<isa> is the same source compiled with that
 // set's flags (setup.py); JACO_HAVE_<ISA> says which were built.
 #define JACO_ISA_LIST(X) X(baseline) X(avx2) X(avx512)
-#define JACO_DECLARE_WALK(isa) void walk_lanes_##isa(const LaneColony& colony);
+// walk_lanes_<isa>(colonies, n) walks n colonies' ants in one pool of lanes: a lane whose ant stops
+// takes the next ant, of the same colony or of the next, so the lanes idle only at the group's
+// end. For n > 1 the colonies are consecutive slices of one call: they share n_cells, offsets,
+// n_ants, steplimit and exploit, walk all their ants, and colony j's weights, edges and visited
+// cells lie j·N·8, j·S·A and j·N elements after colony 0's; colonies[0].tabu is the group's
+// scratch, n·N cells (plus the pads), and the other colonies' tabu is not read.
+#define JACO_DECLARE_WALK(isa) void walk_lanes_##isa(const LaneColony* colonies, int64_t n_colonies);
 JACO_ISA_LIST(JACO_DECLARE_WALK)
 #undef JACO_DECLARE_WALK
