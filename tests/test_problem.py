@@ -84,3 +84,40 @@ def test_world_coordinates_round_trip():
     assert xy == pytest.approx([-0.75, 2.25])  # the bottom-left cell's centre
     cells = np.array([(0, 0), (3, 5), (2, 1)])
     assert (grid.world_to_cell(grid.cell_to_world(cells)) == cells).all()
+
+
+def test_a_repeated_query_reuses_its_read_only_problem_and_device_copy():
+    """A grid keeps its last queries' problems: the same arrays again (read-only, so no caller can
+    change another's), the device copy shared by the queries of one grid, and the oldest query
+    dropped once more than QUERIES_KEPT were asked."""
+    from jaco.engine.problem import QUERIES_KEPT, device_problem
+
+    grid = jaco.Grid.from_rows(["....", ".##.", "...."])
+    first = make_problem(grid, (0, 0), (2, 3))
+    again = make_problem(grid, [0, 0], np.array([2, 3]))  # the same cells, spelt otherwise
+    assert again is first and not first.goal_dist.flags.writeable and not first.step.flags.writeable
+    with pytest.raises(ValueError, match="read-only"):
+        first.goal_dist[0] = 0.0
+    numpy_problem, on_device = device_problem(grid, (0, 0), (2, 3))
+    assert numpy_problem is first and device_problem(grid, (0, 0), (2, 3))[1] is on_device
+    np.testing.assert_array_equal(np.asarray(on_device.goal_dist), first.goal_dist)
+    assert int(on_device.goal) == grid.index((2, 3)) and float(on_device.optimal) == float(first.optimal)
+    other = device_problem(grid, (2, 0), (0, 3))[1]
+    assert other.nbr is on_device.nbr and other.goal_dist is not on_device.goal_dist  # the map's arrays, copied once
+    free = [c for c in zip(*np.nonzero(grid.free)) if c not in ((2, 3), (0, 0))]
+    for cell in free[:QUERIES_KEPT]:  # QUERIES_KEPT newer queries push the first one out
+        make_problem(grid, cell, (2, 3))
+    assert make_problem(grid, (0, 0), (2, 3)) is not first
+    with pytest.raises(jaco.ProblemError, match="cannot be reached"):  # still checked, never cached
+        make_problem(jaco.Grid.from_rows(["..#.."]), (0, 0), (0, 4))
+
+
+def test_device_parameters_are_kept_by_their_bits():
+    """The device copies of a solve's parameters are kept per set of float32 bits: 0.0 and -0.0
+    are different sets (a kept 0.0 must not stand in for -0.0), a repeated set is the same copy."""
+    from jaco.engine.run import device_params
+
+    plus = device_params({"alpha": np.float32(1.0), "xi": np.float32(0.0)})
+    minus = device_params({"alpha": np.float32(1.0), "xi": np.float32(-0.0)})
+    assert not np.signbit(np.asarray(plus.xi)) and np.signbit(np.asarray(minus.xi))
+    assert device_params({"alpha": np.float32(1.0), "xi": np.float32(0.0)}) is plus

@@ -17,6 +17,8 @@ validation before anything compiles (:mod:`jaco.engine.checks`), the memory esti
 
 from __future__ import annotations
 
+import functools
+import threading
 from collections import Counter
 from collections.abc import Callable
 from typing import Any, NamedTuple
@@ -35,7 +37,7 @@ from .colony import step_cells
 from .params import Params
 from .pheromone import Trail, Walks
 from .planner import Planner
-from .problem import Problem, make_problem
+from .problem import Problem, device_problem
 from .result import Result, to_result
 from .shape import RunShape
 
@@ -255,10 +257,37 @@ def compiled_run(planner: Planner, shape: RunShape, batched: bool, report: bool 
 def seed_key(seed: int) -> jax.Array:
     """``jax.random.key(seed)`` for a :func:`~jaco.engine.checks.check_seed` seed, without the
     compiled call that makes it (0.1–0.2 ms of a 7 ms solve): with jax's default Threefry keys,
-    the key of a seed below 2**32 is the words ``(0, seed)``."""
-    if jax.config.jax_default_prng_impl != "threefry2x32":  # type: ignore[attr-defined]  # not in jax's stubs
+    the key of a seed below 2**32 is the words ``(0, seed)``. The keys of the last 1024 seeds are
+    kept (a key is an immutable array; making one took 0.2–0.3 ms of a solve)."""
+    return _seed_key(seed, jax.config.jax_default_prng_impl)  # type: ignore[attr-defined]  # not in jax's stubs
+
+
+@functools.lru_cache(maxsize=1024)
+def _seed_key(seed: int, impl: str) -> jax.Array:
+    if impl != "threefry2x32":
         return jax.random.key(seed)
     return jax.random.wrap_key_data(jnp.asarray(np.array([0, seed], np.uint32)))
+
+
+_PARAMS_KEPT = 256
+_DEVICE_PARAMS: dict = {}
+_PARAMS_LOCK = threading.Lock()
+
+
+def device_params(values: dict) -> Params:
+    """:func:`~jaco.engine.checks.params_from` of ``values`` (one value each) on the default
+    device; the last 256 sets are kept, keyed by their float32 bits (so -0.0 is not 0.0): a run's
+    numpy scalars were copied at every call, about 35 µs each."""
+    key = tuple((k, np.float32(v).tobytes()) for k, v in values.items())
+    with _PARAMS_LOCK:
+        hit = _DEVICE_PARAMS.pop(key, None)
+    if hit is None:
+        hit = jax.tree.map(jnp.asarray, params_from(values))
+    with _PARAMS_LOCK:
+        while len(_DEVICE_PARAMS) >= _PARAMS_KEPT:
+            _DEVICE_PARAMS.pop(next(iter(_DEVICE_PARAMS)))  # the set used longest ago
+        _DEVICE_PARAMS[key] = hit
+    return hit
 
 
 def solve(
@@ -292,13 +321,13 @@ def solve(
         keep_pheromone=keep_pheromone,
     )
     shape = RunShape(n_ants, n_iters, steplimit, connectivity, keep_pheromone)
-    problem = make_problem(grid, start, goal, connectivity=connectivity)
+    problem, on_device = device_problem(grid, start, goal, connectivity=connectivity)
     show = _progress.enabled(progress)
     bar = _progress.Bar(show, f"solve {planner.name}", "it", delay=_progress.SOLVE_DELAY)
     bar.start(n_iters)
     with _progress.listening(bar, runs=True):
         run = compiled_run(planner, shape, batched=False, report=show)
-        out = _progress.run_interruptibly(lambda: jax.device_get(run(seed_key(seed), problem, params_from(values))))
+        out = _progress.run_interruptibly(lambda: jax.device_get(run(seed_key(seed), on_device, device_params(values))))
     return to_result(
         out,
         grid=grid,
