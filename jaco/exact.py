@@ -14,6 +14,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components, dijkstra
 
+from .engine.cache import kept
 from .errors import ProblemError
 from .grid import Cell, Grid
 from .moves import cached_table
@@ -43,15 +44,13 @@ def distance_field(grid: Grid, goal: Cell, *, connectivity: int = 8) -> np.ndarr
     """Exact distance ``(H, W)`` from every cell to ``goal`` in cell units (inf where unreachable).
     Read-only: the fields of the last :data:`FIELDS_KEPT` goals are cached on the grid."""
     g = _check_cell(grid, goal, "goal")
-    kept = grid.meta.setdefault(f"_fields{connectivity}", {})
-    dist = kept.pop(g, None)
-    if dist is None:
+
+    def field() -> np.ndarray:
         dist = dijkstra(_graph(grid, connectivity), directed=True, indices=g).reshape(grid.shape)
         dist.setflags(write=False)
-        while len(kept) >= FIELDS_KEPT:
-            kept.pop(next(iter(kept)))  # the goal used longest ago
-    kept[g] = dist  # now the latest
-    return dist
+        return dist
+
+    return kept(grid.meta.setdefault(f"_fields{connectivity}", {}), g, field, FIELDS_KEPT)
 
 
 def free_extent(grid: Grid, connectivity: int = 8) -> float:

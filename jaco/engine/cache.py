@@ -10,12 +10,14 @@ serves the other.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable, Hashable
 from typing import Any
 
 from . import native
 
 _COMPILED: dict = {}
+_KEPT_LOCK = threading.Lock()
 
 
 def _walk_key(key: tuple) -> tuple:
@@ -39,3 +41,18 @@ def is_cached(key: tuple[Hashable, ...]) -> bool:
 def clear_compiled() -> None:
     """Forget every cached program (e.g. to bound memory in a long session)."""
     _COMPILED.clear()
+
+
+def kept(store: dict, key: Hashable, build: Callable[[], Any], limit: int) -> Any:
+    """``build()`` for ``key``, kept in ``store`` (a dict) among the ``limit`` keys used last: a
+    hit moves its key to the newest, a new key drops the oldest. A ``build`` that raises keeps
+    nothing. Safe from several threads (two may build one key; both get a value)."""
+    with _KEPT_LOCK:
+        hit = store.pop(key, None)
+    if hit is None:
+        hit = build()
+    with _KEPT_LOCK:
+        while len(store) >= limit:
+            store.pop(next(iter(store)))  # the key used longest ago
+        store[key] = hit
+    return hit

@@ -9,7 +9,6 @@ pairs and many maps of one shape (stack problems with :func:`stack`).
 from __future__ import annotations
 
 import math
-import threading
 from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
@@ -21,6 +20,7 @@ import numpy as np
 from ..errors import ProblemError
 from ..grid import Grid
 from ..moves import MOVES, cached_table
+from .cache import kept
 
 #: A Problem's array leaf: numpy when built by :func:`make_problem`, a jax array inside jit or on device.
 ArrayLike = jax.Array | np.ndarray
@@ -60,7 +60,6 @@ class Problem:
 
 #: Queries whose :class:`Problem` (and its copy on the device) each grid keeps, the latest used.
 QUERIES_KEPT = 8
-_LOCK = threading.Lock()
 
 
 def make_problem(grid: Grid, start: Any, goal: Any, *, connectivity: int = 8) -> Problem:
@@ -100,16 +99,8 @@ def _query(grid: Grid, start: Any, goal: Any, connectivity: int) -> list:
         raise ProblemError(f"map {grid.name!r} has no free cell")
     s = grid.check_cell(start, "start")
     g = grid.check_cell(goal, "goal")
-    with _LOCK:  # solves in several threads may share a grid
-        kept = grid.meta.setdefault("_queries", {})
-        entry = kept.pop((s, g, connectivity), None)
-    if entry is None:
-        entry = [_build(grid, s, g, connectivity), None]
-    with _LOCK:
-        while len(kept) >= QUERIES_KEPT:
-            kept.pop(next(iter(kept)))  # the query used longest ago
-        kept[(s, g, connectivity)] = entry  # now the latest
-    return entry
+    queries = grid.meta.setdefault("_queries", {})
+    return kept(queries, (s, g, connectivity), lambda: [_build(grid, s, g, connectivity), None], QUERIES_KEPT)
 
 
 def _build(grid: Grid, s: tuple[int, int], g: tuple[int, int], connectivity: int) -> Problem:

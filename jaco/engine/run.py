@@ -18,7 +18,6 @@ validation before anything compiles (:mod:`jaco.engine.checks`), the memory esti
 from __future__ import annotations
 
 import functools
-import threading
 from collections import Counter
 from collections.abc import Callable
 from typing import Any, NamedTuple
@@ -31,7 +30,7 @@ from .. import progress as _progress
 from ..errors import JacoError
 from ..grid import Grid
 from . import native
-from .cache import cached
+from .cache import cached, kept
 from .checks import check_keep_pheromone, check_sizes, params_from, prepare
 from .colony import step_cells
 from .params import Params
@@ -271,7 +270,6 @@ def _seed_key(seed: int, impl: str) -> jax.Array:
 
 _PARAMS_KEPT = 256
 _DEVICE_PARAMS: dict = {}
-_PARAMS_LOCK = threading.Lock()
 
 
 def device_params(values: dict) -> Params:
@@ -279,15 +277,7 @@ def device_params(values: dict) -> Params:
     device; the last 256 sets are kept, keyed by their float32 bits (so -0.0 is not 0.0): a run's
     numpy scalars were copied at every call, about 35 µs each."""
     key = tuple((k, np.float32(v).tobytes()) for k, v in values.items())
-    with _PARAMS_LOCK:
-        hit = _DEVICE_PARAMS.pop(key, None)
-    if hit is None:
-        hit = jax.tree.map(jnp.asarray, params_from(values))
-    with _PARAMS_LOCK:
-        while len(_DEVICE_PARAMS) >= _PARAMS_KEPT:
-            _DEVICE_PARAMS.pop(next(iter(_DEVICE_PARAMS)))  # the set used longest ago
-        _DEVICE_PARAMS[key] = hit
-    return hit
+    return kept(_DEVICE_PARAMS, key, lambda: jax.tree.map(jnp.asarray, params_from(values)), _PARAMS_KEPT)
 
 
 def solve(
