@@ -347,8 +347,7 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
   // Lane l takes the next ant that has a step to take (an ant on the goal, or with no step
   // allowed by the limit, is finished at once), or idles.
   auto load = [&](int l) {
-    for (; colony < n_colonies; ++colony, next = colony < n_colonies ? colonies[colony].ant_begin : 0) {
-      if (next == colonies[colony].ant_begin && colony > 0) open(colony);
+    while (colony < n_colonies) {
       const LaneColony& k = colonies[colony];
       for (; next < k.ant_end; ++next) {
         if (k.start == k.goal || S == 0) {
@@ -372,6 +371,10 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
         draw(k.k0, k.k1, uint32_t(ant_of[l]), 0, s.uniform[l]);
         ++n_live;
         return;
+      }
+      if (++colony < n_colonies) {  // the group's next colony, opened just before its first ant
+        next = colonies[colony].ant_begin;
+        open(colony);
       }
     }
     s.live[l] = 0;
