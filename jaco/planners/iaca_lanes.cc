@@ -113,16 +113,6 @@ inline f8 power8(f8 x, float a, const int32_t* tables) {
   return select(pos, result, splat(0.0f));
 }
 
-// jaco.planners.iaca.int_power: squarings past k's highest bit change nothing, so they stop there.
-inline float int_power(float x, int32_t k) {
-  float out = 1.0f, base = x;
-  for (int bit = 0; bit < 16 && (k >> bit); ++bit) {
-    if ((k >> bit) & 1) out = out * base;
-    base = base * base;
-  }
-  return out;
-}
-
 // ---- one colony's walk ---------------------------------------------------------------------
 class Colony {
  public:
@@ -137,24 +127,31 @@ class Colony {
     amount_[1] = P[6] / kSqrt2;
     offsets_ = i8{in.offsets[0], in.offsets[1], in.offsets[2], in.offsets[3],
                   in.offsets[4], in.offsets[5], in.offsets[6], in.offsets[7]};
+    width_ = in.offsets[2];  // the move (1, 0) of jaco.moves.MOVES
+    // The bits read around a cell reach width + 1 cells before it and after it, 8 bytes at a time.
+    ant_bytes_ = ((N + 2 * width_ + 2 + 7) / 8 + 8 + 63) / 64 * 64;
+    tabu_.assign(A * ant_bytes_ / 8, 0);
     std::memcpy(out.tau, in.tau, N * sizeof(float));
-    tau_power_.resize(N);
+    tau_power_.assign(N + 2 * width_ + 4, 0.0f);
     for (int64_t i = 0; i < N; i += 8)
       set_tau_powers(std::min<int64_t>(8, N - i), [&](int64_t k) { return int32_t(i + k); });
-    words_ = (A / n_chunks_ + 1 + 63) / 64;  // a chunk has at most A / n_chunks + 1 ants
-    tabu_.assign(n_chunks_ * N * words_, 0);
-    tabu_at_.resize(A);
-    for (int64_t k = 0; k < n_chunks_; ++k)
-      for (int64_t a = A * k / n_chunks_, i = 0; a < A * (k + 1) / n_chunks_; ++a, ++i)
-        tabu_at_[a] = k * N * words_ * 64 + i;
     cur_.assign(A, in.start);
     entered_.assign(A * D, 0);
     n_entered_.assign(A, 1);
-    counts_.assign(N, 0);
+    // The cells entered in a step are counted in a hash table a few times larger than the ants.
+    int bits = 6;
+    while ((int64_t(1) << bits) < 4 * A) ++bits;
+    hash_shift_ = 32 - bits;
+    hash_mask_ = (uint32_t(1) << bits) - 1;
+    slot_cell_.assign(size_t(1) << bits, -1);
+    slot_index_.assign(size_t(1) << bits, 0);
+    for (auto* v : {&touched_slot_, &touched_cell_, &touched_n1_, &touched_n2_}) v->assign(A + 8, 0);
     running_.assign(A, in.start != in.goal);
     uniforms_.assign(A * 16, 0.0f);
     drawn_.assign(A, ~0u);
     entries_.resize(n_chunks_);
+    bounds_.resize(n_chunks_ + 1);
+    for (int64_t k = 0; k <= n_chunks_; ++k) bounds_[k] = A * k / n_chunks_;
     walking_.assign(n_chunks_, 0);
     moves_.resize(A);
     for (int64_t a = 0; a < A; ++a) {
@@ -170,7 +167,7 @@ class Colony {
   void step_chunk(int64_t k, int64_t t) {
     std::vector<int32_t>& entries = entries_[k];
     entries.clear();
-    const int64_t begin = A_ * k / n_chunks_, end = A_ * (k + 1) / n_chunks_;
+    const int64_t begin = bounds_[k], end = bounds_[k + 1];
     // On a large map the ants' rows are far from the cache, and each ant's weights wait on its
     // row: asked for together first, their loads overlap (a 256x256 map: 15 % of the walk).
     for (int64_t a = begin; a < end; ++a) __builtin_prefetch(in_.rows + int64_t(cur_[a]) * 8);
@@ -188,30 +185,81 @@ class Colony {
   // Eqs. 4-2..4-4 on the cells entered in this step (jaco.planners.iaca.local_update); the ants
   // still walking after it (none: the walk is over, later steps would change nothing).
   int64_t update() {
-    int64_t walking = 0;
-    touched_.clear();
+    int64_t walking = 0, n_touched = 0;
     for (int64_t k = 0; k < n_chunks_; ++k) {
       walking += walking_[k];
-      for (int32_t e : entries_[k]) {  // straight entries in the low word, diagonal in the high
-        if (counts_[e >> 1] == 0) touched_.push_back(e >> 1);
-        counts_[e >> 1] += e & 1 ? 1ull << 32 : 1ull;
+      for (int32_t e : entries_[k]) {  // 2·cell + diagonal
+        const int32_t cell = e >> 1;
+        uint32_t h = (uint32_t(cell) * 0x9E3779B1u) >> hash_shift_;
+        while (slot_cell_[h] != cell && slot_cell_[h] >= 0) h = (h + 1) & hash_mask_;
+        if (slot_cell_[h] < 0) {
+          slot_cell_[h] = cell;
+          slot_index_[h] = int32_t(n_touched);
+          touched_slot_[n_touched] = int32_t(h);
+          touched_cell_[n_touched++] = cell;
+          __builtin_prefetch(out_.tau + cell);  // read below, 8 cells at a time
+        }
+        (e & 1 ? touched_n2_ : touched_n1_)[slot_index_[h]] += 1;
       }
     }
-    for (int32_t cell : touched_) {
-      const uint64_t both = counts_[cell];
-      const int32_t n1 = int32_t(both & 0xFFFFFFFFu), n2 = int32_t(both >> 32), n = n1 + n2;
-      const float deposit = float(n1) * amount_[0] + float(n2) * amount_[1];
-      const float decay = int_power(keep_, n);
-      const float mean_decay = rho_ > 1e-6f ? (1.0f - decay) / std::max(float(n) * rho_, 1e-12f) : 1.0f;
-      const float v = decay * out_.tau[cell] + deposit * mean_decay;
-      out_.tau[cell] = std::min(std::max(v, lo_), hi_);
-      counts_[cell] = 0;
+    // 8 cells at a time, each lane the scalar operations of local_update: the 8 cells' pheromone
+    // is read at once, then τ^α of the new values. Lanes past the cells entered hold earlier
+    // steps' cells (or cell 0) and are not stored.
+    for (int64_t i = 0; i < n_touched; i += 8) {
+      i8 cell, n1, n2;
+      std::memcpy(&cell, touched_cell_.data() + i, sizeof cell);
+      std::memcpy(&n1, touched_n1_.data() + i, sizeof n1);
+      std::memcpy(&n2, touched_n2_.data() + i, sizeof n2);
+      const i8 count = n1 + n2;
+      const f8 deposit = __builtin_convertvector(n1, f8) * amount_[0] + __builtin_convertvector(n2, f8) * amount_[1];
+      // jaco.planners.iaca.int_power(keep, count) per lane: a lane multiplies only at its own bits,
+      // and squarings past a count's highest bit change nothing, so they stop at the lanes' highest.
+      f8 decay = splat(1.0f), base = splat(keep_);
+      int32_t top = 0;
+      for (int k = 0; k < 8; ++k) top |= count[k];
+      for (int bit = 0; bit < 16 && (top >> bit); ++bit) {
+        decay = select(((count >> bit) & 1) != 0, decay * base, decay);
+        base = base * base;
+      }
+      f8 mean_decay = splat(1.0f);
+      if (rho_ > 1e-6f) {
+        const f8 k_rho = __builtin_convertvector(count, f8) * rho_;
+        mean_decay = (1.0f - decay) / select(k_rho < 1e-12f, splat(1e-12f), k_rho);  // std::max(kρ, 1e-12)
+      }
+      const f8 tau = as_f8(gather(out_.tau, cell));
+      f8 v = decay * tau + deposit * mean_decay;
+      v = select(v < lo_, splat(lo_), v);  // std::max(v, lo)
+      v = select(hi_ < v, splat(hi_), v);  // std::min(v, hi)
+      const f8 p = power8(v, alpha_, in_.tables);
+      for (int64_t k = 0, n = std::min<int64_t>(8, n_touched - i); k < n; ++k) {
+        out_.tau[cell[k]] = v[k];
+        tau_power_[width_ + 1 + cell[k]] = p[k];
+      }
     }
-    for (size_t i = 0; i < touched_.size(); i += 8) {
-      const int64_t n = std::min<int64_t>(8, int64_t(touched_.size() - i));
-      set_tau_powers(n, [&](int64_t k) { return touched_[i + k]; });
+    for (int64_t j = 0; j < n_touched; ++j) {
+      slot_cell_[touched_slot_[j]] = -1;
+      touched_n1_[j] = touched_n2_[j] = 0;
     }
+    split(walking);
     return walking;
+  }
+
+  // The next step's chunks, in the ants' order (an ant seldom changes thread): chunk 0, which
+  // the thread that publishes the step takes at once, gets 13/20 of the walking ants on two
+  // chunks and the others equal shares (chunk 0 counts as 1 + 6/7 chunks). The other threads
+  // start later and find the pheromone the first one just updated in its cache, not theirs: on a
+  // 256x256 map the solve was fastest so (0.5 or 0.75 of the ants to chunk 0: 3-5 % slower).
+  void split(int64_t walking) {
+    int64_t k = 1, seen = 0;
+    int64_t target = walking * (7 * k + 6) / (7 * n_chunks_ + 6);
+    for (int64_t a = 0; a < A_ && k < n_chunks_; ++a) {
+      while (k < n_chunks_ && seen >= target) {
+        bounds_[k++] = a;
+        target = walking * (7 * k + 6) / (7 * n_chunks_ + 6);
+      }
+      seen += running_[a];
+    }
+    while (k < n_chunks_) bounds_[k++] = A_;
   }
 
   // Final paths, visited cells and the cells of eq. (4-6) (jaco.planners.iaca.infeasible_cells).
@@ -239,14 +287,22 @@ class Colony {
   }
 
  private:
-  // Bit i of the cell's words in chunk k's table: ant a's tabu entry (tabu_at_[a] = k·N·words·64 + i).
-  bool tabu(int64_t a, int32_t cell) const {
-    const int64_t at = tabu_at_[a] + int64_t(cell) * words_ * 64;
-    return (tabu_[at >> 6] >> (at & 63)) & 1;
-  }
+  // Ant a's tabu list: bit width + 1 + i of its bitmap is cell i.
+  uint8_t* tabu_of(int64_t a) { return reinterpret_cast<uint8_t*>(tabu_.data()) + a * ant_bytes_; }
   void set_tabu(int64_t a, int32_t cell) {
-    const int64_t at = tabu_at_[a] + int64_t(cell) * words_ * 64;
-    tabu_[at >> 6] |= 1ull << (at & 63);
+    const int64_t at = width_ + 1 + cell;
+    tabu_of(a)[at >> 3] |= uint8_t(1u << (at & 7));
+  }
+  // The tabu bits of cell c's 3×3 neighbourhood, bit 3·(dr + 1) + dc + 1 for the cell
+  // c + dr·width + dc: a row's 3 cells are 3 consecutive bits, read with one load.
+  uint32_t tabu_around(int64_t a, int32_t c) {
+    const uint8_t* bits = tabu_of(a);
+    auto three = [&](int64_t at) {
+      uint64_t word;
+      std::memcpy(&word, bits + (at >> 3), sizeof word);
+      return uint32_t(word >> (at & 7)) & 7u;
+    };
+    return three(c) | three(c + width_) << 3 | three(c + 2 * width_) << 6;  // bits of c − width − 1, ...
   }
 
   // τ^α of n ≤ 8 cells (cell_at(k), k < n) into tau_power_: power8 of the weights, once per cell
@@ -256,7 +312,7 @@ class Colony {
     f8 x = splat(1.0f);
     for (int64_t k = 0; k < n; ++k) x[k] = out_.tau[cell_at(k)];
     const f8 p = power8(x, alpha_, in_.tables);
-    for (int64_t k = 0; k < n; ++k) tau_power_[cell_at(k)] = p[k];
+    for (int64_t k = 0; k < n; ++k) tau_power_[width_ + 1 + cell_at(k)] = p[k];
   }
 
   // The uniform of ant a at step t (AntRng::at), from 8 Threefry blocks drawn at once.
@@ -276,10 +332,9 @@ class Colony {
     f8 r;
     std::memcpy(&r, in_.rows + int64_t(c) * 8, sizeof r);
     const i8 on_map = r > 0.0f;  // rows are > 0 exactly on the moves the map allows
-    const i8 cells = on_map & (c + offsets_);  // off the map: cell 0, never read for a move
-    i8 free;
-    for (int k = 0; k < 8; ++k) free[k] = tabu(a, cells[k]) ? 0 : -1;
-    const i8 allowed = on_map & free;
+    // jaco.moves.MOVES: (−1, 0), (0, 1), (1, 0), (0, −1), (−1, 1), (1, 1), (1, −1), (−1, −1).
+    const i8 move_bit = i8{1 << 1, 1 << 5, 1 << 7, 1 << 3, 1 << 2, 1 << 8, 1 << 6, 1 << 0};
+    const i8 allowed = on_map & (((i8{} + int32_t(tabu_around(a, c))) & move_bit) == 0);
     int n_allowed = 0;
 #if defined(__AVX2__)
     __m256 mask;
@@ -288,8 +343,27 @@ class Colony {
 #else
     for (int k = 0; k < 8; ++k) n_allowed -= allowed[k];
 #endif
+    if (n_allowed <= 1) {  // a step back, or the one move the roulette can pick: no powers
+      const f8 w = select(allowed, splat(1.0f), splat(0.0f));
+      std::memcpy(moves_[a].w, &w, sizeof w);
+      moves_[a].n_allowed = n_allowed;
+      return;
+    }
     f8 v;  // τ^α of the 8 cells
-    for (int k = 0; k < 8; ++k) v[k] = tau_power_[cells[k]];
+    const float* around = tau_power_.data() + c;  // around[0]: the cell c − width − 1
+#if defined(__AVX2__)
+    // 4 cells of each row, from c − 1, arranged in the moves' order (as tabu_around).
+    const __m128 above = _mm_loadu_ps(around), middle = _mm_loadu_ps(around + width_),
+                 below = _mm_loadu_ps(around + 2 * width_);
+    const __m256 rows_ab = _mm256_insertf128_ps(_mm256_castps128_ps256(above), below, 1);
+    const __m256 diagonal = _mm256_permutevar8x32_ps(rows_ab, _mm256_setr_epi32(1, 0, 5, 0, 2, 6, 4, 0));
+    const __m256 level = _mm256_permutevar8x32_ps(_mm256_castps128_ps256(middle), _mm256_setr_epi32(0, 2, 0, 0, 0, 0, 0, 0));
+    const __m256 tp = _mm256_blend_ps(diagonal, level, 0x0A);  // moves 1 and 3 from the middle row
+    std::memcpy(&v, &tp, sizeof v);
+#else
+    const i8 cells = on_map & (c + offsets_);  // off the map: cell 0, never read for a move
+    for (int k = 0; k < 8; ++k) v[k] = tau_power_[width_ + 1 + cells[k]];
+#endif
     if (table_) {  // another planner's factor, fixed for the iteration
       f8 factor;
       std::memcpy(&factor, in_.factors + int64_t(c) * 8, sizeof factor);
@@ -327,8 +401,6 @@ class Colony {
     const int k = choose(moves_[a].w, uniform(a, t), q0_, exploit_);
     const int32_t next = cur_[a] + in_.offsets[k];
     cur_[a] = next;
-    __builtin_prefetch(counts_.data() + next, 1);  // what update reads and writes for the cell
-    __builtin_prefetch(out_.tau + next, 1);
     o.sp[a] += 1;
     o.stack[a * D_ + o.sp[a]] = next;
     set_tabu(a, next);
@@ -345,17 +417,21 @@ class Colony {
   int64_t n_chunks_;
   float q0_, alpha_, beta_, lo_, hi_, rho_, keep_, amount_[2];
   i8 offsets_;
-  // Tabu lists as bits, one table per chunk of ants, cell-major: bit i of the chunk's words of a
-  // cell is set once the chunk's i-th ant entered it. Ants follow one another, so the lines of the
-  // cells around one ant serve the next; a chunk's table is written by the one thread walking it.
-  int64_t words_;
-  std::vector<uint64_t> tabu_;  // (n_chunks, N, words)
-  std::vector<int64_t> tabu_at_;  // (A,)
+  // Tabu lists as bits, one bitmap per ant in the cells' order (rows of the map one after
+  // another), so that the 3 cells of a row around the ant are read together; an ant's bitmap is
+  // written only by the thread walking it, and starts on a cache line of its own.
+  int64_t width_, ant_bytes_;
+  std::vector<uint64_t> tabu_;  // (A, ant_bytes / 8)
   std::vector<int32_t> cur_, entered_, n_entered_;  // entered: (A, D) cells in the order entered, start first
-  std::vector<float> tau_power_;  // (N,): τ^α of every cell, as the pheromone is now
-  std::vector<uint64_t> counts_;  // (N,): entries of this step, straight | diagonal << 32
+  std::vector<float> tau_power_;  // (width + 1 + N + width + 3,): τ^α of cell i at width + 1 + i, as the pheromone is now
+  // The hash table of the cells entered in this step: the cell of a slot (-1: empty) and its
+  // index in the touched_ arrays.
+  std::vector<int32_t> slot_cell_, slot_index_;
+  // The cells entered in this step, in the order first entered: slot, cell, straight and diagonal entries.
+  std::vector<int32_t> touched_slot_, touched_cell_, touched_n1_, touched_n2_;
+  int hash_shift_;
+  uint32_t hash_mask_;
   std::vector<std::vector<int32_t>> entries_;  // by chunk: 2·cell + diagonal of each forward step
-  std::vector<int32_t> touched_;  // the cells entered in this step
   std::vector<uint8_t> running_;
   struct Moves {
     float w[8];  // the weights of the ant's 8 moves this step, 0 where not allowed
@@ -363,6 +439,7 @@ class Colony {
   };
   std::vector<Moves> moves_;  // (A,)
   std::vector<int32_t> walking_;  // by chunk: its ants still walking after the step
+  std::vector<int64_t> bounds_;   // chunk k walks the ants bounds[k] .. bounds[k + 1] − 1
   std::vector<float> uniforms_;    // (A, 16): each ant's uniforms of steps 16·drawn .. 16·drawn + 15
   std::vector<uint32_t> drawn_;    // (A,)
 };
