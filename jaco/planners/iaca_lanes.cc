@@ -325,8 +325,9 @@ class Colony {
     return u[t & 15];
   }
 
-  // The weights of ant a's 8 moves (eq. 4-1), and how many are allowed, into moves_[a]. No branch
-  // depends on the map or the ant, so the CPU overlaps one ant's latencies with the next ant's.
+  // The weights of ant a's 8 moves (eq. 4-1), and how many are allowed, into moves_[a]. One
+  // branch depends on the ant (no choice, no powers); past it the weights are branch-free, so the
+  // CPU overlaps one ant's latencies with the next ant's.
   void weigh(int64_t a) {
     const int32_t c = cur_[a];
     f8 r;
