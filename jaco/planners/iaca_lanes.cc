@@ -233,7 +233,7 @@ class Colony {
       const f8 p = power8(v, alpha_, in_.tables);
       for (int64_t k = 0, n = std::min<int64_t>(8, n_touched - i); k < n; ++k) {
         out_.tau[cell[k]] = v[k];
-        tau_power_[width_ + 1 + cell[k]] = p[k];
+        tau_power_[padded(cell[k])] = p[k];
       }
     }
     for (int64_t j = 0; j < n_touched; ++j) {
@@ -287,10 +287,14 @@ class Colony {
   }
 
  private:
-  // Ant a's tabu list: bit width + 1 + i of its bitmap is cell i.
+  // Where cell i is in the tables padded by width + 1 cells on each side (a tabu bitmap, τ^α), so
+  // that the 3×3 neighbourhood of any cell is read without a bounds test.
+  int64_t padded(int64_t cell) const { return width_ + 1 + cell; }
+
+  // Ant a's tabu list: bit padded(i) of its bitmap is cell i.
   uint8_t* tabu_of(int64_t a) { return reinterpret_cast<uint8_t*>(tabu_.data()) + a * ant_bytes_; }
   void set_tabu(int64_t a, int32_t cell) {
-    const int64_t at = width_ + 1 + cell;
+    const int64_t at = padded(cell);
     tabu_of(a)[at >> 3] |= uint8_t(1u << (at & 7));
   }
   // The tabu bits of cell c's 3×3 neighbourhood, bit 3·(dr + 1) + dc + 1 for the cell
@@ -312,7 +316,7 @@ class Colony {
     f8 x = splat(1.0f);
     for (int64_t k = 0; k < n; ++k) x[k] = out_.tau[cell_at(k)];
     const f8 p = power8(x, alpha_, in_.tables);
-    for (int64_t k = 0; k < n; ++k) tau_power_[width_ + 1 + cell_at(k)] = p[k];
+    for (int64_t k = 0; k < n; ++k) tau_power_[padded(cell_at(k))] = p[k];
   }
 
   // The uniform of ant a at step t (AntRng::at), from 8 Threefry blocks drawn at once.
@@ -363,7 +367,7 @@ class Colony {
     std::memcpy(&v, &tp, sizeof v);
 #else
     const i8 cells = on_map & (c + offsets_);  // off the map: cell 0, never read for a move
-    for (int k = 0; k < 8; ++k) v[k] = tau_power_[width_ + 1 + cells[k]];
+    for (int k = 0; k < 8; ++k) v[k] = tau_power_[padded(cells[k])];
 #endif
     if (table_) {  // another planner's factor, fixed for the iteration
       f8 factor;
