@@ -63,6 +63,26 @@ inline i8 gather(const T* table, i8 index) {
   return out;
 }
 
+// table[index] and table[index + 1] of each lane. With AVX2 the two are one 8-byte element, and
+// two gathers of 4 such pairs load fewer elements than two gathers of 8.
+inline void gather_pair(const int32_t* table, i8 index, i8& lo, i8& hi) {
+#if defined(__AVX2__)
+  __m256i i;
+  std::memcpy(&i, &index, sizeof i);
+  const long long* pairs = reinterpret_cast<const long long*>(table);
+  const __m256 a = _mm256_castsi256_ps(_mm256_i32gather_epi64(pairs, _mm256_castsi256_si128(i), 4));
+  const __m256 b = _mm256_castsi256_ps(_mm256_i32gather_epi64(pairs, _mm256_extracti128_si256(i, 1), 4));
+  // a: lanes 0..3 as (lo, hi) pairs, b: lanes 4..7. Shuffled: lo0 lo1 lo4 lo5 | lo2 lo3 lo6 lo7.
+  const __m256d l = _mm256_castps_pd(_mm256_shuffle_ps(a, b, 0x88)), h = _mm256_castps_pd(_mm256_shuffle_ps(a, b, 0xDD));
+  const __m256i l8 = _mm256_castpd_si256(_mm256_permute4x64_pd(l, 0xD8)), h8 = _mm256_castpd_si256(_mm256_permute4x64_pd(h, 0xD8));
+  std::memcpy(&lo, &l8, sizeof lo);
+  std::memcpy(&hi, &h8, sizeof hi);
+#else
+  lo = gather(table, index);
+  hi = gather(table, index + 1);
+#endif
+}
+
 // floorf lane by lane for finite y.
 inline f8 floor8(f8 y) {
 #if defined(__AVX2__)
@@ -90,7 +110,8 @@ inline f8 power8(f8 x, float a, const int32_t* tables) {
   const i8 m = b & 0x7FFFFF;
   const i8 i = m >> (23 - kBits);
   const i8 f = m & ((1 << (23 - kBits)) - 1);
-  const i8 lo = gather(tables, i), hi = gather(tables, i + 1);
+  i8 lo, hi;
+  gather_pair(tables, i, lo, hi);
   const i8 frac = lo + (((hi - lo) * f) >> (23 - kBits));
   const f8 log2x = __builtin_convertvector(e, f8) + __builtin_convertvector(frac, f8) * 0x1p-24f;
   // table_exp2
@@ -103,7 +124,8 @@ inline f8 power8(f8 x, float a, const int32_t* tables) {
   const i8 j = fx >> (24 - kBits);
   const i8 g = fx & ((1 << (24 - kBits)) - 1);
   const int32_t* exp_table = tables + kTable;
-  const i8 elo = gather(exp_table, j), ehi = gather(exp_table, j + 1);
+  i8 elo, ehi;
+  gather_pair(exp_table, j, elo, ehi);
   const i8 mant = elo + (((ehi - elo) * g) >> (24 - kBits));
   f8 clamped = select(n < -126.0f, splat(-126.0f), n);   // max_of(n, -126)
   clamped = select(127.0f < clamped, splat(127.0f), clamped);  // min_of(., 127)
@@ -115,6 +137,13 @@ inline f8 power8(f8 x, float a, const int32_t* tables) {
 
 // ---- one colony's walk ---------------------------------------------------------------------
 class Colony {
+  // A chunk's results of a step, on lines of their own: the cells its ants entered (2·cell +
+  // diagonal) and its ants still walking.
+  struct alignas(64) Chunk {
+    std::vector<int32_t> entries, survivors;  // (A,) each, n_entries and n_survivors used
+    int64_t n_entries = 0, n_survivors = 0;
+  };
+
  public:
   Colony(const BacktrackInputs& in, const BacktrackOutputs& out, const BacktrackSizes& z)
       : in_(in), out_(out), N_(z.n_cells), A_(z.n_ants), D_(z.depth), exploit_(z.exploit), table_(z.table),
@@ -130,14 +159,14 @@ class Colony {
     width_ = in.offsets[2];  // the move (1, 0) of jaco.moves.MOVES
     // The bits read around a cell reach width + 1 cells before it and after it, 8 bytes at a time.
     ant_bytes_ = ((N + 2 * width_ + 2 + 7) / 8 + 8 + 63) / 64 * 64;
-    tabu_.assign(A * ant_bytes_ / 8, 0);
+    tabu_.assign(A * ant_bytes_ / 8 + 8, 0);
+    tabu_base_ = reinterpret_cast<uint8_t*>((reinterpret_cast<uintptr_t>(tabu_.data()) + 63) & ~uintptr_t(63));
     std::memcpy(out.tau, in.tau, N * sizeof(float));
     tau_power_.assign(N + 2 * width_ + 4, 0.0f);
     for (int64_t i = 0; i < N; i += 8)
       set_tau_powers(std::min<int64_t>(8, N - i), [&](int64_t k) { return int32_t(i + k); });
-    cur_.assign(A, in.start);
+    ants_.assign(A, Ant{});
     entered_.assign(A * D, 0);
-    n_entered_.assign(A, 1);
     // The cells entered in a step are counted in a hash table a few times larger than the ants.
     int bits = 6;
     while ((int64_t(1) << bits) < 4 * A) ++bits;
@@ -146,49 +175,49 @@ class Colony {
     slot_cell_.assign(size_t(1) << bits, -1);
     slot_index_.assign(size_t(1) << bits, 0);
     for (auto* v : {&touched_slot_, &touched_cell_, &touched_n1_, &touched_n2_}) v->assign(A + 8, 0);
-    running_.assign(A, in.start != in.goal);
-    uniforms_.assign(A * 16, 0.0f);
-    drawn_.assign(A, ~0u);
-    entries_.resize(n_chunks_);
+    uniforms_.assign(A * 16 + 16, 0.0f);
+    uniforms_base_ = reinterpret_cast<float*>((reinterpret_cast<uintptr_t>(uniforms_.data()) + 63) & ~uintptr_t(63));
+    chunks_.resize(n_chunks_);
+    for (Chunk& chunk : chunks_) chunk.survivors.resize(A), chunk.entries.resize(A);
+    walking_.resize(A);
+    n_walking_ = 0;
     bounds_.resize(n_chunks_ + 1);
-    for (int64_t k = 0; k <= n_chunks_; ++k) bounds_[k] = A * k / n_chunks_;
-    walking_.assign(n_chunks_, 0);
-    moves_.resize(A);
     for (int64_t a = 0; a < A; ++a) {
+      ants_[a].cur = in.start;
+      ants_[a].n_entered = 1;
+      ants_[a].drawn = ~0u;
       set_tabu(a, in.start);
       entered_[a * D] = in.start;
       out.stack[a * D] = in.start;
-      out.sp[a] = 0;
-      out.actions[a] = 0;
+      if (in.start != in.goal) walking_[n_walking_++] = int32_t(a);
     }
+    split();
   }
 
   // Step t of chunk k's ants: every walking ant's weights first, then their moves.
   void step_chunk(int64_t k, int64_t t) {
-    std::vector<int32_t>& entries = entries_[k];
-    entries.clear();
-    const int64_t begin = bounds_[k], end = bounds_[k + 1];
+    Chunk& chunk = chunks_[k];
+    chunk.n_entries = chunk.n_survivors = 0;
+    const int32_t* begin = walking_.data() + bounds_[k];
+    const int32_t* end = walking_.data() + bounds_[k + 1];
     // On a large map the ants' rows are far from the cache, and each ant's weights wait on its
     // row: asked for together first, their loads overlap (a 256x256 map: 15 % of the walk).
-    for (int64_t a = begin; a < end; ++a) __builtin_prefetch(in_.rows + int64_t(cur_[a]) * 8);
-    for (int64_t a = begin; a < end; ++a)
-      if (running_[a]) weigh(a);
-    int32_t walking = 0;
-    for (int64_t a = begin; a < end; ++a)
-      if (running_[a]) {
-        move(a, t, entries);
-        walking += running_[a];
-      }
-    walking_[k] = walking;
+    for (const int32_t* a = begin; a < end; ++a) __builtin_prefetch(in_.rows + int64_t(ants_[*a].cur) * 8);
+    for (const int32_t* a = begin; a < end; ++a) weigh(*a);
+    for (const int32_t* a = begin; a < end; ++a)
+      if (move(*a, t, chunk)) chunk.survivors[chunk.n_survivors++] = *a;
   }
 
   // Eqs. 4-2..4-4 on the cells entered in this step (jaco.planners.iaca.local_update); the ants
   // still walking after it (none: the walk is over, later steps would change nothing).
   int64_t update() {
-    int64_t walking = 0, n_touched = 0;
-    for (int64_t k = 0; k < n_chunks_; ++k) {
-      walking += walking_[k];
-      for (int32_t e : entries_[k]) {  // 2·cell + diagonal
+    int64_t n_touched = 0;
+    n_walking_ = 0;
+    for (const Chunk& chunk : chunks_) {
+      std::copy_n(chunk.survivors.data(), chunk.n_survivors, walking_.data() + n_walking_);
+      n_walking_ += chunk.n_survivors;
+      for (int64_t i = 0; i < chunk.n_entries; ++i) {
+        const int32_t e = chunk.entries[i];  // 2·cell + diagonal
         const int32_t cell = e >> 1;
         uint32_t h = (uint32_t(cell) * 0x9E3779B1u) >> hash_shift_;
         while (slot_cell_[h] != cell && slot_cell_[h] >= 0) h = (h + 1) & hash_mask_;
@@ -240,8 +269,8 @@ class Colony {
       slot_cell_[touched_slot_[j]] = -1;
       touched_n1_[j] = touched_n2_[j] = 0;
     }
-    split(walking);
-    return walking;
+    split();
+    return n_walking_;
   }
 
   // The next step's chunks, in the ants' order (an ant seldom changes thread): chunk 0, which
@@ -249,17 +278,11 @@ class Colony {
   // chunks and the others equal shares (chunk 0 counts as 1 + 6/7 chunks). The other threads
   // start later and find the pheromone the first one just updated in its cache, not theirs: on a
   // 256x256 map the solve was fastest so (0.5 or 0.75 of the ants to chunk 0: 3-5 % slower).
-  void split(int64_t walking) {
-    int64_t k = 1, seen = 0;
-    int64_t target = walking * (7 * k + 6) / (7 * n_chunks_ + 6);
-    for (int64_t a = 0; a < A_ && k < n_chunks_; ++a) {
-      while (k < n_chunks_ && seen >= target) {
-        bounds_[k++] = a;
-        target = walking * (7 * k + 6) / (7 * n_chunks_ + 6);
-      }
-      seen += running_[a];
-    }
-    while (k < n_chunks_) bounds_[k++] = A_;
+  void split() {
+    const int64_t walking = n_walking_;
+    bounds_[0] = 0;
+    for (int64_t k = 1; k < n_chunks_; ++k) bounds_[k] = walking * (7 * k + 6) / (7 * n_chunks_ + 6);
+    bounds_[n_chunks_] = walking;
   }
 
   // Final paths, visited cells and the cells of eq. (4-6) (jaco.planners.iaca.infeasible_cells).
@@ -271,13 +294,15 @@ class Colony {
     std::vector<int32_t> mark(N_, -1);
     for (int64_t a = 0; a < A_; ++a) {
       int32_t* stack = o.stack + a * D_;
-      const bool arrived = o.arrived[a] = cur_[a] == in_.goal;
+      o.sp[a] = ants_[a].sp;
+      o.actions[a] = ants_[a].actions;
+      const bool arrived = o.arrived[a] = ants_[a].cur == in_.goal;
       std::fill(stack + o.sp[a] + 1, stack + D_, -1);
       for (int64_t i = 0; i <= o.sp[a]; ++i) {
         mark[stack[i]] = int32_t(a);
         if (arrived) good[stack[i]] = 1;
       }
-      for (int64_t i = 0; i < n_entered_[a]; ++i) {
+      for (int64_t i = 0; i < ants_[a].n_entered; ++i) {
         const int32_t cell = entered_[a * D_ + i];
         o.visited[cell] = true;
         if (!arrived || mark[cell] != a) o.infeasible[cell] = true;
@@ -292,7 +317,7 @@ class Colony {
   int64_t padded(int64_t cell) const { return width_ + 1 + cell; }
 
   // Ant a's tabu list: bit padded(i) of its bitmap is cell i.
-  uint8_t* tabu_of(int64_t a) { return reinterpret_cast<uint8_t*>(tabu_.data()) + a * ant_bytes_; }
+  uint8_t* tabu_of(int64_t a) { return tabu_base_ + a * ant_bytes_; }
   void set_tabu(int64_t a, int32_t cell) {
     const int64_t at = padded(cell);
     tabu_of(a)[at >> 3] |= uint8_t(1u << (at & 7));
@@ -321,19 +346,19 @@ class Colony {
 
   // The uniform of ant a at step t (AntRng::at), from 8 Threefry blocks drawn at once.
   float uniform(int64_t a, int64_t t) {
-    float* u = uniforms_.data() + a * 16;
-    if (drawn_[a] != uint32_t(t >> 4)) {
-      drawn_[a] = uint32_t(t >> 4);
-      draw_blocks<u8, f8>(in_.k0, in_.k1, uint32_t(a), drawn_[a] * 8, u);
+    float* u = uniforms_base_ + a * 16;
+    if (ants_[a].drawn != uint32_t(t >> 4)) {
+      ants_[a].drawn = uint32_t(t >> 4);
+      draw_blocks<u8, f8>(in_.k0, in_.k1, uint32_t(a), ants_[a].drawn * 8, u);
     }
     return u[t & 15];
   }
 
-  // The weights of ant a's 8 moves (eq. 4-1), and how many are allowed, into moves_[a]. One
+  // The weights of ant a's 8 moves (eq. 4-1), and how many are allowed, into ants_[a]. One
   // branch depends on the ant (no choice, no powers); past it the weights are branch-free, so the
   // CPU overlaps one ant's latencies with the next ant's.
   void weigh(int64_t a) {
-    const int32_t c = cur_[a];
+    const int32_t c = ants_[a].cur;
     f8 r;
     std::memcpy(&r, in_.rows + int64_t(c) * 8, sizeof r);
     const i8 on_map = r > 0.0f;  // rows are > 0 exactly on the moves the map allows
@@ -350,8 +375,8 @@ class Colony {
 #endif
     if (n_allowed <= 1) {  // a step back, or the one move the roulette can pick: no powers
       const f8 w = select(allowed, splat(1.0f), splat(0.0f));
-      std::memcpy(moves_[a].w, &w, sizeof w);
-      moves_[a].n_allowed = n_allowed;
+      std::memcpy(ants_[a].w, &w, sizeof w);
+      ants_[a].n_allowed = n_allowed;
       return;
     }
     f8 v;  // τ^α of the 8 cells
@@ -386,33 +411,32 @@ class Colony {
     v = select(v < 1e-30f, splat(1e-30f), v);  // std::max(v, 1e-30f)
     v = select(1e30f < v, splat(1e30f), v);    // std::min(v, 1e30f)
     const f8 w = select(allowed, v, splat(0.0f));
-    std::memcpy(moves_[a].w, &w, sizeof w);
-    moves_[a].n_allowed = n_allowed;
+    std::memcpy(ants_[a].w, &w, sizeof w);
+    ants_[a].n_allowed = n_allowed;
   }
 
-  // Ant a's step t from its weights: forward by the roulette, else back along its path.
-  void move(int64_t a, int64_t t, std::vector<int32_t>& entries) {
-    const BacktrackOutputs& o = out_;
-    if (moves_[a].n_allowed == 0) {
-      if (o.sp[a] > 0) {  // step back along the path; the dead end stays tabu
-        cur_[a] = o.stack[a * D_ + o.sp[a] - 1];
-        o.sp[a] -= 1;
-        o.actions[a] += 1;
-      } else {
-        running_[a] = 0;  // back at the start with nothing left: dead
-      }
-      return;
+  // Ant a's step t from its weights: forward by the roulette, else back along its path. Whether
+  // the ant still walks after it.
+  bool move(int64_t a, int64_t t, Chunk& chunk) {
+    Ant& ant = ants_[a];
+    int32_t* stack = out_.stack + a * D_;
+    if (ant.n_allowed == 0) {
+      if (ant.sp == 0) return false;  // back at the start with nothing left: dead
+      ant.sp -= 1;  // step back along the path; the dead end stays tabu
+      ant.cur = stack[ant.sp];
+      ant.actions += 1;
+      return true;
     }
-    const int k = choose(moves_[a].w, uniform(a, t), q0_, exploit_);
-    const int32_t next = cur_[a] + in_.offsets[k];
-    cur_[a] = next;
-    o.sp[a] += 1;
-    o.stack[a * D_ + o.sp[a]] = next;
+    const int k = choose(ant.w, uniform(a, t), q0_, exploit_);
+    const int32_t next = ant.cur + in_.offsets[k];
+    ant.cur = next;
+    ant.sp += 1;
+    stack[ant.sp] = next;
     set_tabu(a, next);
-    entered_[a * D_ + n_entered_[a]++] = next;
-    o.actions[a] += 1;
-    entries.push_back(2 * next + (k >= 4));
-    running_[a] = next != in_.goal;
+    entered_[a * D_ + ant.n_entered++] = next;
+    ant.actions += 1;
+    chunk.entries[chunk.n_entries++] = 2 * next + (k >= 4);
+    return next != in_.goal;
   }
 
   BacktrackInputs in_;
@@ -426,8 +450,9 @@ class Colony {
   // another), so that the 3 cells of a row around the ant are read together; an ant's bitmap is
   // written only by the thread walking it, and starts on a cache line of its own.
   int64_t width_, ant_bytes_;
-  std::vector<uint64_t> tabu_;  // (A, ant_bytes / 8)
-  std::vector<int32_t> cur_, entered_, n_entered_;  // entered: (A, D) cells in the order entered, start first
+  std::vector<uint64_t> tabu_;  // (A, ant_bytes / 8) from tabu_base_, the first cache line in it
+  uint8_t* tabu_base_;
+  std::vector<int32_t> entered_;  // (A, D): each ant's cells in the order entered, start first
   std::vector<float> tau_power_;  // (width + 1 + N + width + 3,): τ^α of cell i at width + 1 + i, as the pheromone is now
   // The hash table of the cells entered in this step: the cell of a slot (-1: empty) and its
   // index in the touched_ arrays.
@@ -436,17 +461,22 @@ class Colony {
   std::vector<int32_t> touched_slot_, touched_cell_, touched_n1_, touched_n2_;
   int hash_shift_;
   uint32_t hash_mask_;
-  std::vector<std::vector<int32_t>> entries_;  // by chunk: 2·cell + diagonal of each forward step
-  std::vector<uint8_t> running_;
-  struct Moves {
+  // What the step changes of an ant, on a cache line of its own: the threads of a team walk
+  // neighbouring ants, and a line written by both would go back and forth between their cores.
+  struct alignas(64) Ant {
     float w[8];  // the weights of the ant's 8 moves this step, 0 where not allowed
-    int32_t n_allowed;
+    int32_t n_allowed = 0;
+    int32_t cur = 0, sp = 0, actions = 0;  // its cell, the top of its stack, its steps
+    int32_t n_entered = 0;  // the cells in its row of entered_
+    uint32_t drawn = 0;  // its uniforms are those of steps 16·drawn .. 16·drawn + 15
   };
-  std::vector<Moves> moves_;  // (A,)
-  std::vector<int32_t> walking_;  // by chunk: its ants still walking after the step
-  std::vector<int64_t> bounds_;   // chunk k walks the ants bounds[k] .. bounds[k + 1] − 1
-  std::vector<float> uniforms_;    // (A, 16): each ant's uniforms of steps 16·drawn .. 16·drawn + 15
-  std::vector<uint32_t> drawn_;    // (A,)
+  std::vector<Ant> ants_;
+  std::vector<Chunk> chunks_;
+  std::vector<int32_t> walking_;  // the ants walking in this step, in order: n_walking_ of them
+  int64_t n_walking_;
+  std::vector<int64_t> bounds_;   // chunk k walks walking_[bounds[k]] .. walking_[bounds[k + 1] − 1]
+  std::vector<float> uniforms_;   // (A, 16) from uniforms_base_: each ant's uniforms, a line an ant
+  float* uniforms_base_;
 };
 
 }  // namespace
