@@ -58,7 +58,7 @@ int main(int argc, char** argv) {
   const auto offsets = load<int32_t>(dir + "offsets.bin", 8);
   const auto tables = load<int32_t>(dir + "tables.bin", 2 * 1025);
   std::vector<float> factors(N * 8, 0.0f), tau_out(N);
-  std::vector<int32_t> stack(A * D), sp(A), actions(A);
+  std::vector<int32_t> stack(A * D), moves(A * D), sp(A), actions(A);
   std::vector<uint8_t> arrived(A), visited(N), infeasible(N);
   std::vector<std::vector<double>> seconds(kCount);
   std::vector<uint64_t> hash(kCount, 1469598103934665603ull);
@@ -69,7 +69,7 @@ int main(int argc, char** argv) {
       // Each walk its own key, the same for every variant.
       const BacktrackInputs in{tau.data(), rows.data(), factors.data(), scalars.data(), offsets.data(),
                                tables.data(), uint32_t(12345 + w), 678u, int32_t(sizes[3]), int32_t(sizes[4])};
-      const BacktrackOutputs out{tau_out.data(), stack.data(), sp.data(), actions.data(),
+      const BacktrackOutputs out{tau_out.data(), stack.data(), sp.data(), actions.data(), moves.data(),
                                  reinterpret_cast<bool*>(arrived.data()), reinterpret_cast<bool*>(visited.data()),
                                  reinterpret_cast<bool*>(infeasible.data())};
       const auto t0 = std::chrono::steady_clock::now();
@@ -83,7 +83,7 @@ int main(int argc, char** argv) {
       auto mix = [&](uint32_t x) { hash[v] = (hash[v] ^ x) * 1099511628211ull; };
       for (int64_t a = 0; a < A; ++a) {
         mix(uint32_t(sp[a])), mix(uint32_t(actions[a])), mix(arrived[a]);
-        for (int64_t i = 0; i <= sp[a]; ++i) mix(uint32_t(stack[a * D + i]));
+        for (int64_t i = 0; i <= sp[a]; ++i) mix(uint32_t(stack[a * D + i])), mix(uint32_t(moves[a * D + i]));
         if (v == 0) steps += actions[a];
       }
       for (int64_t i = 0; i < N; ++i) {

@@ -125,7 +125,8 @@ ffi::Error BacktrackImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> tau_in, ffi
                          ffi::ResultBuffer<ffi::F32> tau_out, ffi::ResultBuffer<ffi::S32> stack_out,
                          ffi::ResultBuffer<ffi::S32> sp_out, ffi::ResultBuffer<ffi::PRED> arrived_out,
                          ffi::ResultBuffer<ffi::S32> actions_out, ffi::ResultBuffer<ffi::PRED> visited_out,
-                         ffi::ResultBuffer<ffi::PRED> infeasible_out, int64_t steplimit, bool exploit, bool table) {
+                         ffi::ResultBuffer<ffi::PRED> infeasible_out, ffi::ResultBuffer<ffi::S32> moves_out,
+                         int64_t steplimit, bool exploit, bool table) {
   const auto rd = rows.dimensions();
   const auto sd = stack_out->dimensions();
   const int64_t N = rd[rd.size() - 2], A = sd[sd.size() - 2], D = sd[sd.size() - 1];
@@ -142,7 +143,7 @@ ffi::Error BacktrackImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> tau_in, ffi
                     scalars.typed_data() + b * 7, offsets.typed_data() + b * 8, tables.typed_data() + b * n_tables,
                     words.typed_data()[2 * b], words.typed_data()[2 * b + 1], start.typed_data()[b], goal.typed_data()[b]};
     const BacktrackOutputs out{tau_out->typed_data() + b * N, stack_out->typed_data() + b * A * D, sp_out->typed_data() + b * A,
-                      actions_out->typed_data() + b * A, arrived_out->typed_data() + b * A,
+                      actions_out->typed_data() + b * A, moves_out->typed_data() + b * A * D, arrived_out->typed_data() + b * A,
                       visited_out->typed_data() + b * N, infeasible_out->typed_data() + b * N};
     return walk.make(in, out, BacktrackSizes{N, A, D, steplimit, n_chunks, exploit, table});
   };
@@ -188,6 +189,7 @@ XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoBacktrack, BacktrackImpl,
                                   .Ret<ffi::Buffer<ffi::S32>>()   // actions (..., A)
                                   .Ret<ffi::Buffer<ffi::PRED>>()  // visited (..., N)
                                   .Ret<ffi::Buffer<ffi::PRED>>()  // infeasible (..., N)
+                                  .Ret<ffi::Buffer<ffi::S32>>()   // moves (..., A, D)
                                   .Attr<int64_t>("steplimit")
                                   .Attr<bool>("exploit")
                                   .Attr<bool>("table"));

@@ -25,7 +25,7 @@ from ..engine.heuristics import goal_distance
 from ..engine.params import INF, Param, declare
 from ..engine.walk import CHUNK, Tours, choose, key_words, step_uniforms
 from ..engine.weights import scaled
-from ..moves import MOVE_LENGTHS, MOVES
+from ..moves import MOVE_LENGTHS
 from .compose import component, compose
 
 if TYPE_CHECKING:
@@ -45,11 +45,6 @@ K_INIT, RHO_LOCAL, Q1, Q2, Q3, RHO1, RHO2, Q_STEP = declare(
 )
 
 ETA_FLOOR = 1e-6
-
-# Move index of a (d_row, d_col) step, looked up at (d_row + 1)·3 + (d_col + 1); -1: no move.
-_MOVE_OF = np.full(9, -1, np.int32)
-for _k, (_dr, _dc) in enumerate(MOVES):
-    _MOVE_OF[(_dr + 1) * 3 + (_dc + 1)] = _k
 
 
 # -- heuristic (4-5) -------------------------------------------------------------------------
@@ -182,6 +177,7 @@ def native_backtrack_walk(
         jax.ShapeDtypeStruct((n_ants,), jnp.int32),
         jax.ShapeDtypeStruct((n,), jnp.bool_),
         jax.ShapeDtypeStruct((n,), jnp.bool_),
+        jax.ShapeDtypeStruct((n_ants, depth), jnp.int32),
     )
     call = native.ffi_call("jaco_backtrack", out)
     return call(
@@ -205,7 +201,10 @@ class Backtracked(NamedTuple):
     ``stack (A, steplimit + 1)``: each ant's path from the start with the dead branches removed
     (-1 beyond ``sp``); ``sp (A,)``; ``arrived (A,)``; ``actions (A,)``: forward and back steps;
     ``visited (N,)``: cells any ant entered; ``infeasible (N,)``: the cells of eq. (4-6), entered
-    by an ant that failed or popped by backtracking and on no arrived ant's final path."""
+    by an ant that failed or popped by backtracking and on no arrived ant's final path; ``moves
+    (A, steplimit + 1)``: the move (index into :data:`jaco.moves.MOVES`) that entered each cell of
+    ``stack``, -1 for the start and beyond ``sp`` (the walk knows them, so no pass over the stacks
+    recovers them from the cells)."""
 
     tau: jax.Array
     stack: jax.Array
@@ -214,6 +213,7 @@ class Backtracked(NamedTuple):
     actions: jax.Array
     visited: jax.Array
     infeasible: jax.Array
+    moves: jax.Array
 
 
 def backtrack_walk(
@@ -287,7 +287,7 @@ def jax_backtrack_walk(
     valid_rows = rows > 0
 
     def step(carry, t):
-        tau, cur, sp, stack, tabu, running, actions = carry
+        tau, cur, sp, stack, moves, tabu, running, actions = carry
         nb = jnp.clip(cur[:, None] + offsets[None, :], 0, n_cells - 1)
         allowed = valid_rows[cur] & ~tabu[lanes[:, None], nb]
         live = running & (t < steplimit)
@@ -305,6 +305,7 @@ def jax_backtrack_walk(
         cur = jnp.where(fwd, nxt, jnp.where(back, prev, cur))
         sp = sp + fwd.astype(jnp.int32) - back.astype(jnp.int32)
         stack = stack.at[lanes, sp].set(cur, indices_are_sorted=True, unique_indices=True)
+        moves = moves.at[lanes, jnp.where(fwd, sp, depth)].set(k, mode="drop", unique_indices=True)
         tabu = tabu.at[lanes, cur].set(True, indices_are_sorted=True, unique_indices=True)
         entered = jnp.where(fwd, cur, n_cells)
         n1 = jnp.zeros((n_cells,), jnp.int32).at[entered].add((k < 4).astype(jnp.int32), mode="drop")
@@ -313,7 +314,7 @@ def jax_backtrack_walk(
         actions = actions + (fwd | back).astype(jnp.int32)
         # Back at the start with nothing left (~has, sp == 0): dead; at the goal: arrived.
         running = (fwd & (cur != goal)) | back
-        return (tau, cur, sp, stack, tabu, running, actions), None
+        return (tau, cur, sp, stack, moves, tabu, running, actions), None
 
     def chunk(state):
         t0, carry = state
@@ -322,7 +323,7 @@ def jax_backtrack_walk(
 
     def more(state):
         t0, carry = state
-        return (t0 < steplimit) & jnp.any(carry[5])
+        return (t0 < steplimit) & jnp.any(carry[6])
 
     stack = jnp.full((n_ants, depth), -1, jnp.int32).at[:, 0].set(start)
     tabu = jnp.zeros((n_ants, n_cells), bool).at[:, start].set(True)
@@ -331,14 +332,17 @@ def jax_backtrack_walk(
         jnp.full((n_ants,), start, jnp.int32),
         jnp.zeros((n_ants,), jnp.int32),
         stack,
+        jnp.full((n_ants, depth), -1, jnp.int32),
         tabu,
         jnp.full((n_ants,), start != goal),
         jnp.zeros((n_ants,), jnp.int32),
     )
-    _, (tau, cur, sp, stack, tabu, _, actions) = jax.lax.while_loop(more, chunk, (jnp.int32(0), carry))
+    _, (tau, cur, sp, stack, moves, tabu, _, actions) = jax.lax.while_loop(more, chunk, (jnp.int32(0), carry))
     arrived = cur == goal
-    stack = jnp.where(jnp.arange(depth)[None, :] <= sp[:, None], stack, -1)
-    return tau, stack, sp, arrived, actions, jnp.any(tabu, axis=0), infeasible_cells(stack, arrived, tabu)
+    kept = jnp.arange(depth)[None, :] <= sp[:, None]
+    stack = jnp.where(kept, stack, -1)
+    moves = jnp.where(kept, moves, -1)
+    return tau, stack, sp, arrived, actions, jnp.any(tabu, axis=0), infeasible_cells(stack, arrived, tabu), moves
 
 
 class _Scalars(NamedTuple):
@@ -351,11 +355,8 @@ class _Scalars(NamedTuple):
 def stack_tours(problem: Any, walks: Backtracked) -> Tours:
     """Step-major :class:`~jaco.engine.walk.Tours` ``(steplimit, A)`` of the final stacks."""
     cells = walks.stack[:, 1:].T
-    n_ants = cells.shape[1]
+    moves = walks.moves[:, 1:].T
     took = cells >= 0
-    prev = jnp.concatenate([jnp.full((1, n_ants), problem.start, jnp.int32), cells[:-1]], axis=0)
-    d = (problem.xy[jnp.where(took, cells, 0)] - problem.xy[jnp.where(took, prev, 0)]).astype(jnp.int32)
-    moves = jnp.where(took, jnp.asarray(_MOVE_OF)[jnp.clip((d[..., 0] + 1) * 3 + d[..., 1] + 1, 0, 8)], -1)
     diag = took & (moves >= 4)
     straight = took & (moves >= 0) & (moves < 4)
     return Tours(

@@ -189,6 +189,7 @@ class Colony {
       set_tabu(a, in.start);
       entered_[a * D] = in.start;
       out.stack[a * D] = in.start;
+      out.moves[a * D] = -1;
       if (in.start != in.goal) walking_[n_walking_++] = int32_t(a);
     }
     split();
@@ -298,6 +299,7 @@ class Colony {
       o.actions[a] = ants_[a].actions;
       const bool arrived = o.arrived[a] = ants_[a].cur == in_.goal;
       std::fill(stack + o.sp[a] + 1, stack + D_, -1);
+      std::fill(o.moves + a * D_ + o.sp[a] + 1, o.moves + (a + 1) * D_, -1);
       for (int64_t i = 0; i <= o.sp[a]; ++i) {
         mark[stack[i]] = int32_t(a);
         if (arrived) good[stack[i]] = 1;
@@ -432,6 +434,7 @@ class Colony {
     ant.cur = next;
     ant.sp += 1;
     stack[ant.sp] = next;
+    out_.moves[a * D_ + ant.sp] = k;
     set_tabu(a, next);
     entered_[a * D_ + ant.n_entered++] = next;
     ant.actions += 1;

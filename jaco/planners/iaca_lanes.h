@@ -16,7 +16,7 @@ struct BacktrackInputs {  // one colony's slices of the FFI buffers
 
 struct BacktrackOutputs {
   float* tau;
-  int32_t *stack, *sp, *actions;
+  int32_t *stack, *sp, *actions, *moves;  // moves: (A, D) as stack, the move that entered each cell
   bool *arrived, *visited, *infeasible;
 };
 
