@@ -163,10 +163,15 @@ class Colony {
     tabu_base_ = reinterpret_cast<uint8_t*>((reinterpret_cast<uintptr_t>(tabu_.data()) + 63) & ~uintptr_t(63));
     std::memcpy(out.tau, in.tau, N * sizeof(float));
     tau_power_.assign(N + 2 * width_ + 4, 0.0f);
-    for (int64_t i = 0; i < N; i += 8)
-      set_tau_powers(std::min<int64_t>(8, N - i), [&](int64_t k) { return int32_t(i + k); });
+    int64_t i = 0;
+    for (; i + 8 <= N; i += 8) {  // 8 cells in a row: loaded and stored at once
+      f8 x;
+      std::memcpy(&x, out.tau + i, sizeof x);
+      const f8 p = power8(x, alpha_, in.tables);
+      std::memcpy(tau_power_.data() + padded(i), &p, sizeof p);
+    }
+    if (i < N) set_tau_powers(N - i, [&](int64_t k) { return int32_t(i + k); });
     ants_.assign(A, Ant{});
-    entered_.assign(A * D, 0);
     // The cells entered in a step are counted in a hash table a few times larger than the ants.
     int bits = 6;
     while ((int64_t(1) << bits) < 4 * A) ++bits;
@@ -184,10 +189,8 @@ class Colony {
     bounds_.resize(n_chunks_ + 1);
     for (int64_t a = 0; a < A; ++a) {
       ants_[a].cur = in.start;
-      ants_[a].n_entered = 1;
       ants_[a].drawn = ~0u;
       set_tabu(a, in.start);
-      entered_[a * D] = in.start;
       out.stack[a * D] = in.start;
       out.moves[a * D] = -1;
       if (in.start != in.goal) walking_[n_walking_++] = int32_t(a);
@@ -289,29 +292,36 @@ class Colony {
   // Final paths, visited cells and the cells of eq. (4-6) (jaco.planners.iaca.infeasible_cells).
   void finish() {
     const BacktrackOutputs& o = out_;
-    std::memset(o.visited, 0, N_);
-    std::memset(o.infeasible, 0, N_);
-    std::vector<uint8_t> good(N_, 0);
-    std::vector<int32_t> mark(N_, -1);
+    // An ant's tabu bits are the cells it entered. As words: visited, their OR over the ants;
+    // bad, the cells a failed ant entered or an arrived one entered off its final path; good,
+    // the cells of an arrived ant's final path (a path's cells are distinct, all entered).
+    const int64_t words = ant_bytes_ / 8;
+    std::vector<uint64_t> visited(words, 0), bad(words, 0), good(words, 0);
     for (int64_t a = 0; a < A_; ++a) {
       int32_t* stack = o.stack + a * D_;
-      o.sp[a] = ants_[a].sp;
+      const int32_t sp = o.sp[a] = ants_[a].sp;
       o.actions[a] = ants_[a].actions;
       const bool arrived = o.arrived[a] = ants_[a].cur == in_.goal;
-      std::fill(stack + o.sp[a] + 1, stack + D_, -1);
-      std::fill(o.moves + a * D_ + o.sp[a] + 1, o.moves + (a + 1) * D_, -1);
-      for (int64_t i = 0; i <= o.sp[a]; ++i) {
-        mark[stack[i]] = int32_t(a);
-        if (arrived) good[stack[i]] = 1;
-      }
-      for (int64_t i = 0; i < ants_[a].n_entered; ++i) {
-        const int32_t cell = entered_[a * D_ + i];
-        o.visited[cell] = true;
-        if (!arrived || mark[cell] != a) o.infeasible[cell] = true;
-      }
+      std::fill(stack + sp + 1, stack + D_, -1);
+      std::fill(o.moves + a * D_ + sp + 1, o.moves + (a + 1) * D_, -1);
+      uint64_t* tabu = reinterpret_cast<uint64_t*>(tabu_of(a));
+      for (int64_t w = 0; w < words; ++w) visited[w] |= tabu[w];
+      if (arrived)
+        for (int32_t i = 0; i <= sp; ++i) {
+          const int64_t at = padded(stack[i]);
+          tabu[at >> 6] &= ~(uint64_t(1) << (at & 63));
+          good[at >> 6] |= uint64_t(1) << (at & 63);
+        }
+      for (int64_t w = 0; w < words; ++w) bad[w] |= tabu[w];
     }
-    for (int64_t i = 0; i < N_; ++i) o.infeasible[i] = o.infeasible[i] && !good[i];
+    for (int64_t i = 0; i < N_; ++i) {
+      const int64_t at = padded(i);
+      const uint64_t bit = uint64_t(1) << (at & 63);
+      o.visited[i] = (visited[at >> 6] & bit) != 0;
+      o.infeasible[i] = (bad[at >> 6] & ~good[at >> 6] & bit) != 0;
+    }
   }
+
 
  private:
   // Where cell i is in the tables padded by width + 1 cells on each side (a tabu bitmap, τ^α), so
@@ -436,7 +446,6 @@ class Colony {
     stack[ant.sp] = next;
     out_.moves[a * D_ + ant.sp] = k;
     set_tabu(a, next);
-    entered_[a * D_ + ant.n_entered++] = next;
     ant.actions += 1;
     chunk.entries[chunk.n_entries++] = 2 * next + (k >= 4);
     return next != in_.goal;
@@ -455,7 +464,6 @@ class Colony {
   int64_t width_, ant_bytes_;
   std::vector<uint64_t> tabu_;  // (A, ant_bytes / 8) from tabu_base_, the first cache line in it
   uint8_t* tabu_base_;
-  std::vector<int32_t> entered_;  // (A, D): each ant's cells in the order entered, start first
   std::vector<float> tau_power_;  // (width + 1 + N + width + 3,): τ^α of cell i at width + 1 + i, as the pheromone is now
   // The hash table of the cells entered in this step: the cell of a slot (-1: empty) and its
   // index in the touched_ arrays.
@@ -470,7 +478,6 @@ class Colony {
     float w[8];  // the weights of the ant's 8 moves this step, 0 where not allowed
     int32_t n_allowed = 0;
     int32_t cur = 0, sp = 0, actions = 0;  // its cell, the top of its stack, its steps
-    int32_t n_entered = 0;  // the cells in its row of entered_
     uint32_t drawn = 0;  // its uniforms are those of steps 16·drawn .. 16·drawn + 15
   };
   std::vector<Ant> ants_;
