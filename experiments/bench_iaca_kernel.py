@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """IACA's backtracking walk alone, revisions side by side in one program: what a kernel change did.
 
-    python experiments/bench_iaca_kernel.py --revs 6e3703f HEAD     # updates BENCHMARKS.md
+    python experiments/bench_iaca_kernel.py --revs 9f72225 HEAD     # updates BENCHMARKS.md
     python experiments/bench_iaca_kernel.py --revs HEAD . --smoke --out DIR/x.md
 
 A whole IACA solve on the machines here changes speed by up to 1.5x from one minute to the next,
@@ -11,8 +11,9 @@ jaco's kernel runs its AVX2 lanes here (else the baseline), links them into one 
 (``iaca_kernel_driver.cc``) and walks one colony with each in turn, walk after walk: every revision sees the slow and the fast moments alike. The walk is IACA's defaults (50
 ants, q0 0.9, β 8) on the longest query of a bundled map, from the initial pheromone, one key per
 walk; the program checks that every revision leaves the same pheromone, stacks and steps. The
-revisions must share the kernel's interface (``iaca_lanes.h``) with the working tree. It needs a
-C++ compiler (``$CXX``, else ``c++``).
+revisions must share the kernel's interface (``iaca_lanes.h``) with the working tree: since 9f72225
+the walk also returns each stack's moves, so earlier revisions no longer build with this driver. It
+needs a C++ compiler (``$CXX``, else ``c++``).
 """
 
 from __future__ import annotations
