@@ -353,20 +353,22 @@ class _Scalars(NamedTuple):
 
 
 def stack_tours(problem: Any, walks: Backtracked) -> Tours:
-    """Step-major :class:`~jaco.engine.walk.Tours` ``(steplimit, A)`` of the final stacks."""
-    cells = walks.stack[:, 1:].T
-    moves = walks.moves[:, 1:].T
+    """Step-major :class:`~jaco.engine.walk.Tours` ``(steplimit, A)`` of the final stacks. Computed
+    ant by ant, as the stacks are laid out, and transposed at the end: XLA:CPU sums the steps of a
+    path 2x faster along a row than down a column (about 0.6 against 1.3 ms an iteration for 50
+    ants on a 256x256 map)."""
+    cells, moves = walks.stack[:, 1:], walks.moves[:, 1:]
     took = cells >= 0
     diag = took & (moves >= 4)
     straight = took & (moves >= 0) & (moves < 4)
     return Tours(
-        cells=cells,
-        moves=moves,
-        step_len=jnp.where(diag, jnp.sqrt(jnp.float32(2)), jnp.where(straight, 1.0, 0.0)).astype(jnp.float32),
+        cells=cells.T,
+        moves=moves.T,
+        step_len=jnp.where(diag, jnp.sqrt(jnp.float32(2)), jnp.where(straight, 1.0, 0.0)).astype(jnp.float32).T,
         arrived=walks.arrived,
         n_steps=walks.actions,
         # Integer counts, so a length is bit-identical however the runs are batched.
-        length=jnp.sum(straight, axis=0) + jnp.sqrt(jnp.float32(2)) * jnp.sum(diag, axis=0),
+        length=jnp.sum(straight, axis=1) + jnp.sqrt(jnp.float32(2)) * jnp.sum(diag, axis=1),
         visited=walks.visited,
     )
 
