@@ -139,7 +139,7 @@ ffi::Error BacktrackImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> tau_in, ffi
   const int64_t parts = B > 0 && B < n_threads ? std::min<int64_t>((n_threads + B - 1) / B, std::max<int64_t>(A / 16, 1)) : 1;
   const int64_t n_chunks = parts;
   auto colony_of = [&](int64_t b) {
-    const BacktrackInputs in{tau_in.typed_data() + b * N, rows.typed_data() + b * N * 8, factors.typed_data() + b * N * 8,
+    const BacktrackInputs in{tau_in.typed_data() + b * N, rows.typed_data() + b * N * 8, table ? factors.typed_data() + b * N * 8 : nullptr,
                     scalars.typed_data() + b * 7, offsets.typed_data() + b * 8, tables.typed_data() + b * n_tables,
                     words.typed_data()[2 * b], words.typed_data()[2 * b + 1], start.typed_data()[b], goal.typed_data()[b]};
     const BacktrackOutputs out{tau_out->typed_data() + b * N, stack_out->typed_data() + b * A * D, sp_out->typed_data() + b * A,
@@ -175,7 +175,7 @@ XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoBacktrack, BacktrackImpl,
                                   .Ctx<ffi::ThreadPool>()
                                   .Arg<ffi::Buffer<ffi::F32>>()   // tau (..., N)
                                   .Arg<ffi::Buffer<ffi::F32>>()   // detour rows (..., N, 8)
-                                  .Arg<ffi::Buffer<ffi::F32>>()   // weight factors (..., N, 8), with table
+                                  .Arg<ffi::Buffer<ffi::F32>>()   // weight factors (..., N, 8) with table, else unread
                                   .Arg<ffi::Buffer<ffi::U32>>()   // key words (..., 2)
                                   .Arg<ffi::Buffer<ffi::S32>>()   // start (...)
                                   .Arg<ffi::Buffer<ffi::S32>>()   // goal (...)

@@ -235,7 +235,8 @@ def backtrack_walk(
     words = key_words(key)
     rows = detour(problem)
     table = factors is not None
-    factors = jnp.zeros(rows.shape, jnp.float32) if factors is None else jnp.asarray(factors, jnp.float32)
+    # Without a table the walks read no factors: an empty array, not N × 8 zeros made every iteration.
+    factors = jnp.zeros((0, 8), jnp.float32) if factors is None else jnp.asarray(factors, jnp.float32)
     scalars = jnp.stack(
         [
             jnp.asarray(v, jnp.float32)
@@ -278,7 +279,8 @@ def jax_backtrack_walk(
 ) -> tuple[jax.Array, ...]:
     """The backtracking walk in JAX, all ants in lock-step (the definition; :class:`Backtracked`).
     ``rows``: the detour table of eq. (4-5) (> 0 exactly on the moves the map allows); with
-    ``table``, the weights use ``factors (N, 8)`` instead of η^β of eq. (4-5)."""
+    ``table``, the weights use ``factors (N, 8)`` instead of η^β of eq. (4-5) (without, ``factors``
+    is not read: any shape)."""
     q0, alpha, beta, lo, hi, rho_local, q = (scalars[i] for i in range(7))
     params = _Scalars(alpha, beta, rho_local, q)
     n_cells = tau.shape[0]
