@@ -160,7 +160,7 @@ class Colony {
     // The bits read around a cell reach width + 1 cells before it and after it, 8 bytes at a time.
     ant_bytes_ = ((N + 2 * width_ + 2 + 7) / 8 + 8 + 63) / 64 * 64;
     tabu_.assign(A * ant_bytes_ / 8 + 8, 0);
-    tabu_base_ = reinterpret_cast<uint8_t*>((reinterpret_cast<uintptr_t>(tabu_.data()) + 63) & ~uintptr_t(63));
+    tabu_base_ = reinterpret_cast<uint8_t*>(first_line(tabu_.data()));
     std::memcpy(out.tau, in.tau, N * sizeof(float));
     tau_power_.assign(N + 2 * width_ + 4, 0.0f);
     int64_t i = 0;
@@ -181,7 +181,7 @@ class Colony {
     slot_index_.assign(size_t(1) << bits, 0);
     for (auto* v : {&touched_slot_, &touched_cell_, &touched_n1_, &touched_n2_}) v->assign(A + 8, 0);
     uniforms_.assign(A * 16 + 16, 0.0f);
-    uniforms_base_ = reinterpret_cast<float*>((reinterpret_cast<uintptr_t>(uniforms_.data()) + 63) & ~uintptr_t(63));
+    uniforms_base_ = first_line(uniforms_.data());
     chunks_.resize(n_chunks_);
     for (Chunk& chunk : chunks_) chunk.survivors.resize(A), chunk.entries.resize(A);
     walking_.resize(A);
@@ -322,8 +322,13 @@ class Colony {
     }
   }
 
-
  private:
+  // The first cache-line boundary at or after p (the vectors above hold 64 bytes to spare).
+  template <typename T>
+  static T* first_line(T* p) {
+    return reinterpret_cast<T*>((reinterpret_cast<uintptr_t>(p) + 63) & ~uintptr_t(63));
+  }
+
   // Where cell i is in the tables padded by width + 1 cells on each side (a tabu bitmap, τ^α), so
   // that the 3×3 neighbourhood of any cell is read without a bounds test.
   int64_t padded(int64_t cell) const { return width_ + 1 + cell; }
