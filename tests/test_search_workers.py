@@ -321,3 +321,54 @@ def test_cli_workers_share_the_study_and_sigterm_stops_them_all(tmp_path):
     retried = [t.user_attrs["jaco_trial"].get("retry_of") for t in trials if "jaco_trial" in t.user_attrs]
     failed = [t.number for t in trials if t.state.name == "FAIL" and "jaco_trial" in t.user_attrs]
     assert sorted(r for r in retried if r is not None) == sorted(failed)  # each stopped trial retried once
+
+
+def test_a_stop_between_a_claim_and_its_retry_still_leaves_the_retry(tmp_path, monkeypatch):
+    """A worker claims a dead worker's trial (RUNNING -> FAIL) and creates its retry as two storage
+    writes; Ctrl-C or SIGTERM between them used to leave a FAIL trial that nobody ever retried
+    (later searches take over RUNNING trials only). The stop is now held until the retry exists:
+    it still stops the search, and the next search finishes the study with each trial retried once."""
+    from jaco.research.search_evaluation import Evaluator
+    from jaco.research.search_workers import Workers
+
+    grid = jaco.maps.named("demo")
+    db = str(tmp_path / "s.db")
+
+    def run(trials):
+        return jaco.search(grid, grid.meta["start"], grid.meta["goal"], {"beta": (1.0, 8.0)}, planner="as",
+                           trials=trials, batch=2, n_ants=4, n_iters=5, sampler="random", storage=db,
+                           progress=False)  # fmt: skip
+
+    evaluate = Evaluator.__call__
+    with monkeypatch.context() as m:  # a worker stopped mid-batch: its two trials left RUNNING
+
+        def stopped(self, jobs):
+            raise KeyboardInterrupt
+
+        m.setattr(Evaluator, "__call__", stopped)
+        with pytest.raises(KeyboardInterrupt):
+            run(4)
+    assert Evaluator.__call__ is evaluate
+    claim = Workers.claim
+    claimed: list[int] = []
+
+    def stopped_right_after_the_claim(self, frozen):
+        won = claim(self, frozen)
+        claimed.append(frozen.number)
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.2)  # Python runs a signal's handler between two bytecodes: it has had its chance
+        return won
+
+    with monkeypatch.context() as m:
+        m.setattr(Workers, "claim", stopped_right_after_the_claim)
+        with pytest.raises(KeyboardInterrupt):
+            run(4)
+    assert claimed == [0]  # the stop came after the first claim, at the end of its held block
+    trials = jaco.load_study(db).study.trials
+    assert trials[0].state.name == "FAIL" and trials[1].state.name == "RUNNING"
+    assert [t.user_attrs["jaco_trial"].get("retry_of") for t in trials[2:]] == [0]
+    trials = run(4).study.trials
+    failed = [t.number for t in trials if t.state.name == "FAIL"]
+    retried = [t.user_attrs["jaco_trial"].get("retry_of") for t in trials]
+    assert failed == [0, 1, 2] and sorted(r for r in retried if r is not None) == failed
+    assert sum(t.state.name == "COMPLETE" for t in trials) == 4 and "RUNNING" not in {t.state.name for t in trials}
