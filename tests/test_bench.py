@@ -173,6 +173,10 @@ def test_native_heuristic_matches_jaco():
     want = np.asarray(jaco.engine.heuristics.inverse_goal_distance(jaco.engine.problem.to_device(problem), None, 0, 1))
     np.testing.assert_allclose(eta, want, rtol=1e-6)
     np.testing.assert_array_equal(nbr, problem.nbr)
+    # the move targets' coordinates, which jaco computes as cell + move: those of the cells nbr holds
+    xy = jaco.engine.heuristics._targets_xy(jaco.engine.problem.to_device(problem))
+    safe = np.where(nbr >= 0, nbr, np.arange(len(nbr))[:, None])
+    np.testing.assert_array_equal(xy, np.stack(np.divmod(safe, grid.width), axis=-1).astype(np.float32))
 
 
 def test_native_on_an_open_map_most_ants_arrive():

@@ -152,3 +152,13 @@ def test_key_words_are_two_words_of_any_key():
     words = key_words(jax.random.key(0))
     assert words.shape == (2,) and words.dtype == jnp.uint32
     assert not np.array_equal(words, key_words(jax.random.key(1)))
+
+
+def test_key_words_are_jax_random_bits_of_the_key_bit_for_bit():
+    """key_words hashes default keys with its own unrolled Threefry (jax's CPU lowering is a loop):
+    the words must be jax.random.bits's, for every kind of key and inside jit and vmap."""
+    keys = jax.random.split(jax.random.key(7), 4096)
+    bits = jax.vmap(lambda k: jax.random.bits(k, (2,), jnp.uint32))
+    np.testing.assert_array_equal(jax.jit(jax.vmap(key_words))(keys), bits(keys))
+    for key in (jax.random.key(2**32 - 1), jax.random.PRNGKey(5), jax.random.key(3, impl="rbg")):
+        np.testing.assert_array_equal(key_words(key), jax.random.bits(key, (2,), jnp.uint32))

@@ -24,7 +24,6 @@ from typing import Any, NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax.extend.random import threefry2x32_p
 
 from ..moves import MOVE_LENGTHS
 from . import native
@@ -53,9 +52,35 @@ class Tours(NamedTuple):
     edges: jax.Array | None = None
 
 
+_ROTATIONS = ((13, 15, 26, 6), (17, 29, 16, 24))
+
+
+def threefry2x32(k0: jax.Array, k1: jax.Array, x0: jax.Array, x1: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """Threefry-2x32 with 20 rounds (Salmon et al. 2011) of the counters ``(x0, x1)`` under the key
+    ``(k0, k1)``, all uint32: the hash of ``jax.random``'s default keys (``threefry2x32_p``), the
+    same bits. Unrolled, so XLA fuses it with what reads it; on CPU jax lowers its own as a loop of
+    5 trips of several operations each, which made the JAX walk's every step a loop (the walk ran
+    twice as long) and cost a loop per iteration for the key's words."""
+    ks = (k0, k1, k0 ^ k1 ^ jnp.uint32(0x1BD11BDA))
+    x0, x1 = x0 + ks[0], x1 + ks[1]
+    for i in range(5):
+        for r in _ROTATIONS[i % 2]:
+            x0 = x0 + x1
+            x1 = x0 ^ ((x1 << jnp.uint32(r)) | (x1 >> jnp.uint32(32 - r)))
+        x0, x1 = x0 + ks[(i + 1) % 3], x1 + ks[(i + 2) % 3] + jnp.uint32(i + 1)
+    return x0, x1
+
+
 def key_words(key: jax.Array) -> jax.Array:
-    """The two 32-bit words ``(2,) uint32`` the walk's uniforms are hashed with, from a key."""
-    return jax.random.bits(key, (2,), jnp.uint32)
+    """The two 32-bit words ``(2,) uint32`` the walk's uniforms are hashed with, from a key:
+    ``jax.random.bits(key, (2,), uint32)``, computed by :func:`threefry2x32` where that is how
+    jax computes it (its default keys, with ``jax_threefry_partitionable``, jax's default)."""
+    typed = jnp.issubdtype(key.dtype, jax.dtypes.prng_key)
+    if not (typed and str(jax.random.key_impl(key)) == "threefry2x32" and jax.config.jax_threefry_partitionable):
+        return jax.random.bits(key, (2,), jnp.uint32)
+    k = jax.random.key_data(key)
+    y0, y1 = threefry2x32(k[0], k[1], jnp.zeros(2, jnp.uint32), jnp.arange(2, dtype=jnp.uint32))
+    return y0 ^ y1
 
 
 def step_uniforms(words: jax.Array, ants: jax.Array, t: Any) -> jax.Array:
@@ -65,7 +90,7 @@ def step_uniforms(words: jax.Array, ants: jax.Array, t: Any) -> jax.Array:
     x0 = jnp.asarray(ants).astype(jnp.uint32)
     x1 = jnp.broadcast_to(jnp.asarray(t).astype(jnp.uint32) >> 1, x0.shape)
     k0, k1 = (jnp.broadcast_to(words[i], x0.shape) for i in range(2))
-    y0, y1 = threefry2x32_p.bind(k0, k1, x0, x1)
+    y0, y1 = threefry2x32(k0, k1, x0, x1)
     bits = jnp.where((jnp.asarray(t) & 1) == 1, y1, y0)
     return jax.lax.bitcast_convert_type((bits >> 9) | jnp.uint32(0x3F800000), jnp.float32) - 1.0
 
