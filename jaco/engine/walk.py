@@ -76,7 +76,8 @@ def key_words(key: jax.Array) -> jax.Array:
     ``jax.random.bits(key, (2,), uint32)``, computed by :func:`threefry2x32` where that is how
     jax computes it (its default keys, with ``jax_threefry_partitionable``, jax's default)."""
     typed = jnp.issubdtype(key.dtype, jax.dtypes.prng_key)
-    if not (typed and str(jax.random.key_impl(key)) == "threefry2x32" and jax.config.jax_threefry_partitionable):
+    partitionable = jax.config.jax_threefry_partitionable  # type: ignore[attr-defined]  # not in jax's stubs
+    if not (typed and str(jax.random.key_impl(key)) == "threefry2x32" and partitionable):
         return jax.random.bits(key, (2,), jnp.uint32)
     k = jax.random.key_data(key)
     y0, y1 = threefry2x32(k[0], k[1], jnp.zeros(2, jnp.uint32), jnp.arange(2, dtype=jnp.uint32))

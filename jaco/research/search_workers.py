@@ -7,6 +7,7 @@ from __future__ import annotations
 import signal
 import threading
 import time
+from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import NamedTuple
 
@@ -19,7 +20,7 @@ BEAT = "jaco_worker:"  # the study's user attribute per worker: its last heartbe
 
 
 @contextmanager
-def stops_held():
+def stops_held() -> Iterator[None]:
     """Ctrl-C (SIGINT) and SIGTERM held while the block runs and delivered when it ends, so that a
     stop cannot fall between two storage writes that belong together (a claim and its retry). Only
     the main thread receives signals; elsewhere the block runs as it is."""
@@ -37,8 +38,8 @@ def stops_held():
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
-        for s in dict.fromkeys(held):
-            signal.raise_signal(s)  # to the handler restored above, as if it came now
+        for signum in dict.fromkeys(held):
+            signal.raise_signal(signum)  # to the handler restored above, as if it came now
 
 
 class Heartbeats(NamedTuple):
