@@ -359,10 +359,16 @@ def test_a_stop_between_a_claim_and_its_retry_still_leaves_the_retry(tmp_path, m
         time.sleep(0.2)  # Python runs a signal's handler between two bytecodes: it has had its chance
         return won
 
-    with monkeypatch.context() as m:
-        m.setattr(Workers, "claim", stopped_right_after_the_claim)
-        with pytest.raises(KeyboardInterrupt):
-            run(4)
+    # Ctrl-C raises KeyboardInterrupt, as in a terminal (a shell's background job, such as a CI run,
+    # starts with SIGINT ignored)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with monkeypatch.context() as m:
+            m.setattr(Workers, "claim", stopped_right_after_the_claim)
+            with pytest.raises(KeyboardInterrupt):
+                run(4)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     assert claimed == [0]  # the stop came after the first claim, at the end of its held block
     trials = jaco.load_study(db).study.trials
     assert trials[0].state.name == "FAIL" and trials[1].state.name == "RUNNING"
