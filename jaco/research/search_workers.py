@@ -4,11 +4,7 @@ RUNNING → FAIL transition and evaluated again, once, as a new trial (:class:`W
 
 from __future__ import annotations
 
-import signal
-import threading
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from typing import NamedTuple
 
 import numpy as np
@@ -17,29 +13,6 @@ from .search_checks import SearchError, positive_seconds
 from .store import process_exists
 
 BEAT = "jaco_worker:"  # the study's user attribute per worker: its last heartbeat (time.time(); 0: it stopped)
-
-
-@contextmanager
-def stops_held() -> Iterator[None]:
-    """Ctrl-C (SIGINT) and SIGTERM held while the block runs and delivered when it ends, so that a
-    stop cannot fall between two storage writes that belong together (a claim and its retry). Only
-    the main thread receives signals; elsewhere the block runs as it is."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    held: list[int] = []
-    previous = {}
-    for s in (signal.SIGINT, signal.SIGTERM):
-        handler = signal.getsignal(s)
-        if handler is not None:  # None: a handler not installed from Python, left alone
-            previous[s] = signal.signal(s, lambda signum, frame: held.append(signum))
-    try:
-        yield
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
-        for signum in dict.fromkeys(held):
-            signal.raise_signal(signum)  # to the handler restored above, as if it came now
 
 
 class Heartbeats(NamedTuple):
