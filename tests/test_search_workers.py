@@ -321,3 +321,66 @@ def test_cli_workers_share_the_study_and_sigterm_stops_them_all(tmp_path):
     retried = [t.user_attrs["jaco_trial"].get("retry_of") for t in trials if "jaco_trial" in t.user_attrs]
     failed = [t.number for t in trials if t.state.name == "FAIL" and "jaco_trial" in t.user_attrs]
     assert sorted(r for r in retried if r is not None) == sorted(failed)  # each stopped trial retried once
+
+
+@pytest.mark.parametrize("write", ["before", "after"])
+def test_a_stop_between_a_claim_and_its_retry_still_leaves_the_retry(tmp_path, monkeypatch, write):
+    """A worker claims a dead worker's trial (RUNNING -> FAIL) and creates its retry: two storage
+    writes. Ctrl-C landing between them (``before`` the retry's write, or ``after`` it but before
+    the call returned) used to leave a FAIL trial that nobody ever retried (later searches take over
+    RUNNING trials only). The stopping worker now makes the retry on its way out, once: the stop
+    still stops the search, and the next search finishes the study with each trial retried once."""
+    from jaco.research.search_evaluation import Evaluator
+    from jaco.research.search_workers import Workers
+
+    grid = jaco.maps.named("demo")
+    db = str(tmp_path / "s.db")
+
+    def run(trials):
+        return jaco.search(grid, grid.meta["start"], grid.meta["goal"], {"beta": (1.0, 8.0)}, planner="as",
+                           trials=trials, batch=2, n_ants=4, n_iters=5, sampler="random", storage=db,
+                           progress=False)  # fmt: skip
+
+    with monkeypatch.context() as m:  # a worker stopped mid-batch: its two trials left RUNNING
+
+        def stopped(self, jobs):
+            raise KeyboardInterrupt
+
+        m.setattr(Evaluator, "__call__", stopped)
+        with pytest.raises(KeyboardInterrupt):
+            run(4)
+    replace = Workers.replace
+    calls: list[int] = []
+
+    def stopped_around_the_write(self, frozen):
+        calls.append(frozen.number)
+        if len(calls) == 1 and write == "before":
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.2)  # Python runs a signal's handler between two bytecodes: it has had its chance
+        trial = replace(self, frozen)
+        if len(calls) == 1 and write == "after":
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.2)
+        return trial
+
+    # Ctrl-C raises KeyboardInterrupt, as in a terminal (a shell's background job, such as a CI run,
+    # starts with SIGINT ignored)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with monkeypatch.context() as m:
+            m.setattr(Workers, "replace", stopped_around_the_write)
+            with pytest.raises(KeyboardInterrupt):
+                run(4)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    # the first retry's write interrupted; made on the way out only where it had not been made
+    assert calls == ([0, 0] if write == "before" else [0])
+    trials = jaco.load_study(db).study.trials
+    assert trials[0].state.name == "FAIL" and trials[1].state.name == "RUNNING"
+    assert [t.user_attrs["jaco_trial"].get("retry_of") for t in trials[2:]] == [0]
+    assert trials[2].state.name == "RUNNING"  # owned by the stopped worker: the next search takes it over
+    trials = run(4).study.trials
+    failed = [t.number for t in trials if t.state.name == "FAIL"]
+    retried = [t.user_attrs["jaco_trial"].get("retry_of") for t in trials]
+    assert sorted(r for r in retried if r is not None) == failed and {0, 1, 2} <= set(failed)
+    assert sum(t.state.name == "COMPLETE" for t in trials) == 4 and "RUNNING" not in {t.state.name for t in trials}

@@ -344,11 +344,12 @@ class _Run:
         )
         return job
 
-    def _retry(self, frozen) -> Job:
-        """A dead worker's trial (claimed: now FAIL) evaluated again as a new trial of this worker."""
+    def _retry(self, frozen, trial) -> Job:
+        """The job of a dead worker's trial (``frozen``, claimed: now FAIL) evaluated again as
+        ``trial``, a new trial of this worker (:meth:`Workers.take_over`)."""
         a = trial_info(frozen)
         sizes = {"n_ants": a["n_ants"], "n_iters": frozen.params.get("n_iters", self.sizes["n_iters"])}
-        job = self._job(self.workers.replace(frozen), a["planner"], a["params"], sizes)
+        job = self._job(trial, a["planner"], a["params"], sizes)
         job.stored = dict(a["runs"])
         self.timings["retried"] += 1
         return job
@@ -457,19 +458,23 @@ class _Run:
 
         t0 = time.perf_counter()
         _, dead = self.workers.running(self._trials((TrialState.RUNNING,)))
-        won = [t for t in dead if self.workers.claim(t) and "jaco_trial" in t.user_attrs]
+        won = []  # (a dead worker's trial, claimed: now FAIL; the new trial that evaluates it again)
+        for t in dead:
+            trial = self.workers.take_over(t, retry="jaco_trial" in t.user_attrs and self.proposer is None)
+            if trial is not None:
+                won.append((t, trial))
         self.timings["storage_s"] += time.perf_counter() - t0
-        if not won or self.proposer is not None:
+        if not won:
             return
         if self.halving is None:
-            jobs = self._evaluate([self._retry(t) for t in won])
+            jobs = self._evaluate([self._retry(*w) for w in won])
             self._tell(jobs)
             return
         brackets = self.halving.brackets(self.sizes["n_iters"])
         by_bracket: dict = {}
-        for t in won:
-            a = trial_info(t)
-            by_bracket.setdefault((a["bracket"], a.get("owner") or ""), []).append(t)
+        for w in won:
+            a = trial_info(w[0])
+            by_bracket.setdefault((a["bracket"], a.get("owner") or ""), []).append(w)
         finished = (TrialState.COMPLETE, TrialState.PRUNED)
         for b, owner in sorted(by_bracket):
             done = [
@@ -477,7 +482,7 @@ class _Run:
                 for t in self._trials(finished)
                 if (trial_info(t).get("bracket"), trial_info(t).get("owner") or "") == (b, owner)
             ]
-            jobs = [self._job_of(t) for t in done] + [self._retry(t) for t in by_bracket[b, owner]]
+            jobs = [self._job_of(t) for t in done] + [self._retry(*w) for w in by_bracket[b, owner]]
             self._bracket(jobs, brackets[b % len(brackets)], resumed=True)
 
     def _job_of(self, frozen) -> Job:

@@ -10,6 +10,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .search_checks import SearchError, positive_seconds
+from .search_storage import end_session
 from .store import process_exists
 
 BEAT = "jaco_worker:"  # the study's user attribute per worker: its last heartbeat (time.time(); 0: it stopped)
@@ -126,6 +127,29 @@ class Workers:
                 return bool(self.storage.set_trial_state_values(tid, TrialState.FAIL))
             except (optuna.exceptions.UpdateFinishedTrialError, optuna.exceptions.StorageInternalError):
                 return False  # another worker failed it first
+
+    def take_over(self, frozen, retry: bool):
+        """Claim a dead worker's RUNNING trial (:meth:`claim`) and, with ``retry``, make the new
+        trial that evaluates it again (:meth:`replace`); that new trial, or None where another
+        worker won the claim (or without ``retry``).
+
+        The claim and the new trial are two storage writes. A stop between them (Ctrl-C, SIGTERM)
+        would leave a FAIL trial that no later search retries (they take over RUNNING trials only),
+        so the interrupted worker makes the new trial on its way out, unless the write it
+        interrupted had made it already. That trial is RUNNING and owned by a worker that is
+        stopping, so the next search takes it over at once. Only an interrupt inside the claim's
+        own storage call, after its transition, still loses the retry."""
+        won = False
+        try:
+            won = self.claim(frozen)
+            return self.replace(frozen) if won and retry else None
+        except BaseException:
+            if won and retry:
+                end_session(self.storage)  # the interrupted write may have left its transaction open
+                trials = self.study.get_trials(deepcopy=False)
+                if frozen.number not in [t.user_attrs.get("jaco_trial", {}).get("retry_of") for t in trials]:
+                    self.replace(frozen)
+            raise
 
     def replace(self, frozen):
         """A new RUNNING trial owned by this worker with ``frozen``'s parameters, attributes and
