@@ -145,10 +145,9 @@ class Workers:
             return self.replace(frozen) if won and retry else None
         except BaseException:
             if won and retry:
-                from .search_results import trial_info  # (it imports this module's setup: not at the top)
-
                 end_session(self.storage)  # the interrupted write may have left its transaction open
-                if frozen.number not in [trial_info(t).get("retry_of") for t in self.study.get_trials(deepcopy=False)]:
+                trials = self.study.get_trials(deepcopy=False)
+                if frozen.number not in [t.user_attrs.get("jaco_trial", {}).get("retry_of") for t in trials]:
                     self.replace(frozen)
             raise
 
