@@ -52,11 +52,15 @@ const BacktrackKernel& kernel() {
 // start and take chunks while there are any; the leader never waits for a thread that has not
 // joined, so a busy pool costs speed, never a deadlock.
 struct Team {
-  std::atomic<uint64_t> ticket{~0ull};  // step << 32 | next chunk to take
-  std::atomic<int64_t> done{0};         // chunks of the current step finished
+  // Written by the leader, read by the others: the step published, the chunks taken.
+  alignas(64) std::atomic<uint64_t> ticket{~0ull};  // step << 32 | next chunk to take
   std::atomic<bool> finished{false};
   std::atomic<void*> colony{nullptr};
   int64_t n_chunks = 1;
+  // Written by the others, read by the leader (a line of its own): of the chunks they took this
+  // step, how many are walked, and how many prepared for the next step.
+  alignas(64) std::atomic<int64_t> done{0};
+  std::atomic<int64_t> prepared{0};
 };
 
 constexpr uint64_t kChunkBits = 0xFFFFFFFFull;
@@ -73,16 +77,23 @@ inline void wait_turn(int64_t spins) {
   }
 }
 
-// Take and walk chunks of the published step until none is left.
-void take_chunks(Team& team, const BacktrackKernel& walk, void* colony) {
-  for (;;) {
+// Take and walk chunks of the published step until none is left; how many. A thread other than
+// the leader then prepares each chunk's ants for the next step while the leader updates (the
+// leader waits for that before it publishes the next step).
+int64_t take_chunks(Team& team, const BacktrackKernel& walk, void* colony, bool leader) {
+  for (int64_t taken = 0;; ++taken) {
     const uint64_t seen = team.ticket.load(std::memory_order_acquire);
-    if ((seen & kChunkBits) >= uint64_t(team.n_chunks)) return;
+    if ((seen & kChunkBits) >= uint64_t(team.n_chunks)) return taken;
     const uint64_t got = team.ticket.fetch_add(1, std::memory_order_acq_rel);
     const uint64_t k = got & kChunkBits;
-    if (k >= uint64_t(team.n_chunks)) return;
-    walk.step_chunk(colony, int64_t(k), int64_t(got >> 32));
-    team.done.fetch_add(1, std::memory_order_release);
+    if (k >= uint64_t(team.n_chunks)) return taken;
+    const int64_t t = int64_t(got >> 32);
+    walk.step_chunk(colony, int64_t(k), t);
+    if (!leader) {
+      team.done.fetch_add(1, std::memory_order_release);
+      walk.prepare_chunk(colony, int64_t(k), t + 1);
+      team.prepared.fetch_add(1, std::memory_order_release);
+    }
   }
 }
 
@@ -92,15 +103,19 @@ constexpr int64_t kTeamAnts = 16;
 void lead(Team& team, const BacktrackKernel& walk, void* colony, int64_t steplimit, int64_t n_ants) {
   team.colony.store(colony, std::memory_order_release);
   for (int64_t t = 0, walking = n_ants; t < steplimit && walking > 0; ++t) {
+    int64_t lent = 0;  // chunks the others took
     if (walking < kTeamAnts) {
       for (int64_t k = 0; k < team.n_chunks; ++k) walk.step_chunk(colony, k, t);
     } else {
       team.done.store(0, std::memory_order_relaxed);
-      team.ticket.store(uint64_t(t) << 32, std::memory_order_release);
-      take_chunks(team, walk, colony);
-      for (int64_t spins = 0; team.done.load(std::memory_order_acquire) < team.n_chunks; ++spins) wait_turn(spins);
+      team.prepared.store(0, std::memory_order_relaxed);
+      team.ticket.store(uint64_t(t) << 32 | 1, std::memory_order_release);  // chunk 0 is the leader's
+      walk.step_chunk(colony, 0, t);
+      lent = team.n_chunks - 1 - take_chunks(team, walk, colony, true);
+      for (int64_t spins = 0; team.done.load(std::memory_order_acquire) < lent; ++spins) wait_turn(spins);
     }
     walking = walk.update(colony);
+    for (int64_t spins = 0; team.prepared.load(std::memory_order_acquire) < lent; ++spins) wait_turn(spins);
   }
   team.finished.store(true, std::memory_order_release);
 }
@@ -111,7 +126,7 @@ void follow(Team& team, const BacktrackKernel& walk) {
     void* colony = team.colony.load(std::memory_order_acquire);
     const uint64_t seen = team.ticket.load(std::memory_order_acquire);
     if (colony && seen != ~0ull && (seen & kChunkBits) < uint64_t(team.n_chunks)) {
-      take_chunks(team, walk, colony);
+      take_chunks(team, walk, colony, false);
       idle = 0;
     } else {
       wait_turn(idle++);

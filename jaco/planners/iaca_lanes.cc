@@ -207,9 +207,16 @@ class Colony {
     // On a large map the ants' rows are far from the cache, and each ant's weights wait on its
     // row: asked for together first, their loads overlap (a 256x256 map: 15 % of the walk).
     for (const int32_t* a = begin; a < end; ++a) __builtin_prefetch(in_.rows + int64_t(ants_[*a].cur) * 8);
-    for (const int32_t* a = begin; a < end; ++a) weigh(*a);
+    for (const int32_t* a = begin; a < end; ++a) weigh(*a, t);
     for (const int32_t* a = begin; a < end; ++a)
       if (move(*a, t, chunk)) chunk.survivors[chunk.n_survivors++] = *a;
+  }
+
+  // Chunk k's ants still walking after step t − 1, prepared for step t (prepare).
+  void prepare_chunk(int64_t k, int64_t t) {
+    const Chunk& chunk = chunks_[k];
+    for (int64_t i = 0; i < chunk.n_survivors; ++i) __builtin_prefetch(in_.rows + int64_t(ants_[chunk.survivors[i]].cur) * 8);
+    for (int64_t i = 0; i < chunk.n_survivors; ++i) prepare(chunk.survivors[i], t);
   }
 
   // Eqs. 4-2..4-4 on the cells entered in this step (jaco.planners.iaca.local_update); the ants
@@ -277,16 +284,14 @@ class Colony {
     return n_walking_;
   }
 
-  // The next step's chunks, in the ants' order (an ant seldom changes thread): chunk 0, which
-  // the thread that publishes the step takes at once, gets 13/20 of the walking ants on two
-  // chunks and the others equal shares (chunk 0 counts as 1 + 6/7 chunks). The other threads
-  // start later and find the pheromone the first one just updated in its cache, not theirs: on a
-  // 256x256 map the solve was fastest so (0.5 or 0.75 of the ants to chunk 0: 3-5 % slower).
+  // The next step's chunks, in the ants' order (an ant seldom changes thread), equal shares.
+  // The thread that publishes the step (chunk 0) updates the pheromone alone, while the others
+  // prepare their ants for the next step; each thread's ants then cost about as much in its
+  // chunk. (Before the others prepared, chunk 0 took 13/20 of the ants on two chunks: the others
+  // start later and read the pheromone the first one just updated from its cache, not theirs.)
   void split() {
     const int64_t walking = n_walking_;
-    bounds_[0] = 0;
-    for (int64_t k = 1; k < n_chunks_; ++k) bounds_[k] = walking * (7 * k + 6) / (7 * n_chunks_ + 6);
-    bounds_[n_chunks_] = walking;
+    for (int64_t k = 0; k <= n_chunks_; ++k) bounds_[k] = walking * k / n_chunks_;
   }
 
   // Final paths, visited cells and the cells of eq. (4-6) (jaco.planners.iaca.infeasible_cells).
@@ -371,11 +376,12 @@ class Colony {
     return u[t & 15];
   }
 
-  // The weights of ant a's 8 moves (eq. 4-1), and how many are allowed, into ants_[a]. One
-  // branch depends on the ant (no choice, no powers); past it the weights are branch-free, so the
-  // CPU overlaps one ant's latencies with the next ant's.
-  void weigh(int64_t a) {
-    const int32_t c = ants_[a].cur;
+  // What ant a's next step weighs apart from the pheromone, into ants_[a]: its allowed moves
+  // (how many, and which), and η^β of eq. (4-5) over them; its uniforms of step t. None of it
+  // depends on the local update, so a thread of a team prepares its ants while another updates.
+  void prepare(int64_t a, int64_t t) {
+    Ant& ant = ants_[a];
+    const int32_t c = ant.cur;
     f8 r;
     std::memcpy(&r, in_.rows + int64_t(c) * 8, sizeof r);
     const i8 on_map = r > 0.0f;  // rows are > 0 exactly on the moves the map allows
@@ -383,19 +389,46 @@ class Colony {
     const i8 move_bit = i8{1 << 1, 1 << 5, 1 << 7, 1 << 3, 1 << 2, 1 << 8, 1 << 6, 1 << 0};
     const i8 allowed = on_map & (((i8{} + int32_t(tabu_around(a, c))) & move_bit) == 0);
     int n_allowed = 0;
+    uint32_t bits = 0;
 #if defined(__AVX2__)
     __m256 mask;
     std::memcpy(&mask, &allowed, sizeof mask);
-    n_allowed = __builtin_popcount(unsigned(_mm256_movemask_ps(mask)));
+    bits = unsigned(_mm256_movemask_ps(mask));
 #else
-    for (int k = 0; k < 8; ++k) n_allowed -= allowed[k];
+    for (int k = 0; k < 8; ++k) bits |= uint32_t(allowed[k] != 0) << k;
 #endif
+    n_allowed = __builtin_popcount(bits);
+    ant.n_allowed = n_allowed;
+    ant.allowed = bits;
+    ant.ready = 1;
+    if (n_allowed >= 1) uniform(a, t);
     if (n_allowed <= 1) {  // a step back, or the one move the roulette can pick: no powers
       const f8 w = select(allowed, splat(1.0f), splat(0.0f));
-      std::memcpy(ants_[a].w, &w, sizeof w);
-      ants_[a].n_allowed = n_allowed;
+      std::memcpy(ant.w, &w, sizeof w);
       return;
     }
+    if (!table_) {  // eq. 4-5 over the ant's allowed moves
+      const f8 rr = select(allowed, r, splat(0.0f));
+      float total = rr[0];
+      for (int k = 1; k < 8; ++k) total = total + rr[k];
+      f8 eta = 1.0f - rr / std::max(total, 1e-12f);
+      eta = select(eta < 1e-6f, splat(1e-6f), eta);  // std::max(eta, 1e-6f)
+      const f8 eta_power = power8(eta, beta_, in_.tables);
+      std::memcpy(ant.w, &eta_power, sizeof eta_power);
+    }
+  }
+
+  // The weights of ant a's 8 moves (eq. 4-1) at step t, and how many are allowed, into ants_[a]:
+  // τ^α of the cells around it as the pheromone is now, times what prepare left. Past the one
+  // branch on the ant (no choice, no powers) the weights are branch-free, so the CPU overlaps
+  // one ant's latencies with the next ant's.
+  void weigh(int64_t a, int64_t t) {
+    Ant& ant = ants_[a];
+    if (!ant.ready) prepare(a, t);
+    ant.ready = 0;
+    if (ant.n_allowed <= 1) return;
+    const int32_t c = ant.cur;
+    const i8 allowed = ((i8{} + int32_t(ant.allowed)) & i8{1, 2, 4, 8, 16, 32, 64, 128}) != 0;
     f8 v;  // τ^α of the 8 cells
     const float* around = tau_power_.data() + c;  // around[0]: the cell c − width − 1
 #if defined(__AVX2__)
@@ -408,28 +441,17 @@ class Colony {
     const __m256 tp = _mm256_blend_ps(diagonal, level, 0x0A);  // moves 1 and 3 from the middle row
     std::memcpy(&v, &tp, sizeof v);
 #else
-    const i8 cells = on_map & (c + offsets_);  // off the map: cell 0, never read for a move
+    const i8 cells = allowed & (c + offsets_);  // not allowed: cell 0, never read for a move
     for (int k = 0; k < 8; ++k) v[k] = tau_power_[padded(cells[k])];
 #endif
-    if (table_) {  // another planner's factor, fixed for the iteration
-      f8 factor;
-      std::memcpy(&factor, in_.factors + int64_t(c) * 8, sizeof factor);
-      v = v * factor;
-    } else {  // eq. 4-5 over the ant's allowed moves
-      const f8 rr = select(allowed, r, splat(0.0f));
-      float total = rr[0];
-      for (int k = 1; k < 8; ++k) total = total + rr[k];
-      const f8 eta_all = 1.0f - rr / std::max(total, 1e-12f);
-      f8 eta = select(i8{} + (n_allowed == 1 ? -1 : 0), splat(1.0f), eta_all);
-      eta = select(eta < 1e-6f, splat(1e-6f), eta);  // std::max(eta, 1e-6f)
-      v = v * power8(eta, beta_, in_.tables);
-    }
+    f8 factor;  // another planner's factor, fixed for the iteration; else η^β of eq. 4-5
+    std::memcpy(&factor, table_ ? in_.factors + int64_t(c) * 8 : ant.w, sizeof factor);
+    v = v * factor;
     v = select(v != v, splat(1e-30f), v);
     v = select(v < 1e-30f, splat(1e-30f), v);  // std::max(v, 1e-30f)
     v = select(1e30f < v, splat(1e30f), v);    // std::min(v, 1e30f)
     const f8 w = select(allowed, v, splat(0.0f));
-    std::memcpy(ants_[a].w, &w, sizeof w);
-    ants_[a].n_allowed = n_allowed;
+    std::memcpy(ant.w, &w, sizeof w);
   }
 
   // Ant a's step t from its weights: forward by the roulette, else back along its path. Whether
@@ -480,8 +502,10 @@ class Colony {
   // What the step changes of an ant, on a cache line of its own: the threads of a team walk
   // neighbouring ants, and a line written by both would go back and forth between their cores.
   struct alignas(64) Ant {
-    float w[8];  // the weights of the ant's 8 moves this step, 0 where not allowed
+    float w[8];  // the weights of the ant's 8 moves this step, 0 where not allowed (η^β once prepared)
     int32_t n_allowed = 0;
+    uint32_t allowed = 0;  // bit k: move k allowed
+    int32_t ready = 0;     // prepared for its next step
     int32_t cur = 0, sp = 0, actions = 0;  // its cell, the top of its stack, its steps
     uint32_t drawn = 0;  // its uniforms are those of steps 16·drawn .. 16·drawn + 15
   };
@@ -501,6 +525,7 @@ const BacktrackKernel JACO_CAT(backtrack_, JACO_ISA) = {
       return new Colony(in, out, sizes);
     },
     [](void* colony, int64_t chunk, int64_t t) { static_cast<Colony*>(colony)->step_chunk(chunk, t); },
+    [](void* colony, int64_t chunk, int64_t t) { static_cast<Colony*>(colony)->prepare_chunk(chunk, t); },
     [](void* colony) { return static_cast<Colony*>(colony)->update(); },
     [](void* colony) {
       static_cast<Colony*>(colony)->finish();

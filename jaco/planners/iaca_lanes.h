@@ -32,6 +32,9 @@ struct BacktrackSizes {
 struct BacktrackKernel {
   void* (*make)(const BacktrackInputs&, const BacktrackOutputs&, const BacktrackSizes&);
   void (*step_chunk)(void* colony, int64_t chunk, int64_t t);
+  // Chunk k's ants still walking after its step t − 1, prepared for step t (what a step computes
+  // apart from the pheromone); any thread, while update runs, before step t.
+  void (*prepare_chunk)(void* colony, int64_t chunk, int64_t t);
   int64_t (*update)(void* colony);
   void (*finish)(void* colony);  // and frees it
 };
