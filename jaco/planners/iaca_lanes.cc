@@ -207,7 +207,7 @@ class Colony {
     // On a large map the ants' rows are far from the cache, and each ant's weights wait on its
     // row: asked for together first, their loads overlap (a 256x256 map: 15 % of the walk).
     for (const int32_t* a = begin; a < end; ++a) __builtin_prefetch(in_.rows + int64_t(ants_[*a].cur) * 8);
-    for (const int32_t* a = begin; a < end; ++a) weigh(*a, t);
+    for (const int32_t* a = begin; a < end; ++a) weigh(*a);
     for (const int32_t* a = begin; a < end; ++a)
       if (move(*a, t, chunk)) chunk.survivors[chunk.n_survivors++] = *a;
   }
@@ -376,62 +376,77 @@ class Colony {
     return u[t & 15];
   }
 
-  // What ant a's next step weighs apart from the pheromone, into ants_[a]: its allowed moves
-  // (how many, and which), and η^β of eq. (4-5) over them; its uniforms of step t. None of it
-  // depends on the local update, so a thread of a team prepares its ants while another updates.
-  void prepare(int64_t a, int64_t t) {
-    Ant& ant = ants_[a];
-    const int32_t c = ant.cur;
+  // What ant a's next step weighs apart from the pheromone: its allowed moves (`allowed`, and how
+  // many: returned) and, where it has a choice (two moves or more) of IACA's own heuristic, η^β
+  // of eq. (4-5) over them (`eta_power`). None of it depends on the local update.
+  int allowed_moves(int64_t a, i8& allowed, f8& eta_power) {
+    const int32_t c = ants_[a].cur;
     f8 r;
     std::memcpy(&r, in_.rows + int64_t(c) * 8, sizeof r);
     const i8 on_map = r > 0.0f;  // rows are > 0 exactly on the moves the map allows
     // jaco.moves.MOVES: (−1, 0), (0, 1), (1, 0), (0, −1), (−1, 1), (1, 1), (1, −1), (−1, −1).
     const i8 move_bit = i8{1 << 1, 1 << 5, 1 << 7, 1 << 3, 1 << 2, 1 << 8, 1 << 6, 1 << 0};
-    const i8 allowed = on_map & (((i8{} + int32_t(tabu_around(a, c))) & move_bit) == 0);
-    int n_allowed = 0;
-    uint32_t bits = 0;
+    allowed = on_map & (((i8{} + int32_t(tabu_around(a, c))) & move_bit) == 0);
+    const int n_allowed = __builtin_popcount(allowed_bits(allowed));
+    if (n_allowed <= 1 || table_) return n_allowed;  // no powers: a step back, or the one move the roulette can pick
+    const f8 rr = select(allowed, r, splat(0.0f));
+    float total = rr[0];
+    for (int k = 1; k < 8; ++k) total = total + rr[k];
+    f8 eta = 1.0f - rr / std::max(total, 1e-12f);
+    eta = select(eta < 1e-6f, splat(1e-6f), eta);  // std::max(eta, 1e-6f)
+    eta_power = power8(eta, beta_, in_.tables);
+    return n_allowed;
+  }
+  static uint32_t allowed_bits(i8 allowed) {  // bit k: move k allowed
 #if defined(__AVX2__)
     __m256 mask;
     std::memcpy(&mask, &allowed, sizeof mask);
-    bits = unsigned(_mm256_movemask_ps(mask));
+    return unsigned(_mm256_movemask_ps(mask));
 #else
+    uint32_t bits = 0;
     for (int k = 0; k < 8; ++k) bits |= uint32_t(allowed[k] != 0) << k;
+    return bits;
 #endif
-    n_allowed = __builtin_popcount(bits);
-    ant.n_allowed = n_allowed;
-    ant.allowed = bits;
+  }
+
+  // Ant a prepared for its step t (allowed_moves and its uniforms, into its record), so that the
+  // step computes only what depends on the pheromone: a thread of a team prepares its ants while
+  // another applies the local update.
+  void prepare(int64_t a, int64_t t) {
+    Ant& ant = ants_[a];
+    i8 allowed;
+    f8 eta_power{};  // set where it is read (a choice of two moves or more, no factor table)
+    ant.n_allowed = allowed_moves(a, allowed, eta_power);
+    ant.allowed = allowed_bits(allowed);
+    if (ant.n_allowed >= 2 && !table_) std::memcpy(ant.w, &eta_power, sizeof eta_power);
+    if (ant.n_allowed >= 1) uniform(a, t);
     ant.ready = 1;
-    if (n_allowed >= 1) uniform(a, t);
-    if (n_allowed <= 1) {  // a step back, or the one move the roulette can pick: no powers
+  }
+
+  // The weights of ant a's 8 moves (eq. 4-1), and how many are allowed, into ants_[a]: τ^α of
+  // the cells around it as the pheromone is now, times η^β (or another planner's factor). Past
+  // the one branch on the ant (no choice, no powers) the weights are branch-free, so the CPU
+  // overlaps one ant's latencies with the next ant's.
+  void weigh(int64_t a) {
+    Ant& ant = ants_[a];
+    i8 allowed;
+    f8 eta_power{};  // set where it is read (a choice of two moves or more, no factor table)
+    if (ant.ready) {  // prepared by a thread of the team
+      ant.ready = 0;
+      allowed = ((i8{} + int32_t(ant.allowed)) & i8{1, 2, 4, 8, 16, 32, 64, 128}) != 0;
+      std::memcpy(&eta_power, ant.w, sizeof eta_power);
+    } else {
+      ant.n_allowed = allowed_moves(a, allowed, eta_power);
+    }
+    if (ant.n_allowed <= 1) {  // a step back, or the one move the roulette can pick
       const f8 w = select(allowed, splat(1.0f), splat(0.0f));
       std::memcpy(ant.w, &w, sizeof w);
       return;
     }
-    if (!table_) {  // eq. 4-5 over the ant's allowed moves
-      const f8 rr = select(allowed, r, splat(0.0f));
-      float total = rr[0];
-      for (int k = 1; k < 8; ++k) total = total + rr[k];
-      f8 eta = 1.0f - rr / std::max(total, 1e-12f);
-      eta = select(eta < 1e-6f, splat(1e-6f), eta);  // std::max(eta, 1e-6f)
-      const f8 eta_power = power8(eta, beta_, in_.tables);
-      std::memcpy(ant.w, &eta_power, sizeof eta_power);
-    }
-  }
-
-  // The weights of ant a's 8 moves (eq. 4-1) at step t, and how many are allowed, into ants_[a]:
-  // τ^α of the cells around it as the pheromone is now, times what prepare left. Past the one
-  // branch on the ant (no choice, no powers) the weights are branch-free, so the CPU overlaps
-  // one ant's latencies with the next ant's.
-  void weigh(int64_t a, int64_t t) {
-    Ant& ant = ants_[a];
-    if (!ant.ready) prepare(a, t);
-    ant.ready = 0;
-    if (ant.n_allowed <= 1) return;
     const int32_t c = ant.cur;
-    const i8 allowed = ((i8{} + int32_t(ant.allowed)) & i8{1, 2, 4, 8, 16, 32, 64, 128}) != 0;
     f8 v;  // τ^α of the 8 cells
-    const float* around = tau_power_.data() + c;  // around[0]: the cell c − width − 1
 #if defined(__AVX2__)
+    const float* around = tau_power_.data() + c;  // around[0]: the cell c − width − 1
     // 4 cells of each row, from c − 1, arranged in the moves' order (as tabu_around).
     const __m128 above = _mm_loadu_ps(around), middle = _mm_loadu_ps(around + width_),
                  below = _mm_loadu_ps(around + 2 * width_);
@@ -444,9 +459,13 @@ class Colony {
     const i8 cells = allowed & (c + offsets_);  // not allowed: cell 0, never read for a move
     for (int k = 0; k < 8; ++k) v[k] = tau_power_[padded(cells[k])];
 #endif
-    f8 factor;  // another planner's factor, fixed for the iteration; else η^β of eq. 4-5
-    std::memcpy(&factor, table_ ? in_.factors + int64_t(c) * 8 : ant.w, sizeof factor);
-    v = v * factor;
+    if (table_) {  // another planner's factor, fixed for the iteration
+      f8 factor;
+      std::memcpy(&factor, in_.factors + int64_t(c) * 8, sizeof factor);
+      v = v * factor;
+    } else {  // eq. 4-5 over the ant's allowed moves
+      v = v * eta_power;
+    }
     v = select(v != v, splat(1e-30f), v);
     v = select(v < 1e-30f, splat(1e-30f), v);  // std::max(v, 1e-30f)
     v = select(1e30f < v, splat(1e30f), v);    // std::min(v, 1e30f)
@@ -502,7 +521,7 @@ class Colony {
   // What the step changes of an ant, on a cache line of its own: the threads of a team walk
   // neighbouring ants, and a line written by both would go back and forth between their cores.
   struct alignas(64) Ant {
-    float w[8];  // the weights of the ant's 8 moves this step, 0 where not allowed (η^β once prepared)
+    float w[8];  // the weights of the ant's 8 moves this step, 0 where not allowed (η^β when prepared)
     int32_t n_allowed = 0;
     uint32_t allowed = 0;  // bit k: move k allowed
     int32_t ready = 0;     // prepared for its next step
