@@ -47,10 +47,12 @@ const BacktrackKernel& kernel() {
 }
 
 // ---- a colony walked by a team of threads ----------------------------------------------------
-// The colony's first thread (the leader) runs the steps: it publishes step t, takes chunks like
-// any other thread, waits until every chunk is done, then updates. The others join when they
-// start and take chunks while there are any; the leader never waits for a thread that has not
-// joined, so a busy pool costs speed, never a deadlock.
+// The colony's first thread (the leader) runs the steps: it publishes step t with chunk 0 taken,
+// walks it, takes any chunk left like any other thread, waits until every chunk is done, then
+// updates. The others join when they start and take chunks while there are any; after each chunk
+// they prepare its ants for the next step while the leader updates, and the leader publishes the
+// next step once they have. The leader never waits for a thread that has not joined (only for
+// the chunks another thread took), so a busy pool costs speed, never a deadlock.
 struct Team {
   // Written by the leader, read by the others: the step published, the chunks taken.
   alignas(64) std::atomic<uint64_t> ticket{~0ull};  // step << 32 | next chunk to take
