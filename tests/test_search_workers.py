@@ -267,6 +267,53 @@ CLI = ["search", "demo", "--planner", "as", "--param", "beta=1:8", "--param", "r
 
 
 @pytest.mark.parametrize(
+    "where", ["a statement on a closed connection", "a connection out of the session", "the first heartbeat"]
+)
+def test_a_worker_interrupted_anywhere_says_it_stopped(tmp_path, monkeypatch, where):
+    """The last heartbeat (0: stopped) is written wherever the interrupt lands. Inside SQLAlchemy's
+    execution of a storage call, the interrupt can leave the call's connection out of the session's
+    reach: closed by SQLAlchemy with its statement in progress (SQLite then keeps the connection's
+    transaction and write lock until the statement is finalized), or checked out with its
+    transaction open; only the interrupt's frames hold either, and the stop drops them. Before,
+    the last heartbeat waited 60 s for that lock and failed (a CI run of the SIGTERM test below
+    failed so). Right after the first heartbeat, before the search's loop: the stop runs all the same."""
+    import sqlalchemy
+
+    from jaco.research import search as S
+    from jaco.research import search_workers as W
+
+    if where != "the first heartbeat":
+
+        def interrupted(self, trials):
+            conn = self.workers.storage.engine.connect()  # not the session's, as the interrupt leaves it
+            rows = conn.execute(sqlalchemy.text("WITH RECURSIVE n(i) AS (SELECT 1 UNION ALL SELECT i + 1 FROM n "
+                                                "WHERE i < 1000) SELECT i FROM n"))  # fmt: skip
+            assert rows.fetchone() is not None  # the statement is in progress; BEGIN IMMEDIATE holds the lock
+            if where == "a statement on a closed connection":
+                conn.invalidate()  # what SQLAlchemy does to a connection whose call an interrupt stopped
+            raise KeyboardInterrupt
+
+        monkeypatch.setattr(S._Run, "_loop", interrupted)
+    else:
+        first_beat = W.Workers._beat
+
+        def beat_then_interrupt(self):
+            first_beat(self, time.time())
+            raise KeyboardInterrupt
+
+        monkeypatch.setattr(W.Workers, "start", beat_then_interrupt)
+    grid = jaco.maps.named("demo")
+    db = tmp_path / "s.db"
+    t0 = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        jaco.search(grid, grid.meta["start"], grid.meta["goal"], {"beta": (1.0, 8.0)}, planner="as", trials=4,
+                    batch=2, n_ants=4, n_iters=5, storage=str(db), heartbeat_interval=0.2, progress=False)  # fmt: skip
+    assert time.monotonic() - t0 < 45  # not a speed check: a held lock makes the last heartbeat wait 60 s
+    beats = {k: v for k, v in jaco.load_study(str(db)).study.user_attrs.items() if k.startswith(BEAT)}
+    assert list(beats.values()) == [0.0]
+
+
+@pytest.mark.parametrize(
     "extra, match",
     [
         ([], "--workers N shares one study between processes: give --storage"),

@@ -400,8 +400,8 @@ class _Run:
     def _generations(self, trials: int | None) -> None:
         """Generations (or brackets) until ``trials`` trials of the study are finished, by all its
         workers together; a dead worker's trials are taken over before every batch."""
-        self.workers.start()
         try:
+            self.workers.start()  # (inside: an interrupt after its first heartbeat still says it stopped)
             self._takeover()
             self._progress()
             if self.proposer is not None:

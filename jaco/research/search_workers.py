@@ -66,7 +66,8 @@ class Workers:
     def stop(self) -> None:
         """No more heartbeats; a trial this worker leaves RUNNING is free for takeover at once."""
         self._stop.set()
-        self._thread.join()
+        if self._thread.ident is not None:  # (an interrupt may land inside start, before the thread)
+            self._thread.join()
         try:
             self._beat(0.0)
         except Exception:  # noqa: BLE001 - the storage failed (what stopped the search?): its heartbeat ages out
