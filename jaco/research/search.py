@@ -400,6 +400,7 @@ class _Run:
     def _generations(self, trials: int | None) -> None:
         """Generations (or brackets) until ``trials`` trials of the study are finished, by all its
         workers together; a dead worker's trials are taken over before every batch."""
+        stopped_by = None
         try:
             self.workers.start()  # (inside: an interrupt after its first heartbeat still says it stopped)
             self._takeover()
@@ -407,8 +408,11 @@ class _Run:
             if self.proposer is not None:
                 return self._evosax(trials)
             self._loop(trials)
+        except BaseException as e:
+            stopped_by = e
+            raise
         finally:
-            end_session(self.workers.storage)  # an interrupt may have left a transaction open, and its locks
+            end_session(self.workers.storage, stopped_by)  # an interrupt may have left a transaction open
             self.workers.stop()
 
     def _counts(self) -> tuple[int, int]:

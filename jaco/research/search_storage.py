@@ -7,7 +7,6 @@ several workers share it (:func:`opened`); the lock that serialises claims on a 
 from __future__ import annotations
 
 import gc
-import sys
 import time
 import traceback
 import warnings
@@ -145,25 +144,26 @@ def sqlite_storage(url: str, path):
     return storage
 
 
-def end_session(storage) -> None:
+def end_session(storage, stopped_by: BaseException | None = None) -> None:
     """Roll back and close this thread's database session of an RDB ``storage`` (SQLite,
     PostgreSQL; nothing for a journal file). An interrupt (Ctrl-C, the parent's SIGINT to a worker)
     that lands inside one of Optuna's storage calls can leave its transaction open: with SQLite it
     holds the file's write lock, and the heartbeat thread (and every other worker) would wait for
     it up to the 60 s busy timeout. Optuna opens a new session at the next call.
 
-    Called while an interrupt is handled, it also drops the locals of the interrupt's frames. An
-    interrupt inside SQLAlchemy's own execution of a call leaves the call's connection out of the
-    session's reach: checked out of the pool, or closed by SQLAlchemy with the call's statement
-    still in progress, and SQLite keeps a closed connection's transaction and write lock until
-    that statement is finalized. Both are held only by those frames (measured: 300 interrupts at
-    random moments of reads, 9 left the lock held for 60 s before; none now)."""
+    ``stopped_by``: the exception that stopped the storage's user. An interrupt (not an error)
+    also has the locals of its frames dropped: one inside SQLAlchemy's own execution of a call
+    leaves the call's connection out of the session's reach, checked out of the pool or closed
+    with the call's statement still in progress (SQLite keeps a closed connection's transaction
+    and write lock until that statement is finalized), and only those frames hold it (measured:
+    of about 300 interrupts at random moments of reads, 9 left the lock held for 60 s before,
+    none now)."""
     scoped = getattr(getattr(storage, "_backend", storage), "scoped_session", None)
     if scoped is not None:
         with suppress(Exception):  # closing a broken connection failed: the stop goes on regardless
             scoped.remove()
-    stop = sys.exc_info()[1]
-    if stop is not None and not isinstance(stop, Exception):  # an interrupt, not an error
+    if stopped_by is not None and not isinstance(stopped_by, Exception):  # an interrupt, not an error
+        stop: BaseException | None = stopped_by
         while stop is not None:
             traceback.clear_frames(stop.__traceback__)
             stop = stop.__context__

@@ -144,9 +144,9 @@ class Workers:
         try:
             won = self.claim(frozen)
             return self.replace(frozen) if won and retry else None
-        except BaseException:
+        except BaseException as e:
             if won and retry:
-                end_session(self.storage)  # the interrupted write may have left its transaction open
+                end_session(self.storage, e)  # the interrupted write may have left its transaction open
                 trials = self.study.get_trials(deepcopy=False)
                 if frozen.number not in [t.user_attrs.get("jaco_trial", {}).get("retry_of") for t in trials]:
                     self.replace(frozen)
