@@ -167,13 +167,20 @@ def main(argv=None):
         "",
         table(header, rows),
         "",
-        f"The same sweep costs {speed:.2f}× less CPU on one core after than before; the two give the same costs, "
+        f"The same sweep costs {cpu_words(speed)} on one core after than before; the two give the same costs, "
         "run for run."
         + (f" (--smoke: a {cfg['side']}x{cfg['side']} map, {cfg['values'] ** 3} configurations, {cfg['n_ants']} ants × "
            f"{cfg['n_iters']} iterations: a check that the script runs, not a measurement.)" if args.smoke else ""),
     ])
     publish(text, SECTION, args.out, args.smoke)
     return 0
+
+
+def cpu_words(speed: float) -> str:
+    """``speed`` (CPU before / CPU after) in words that name the right direction."""
+    if speed >= 1:
+        return f"{speed:.2f}× less CPU"
+    return f"{1 / speed:.2f}× more CPU"
 
 
 if __name__ == "__main__":

@@ -306,3 +306,11 @@ def test_iaca_kernel_bench_smoke_walks_two_builds_alike(tmp_path):
         assert len(vals) == 5 and all(math.isfinite(v) and v > 0 for v in vals)
         assert vals[1] <= vals[0] and vals[3] == pytest.approx(vals[0] * 1e6 / vals[2], rel=0.02)
     assert rows[0][2] == rows[1][2] > 0  # the same walks: as many steps
+
+
+def test_before_after_words_name_the_direction():
+    """A sweep that costs more CPU after than before is said to, not "0.80× less"."""
+    import bench_before_after
+
+    assert bench_before_after.cpu_words(1.25) == "1.25× less CPU"
+    assert bench_before_after.cpu_words(0.8) == "1.25× more CPU"
