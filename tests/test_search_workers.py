@@ -227,6 +227,19 @@ def test_asking_slower_than_the_grace_period_every_time_is_a_clear_error(tmp_pat
                     progress=False)  # fmt: skip
 
 
+def _interrupted_search(db) -> tuple[float, list]:
+    """A search on ``db`` that an interrupt stops (the test patches where): its seconds and the
+    heartbeats its study keeps."""
+    grid = jaco.maps.named("demo")
+    t0 = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        jaco.search(grid, grid.meta["start"], grid.meta["goal"], {"beta": (1.0, 8.0)}, planner="as", trials=4,
+                    batch=2, n_ants=4, n_iters=5, storage=str(db), heartbeat_interval=0.2, progress=False)  # fmt: skip
+    seconds = time.monotonic() - t0
+    beats = [v for k, v in jaco.load_study(str(db)).study.user_attrs.items() if k.startswith(BEAT)]
+    return seconds, beats
+
+
 def test_an_interrupt_inside_a_storage_transaction_releases_its_lock(tmp_path, monkeypatch):
     """Ctrl-C (or the parent's SIGINT to a worker) that lands inside one of Optuna's storage calls
     leaves the main thread's transaction open, holding SQLite's write lock. The search ends that
@@ -244,26 +257,16 @@ def test_an_interrupt_inside_a_storage_transaction_releases_its_lock(tmp_path, m
         raise KeyboardInterrupt
 
     monkeypatch.setattr(S._Run, "_loop", interrupted_in_a_transaction)
-    grid = jaco.maps.named("demo")
     db = tmp_path / "s.db"
-    t0 = time.monotonic()
-    with pytest.raises(KeyboardInterrupt):
-        jaco.search(grid, grid.meta["start"], grid.meta["goal"], {"beta": (1.0, 8.0)}, planner="as", trials=4,
-                    batch=2, n_ants=4, n_iters=5, storage=str(db), heartbeat_interval=0.2, progress=False)  # fmt: skip
+    seconds, beats = _interrupted_search(db)
     # not a speed check: with the lock still held, stopping the heartbeat waits out SQLite's 60 s busy timeout
-    assert time.monotonic() - t0 < 45
+    assert seconds < 45
     import sqlite3
 
     with sqlite3.connect(db, timeout=0.5) as con:  # the lock is free: a write does not wait
         con.execute("BEGIN IMMEDIATE")
         con.rollback()
-    beats = {k: v for k, v in jaco.load_study(str(db)).study.user_attrs.items() if k.startswith(BEAT)}
-    assert list(beats.values()) == [0.0]
-
-
-# -- jaco search --workers N ----------------------------------------------------------------------
-CLI = ["search", "demo", "--planner", "as", "--param", "beta=1:8", "--param", "rho=0.05:0.5", "--trials", "8",
-       "--batch", "2", "--seeds", "2", "--ants", "4", "--iters", "5"]  # fmt: skip
+    assert beats == [0.0]
 
 
 @pytest.mark.parametrize(
@@ -302,15 +305,14 @@ def test_a_worker_interrupted_anywhere_says_it_stopped(tmp_path, monkeypatch, wh
             raise KeyboardInterrupt
 
         monkeypatch.setattr(W.Workers, "start", beat_then_interrupt)
-    grid = jaco.maps.named("demo")
-    db = tmp_path / "s.db"
-    t0 = time.monotonic()
-    with pytest.raises(KeyboardInterrupt):
-        jaco.search(grid, grid.meta["start"], grid.meta["goal"], {"beta": (1.0, 8.0)}, planner="as", trials=4,
-                    batch=2, n_ants=4, n_iters=5, storage=str(db), heartbeat_interval=0.2, progress=False)  # fmt: skip
-    assert time.monotonic() - t0 < 45  # not a speed check: a held lock makes the last heartbeat wait 60 s
-    beats = {k: v for k, v in jaco.load_study(str(db)).study.user_attrs.items() if k.startswith(BEAT)}
-    assert list(beats.values()) == [0.0]
+    seconds, beats = _interrupted_search(tmp_path / "s.db")
+    assert seconds < 45  # not a speed check: a held lock makes the last heartbeat wait 60 s
+    assert beats == [0.0]
+
+
+# -- jaco search --workers N ----------------------------------------------------------------------
+CLI = ["search", "demo", "--planner", "as", "--param", "beta=1:8", "--param", "rho=0.05:0.5", "--trials", "8",
+       "--batch", "2", "--seeds", "2", "--ants", "4", "--iters", "5"]  # fmt: skip
 
 
 @pytest.mark.parametrize(
