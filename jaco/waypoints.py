@@ -39,7 +39,7 @@ from .engine.checks import params_from, prepare
 from .engine.planner import Planner
 from .engine.problem import make_problem, stack
 from .engine.result import Result, to_result
-from .engine.run import make_run, paired_runs, seed_key
+from .engine.run import fetched, make_run, paired_runs, seed_key
 from .engine.shape import RunShape
 from .errors import ProblemError
 from .exact import distance_field, shortest_path
@@ -104,9 +104,7 @@ def run_legs(grid: Grid, points: list, planner: Planner, *, seed: int, shape: Ru
     legs = list(zip(points[:-1], points[1:]))
     problems = [make_problem(grid, a, b, connectivity=shape.connectivity) for a, b in legs]
     run = compiled_legs(planner, shape)
-    out = run_interruptibly(
-        lambda: jax.device_get(run(leg_keys(seed, len(legs)), stack(problems), params_from(values)))
-    )
+    out = run_interruptibly(lambda: fetched(run(leg_keys(seed, len(legs)), stack(problems), params_from(values))))
     return [
         to_result(
             jax.tree.map(lambda x, i=i: x[i], out),

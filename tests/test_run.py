@@ -189,3 +189,26 @@ def test_a_solves_loop_has_no_fusion_that_xla_splits_between_threads(planner):
     split = [line.split("=")[0].strip() for block in bodies for line in block.splitlines()
              if 'outer_dimension_partitions":["' in line]  # fmt: skip
     assert split == [], f"fusions of the loop that XLA splits between threads: {split}"
+
+
+def test_a_runs_outputs_are_fetched_as_jax_device_get_gives_them():
+    """``fetched`` (what a solve reads its run's outputs with) skips ``jax.device_get``'s
+    asynchronous copies on the CPU; it must give the same values, dtypes, shapes and structure,
+    None where the run keeps no pheromone."""
+    import jax
+
+    from jaco.engine.run import RunShape, compiled_run, fetched, seed_key
+
+    grid = jaco.maps.random_map(12, 0.2, seed=3)
+    problem = jaco.make_problem(grid, (0, 0), (11, 11))
+    params = jaco.engine.checks.params_from(jaco.engine.checks.resolve_params(jaco.PLANNERS["as"], {}, where="as"))
+    for keep in (False, True):
+        run = compiled_run(jaco.PLANNERS["as"], RunShape(6, 4, 48, 8, keep), batched=False)
+        out = run(seed_key(5), problem, params)
+        got, want = fetched(out), jax.device_get(out)
+        assert type(got) is type(want) and (got.tau is None) is (not keep)
+        assert jax.tree.structure(got) == jax.tree.structure(want)
+        for a, b in zip(jax.tree.leaves(got), jax.tree.leaves(want), strict=True):
+            assert type(a) is np.ndarray and a.dtype == b.dtype and a.shape == b.shape
+            np.testing.assert_array_equal(a, b)
+        assert np.isfinite(got.best_cost) and got.best_cells[0] >= 0  # a path was found: real values compared

@@ -280,6 +280,16 @@ def device_params(values: dict) -> Params:
     return kept(_DEVICE_PARAMS, key, lambda: jax.tree.map(jnp.asarray, params_from(values)), _PARAMS_KEPT)
 
 
+def fetched(outputs: Any) -> Any:
+    """The numpy values of a run's outputs, as ``jax.device_get``. On the CPU each array's value
+    is read as it is: ``jax.device_get`` first asks every array for an asynchronous copy to the
+    host, which overlaps the copies of an accelerator but on the CPU only costs (a solve's 10
+    outputs: about 0.65 ms against 0.2 ms, of a 7–10 ms solve)."""
+    if jax.default_backend() != "cpu":
+        return jax.device_get(outputs)
+    return jax.tree.map(np.asarray, outputs)
+
+
 def solve(
     grid: Grid,
     start: Any,
@@ -317,7 +327,7 @@ def solve(
     bar.start(n_iters)
     with _progress.listening(bar, runs=True):
         run = compiled_run(planner, shape, batched=False, report=show)
-        out = _progress.run_interruptibly(lambda: jax.device_get(run(seed_key(seed), on_device, device_params(values))))
+        out = _progress.run_interruptibly(lambda: fetched(run(seed_key(seed), on_device, device_params(values))))
     return to_result(
         out,
         grid=grid,

@@ -48,7 +48,7 @@ from ..engine.memory import check_run_memory
 from ..engine.params import ORDERED, SPECS, Params, param_names
 from ..engine.planner import Planner
 from ..engine.problem import make_problem
-from ..engine.run import make_run
+from ..engine.run import fetched, make_run
 from ..engine.shape import RunShape
 from ..errors import JacoError, ParamError, check_keywords, did_you_mean
 from ..grid import Grid
@@ -344,6 +344,6 @@ def _run_loop(planner, names, optimizer, sizes: dict, problem, values: dict, *, 
     bar.start(sizes["steps"])
     with _progress.listening(bar):
         out = _progress.run_interruptibly(
-            lambda: jax.device_get(loop(key, problem, base, z0, jnp.float32(sigma), jnp.float32(penalty)))
+            lambda: fetched(loop(key, problem, base, z0, jnp.float32(sigma), jnp.float32(penalty)))
         )
     return penalty, out
