@@ -41,7 +41,9 @@ FULL = dict(side=30, colonies=64, n_ants=50, train_iters=60, rounds=300)
 SMOKE = dict(side=12, colonies=4, n_ants=10, train_iters=3, rounds=3)
 SOURCES = ["jaco/engine/walk_lanes.cc", "jaco/engine/walk_lanes.h", "jaco/engine/walk_shared.h"]
 # setup.py's flags for each set's lanes (JACO_LANES: the ants a vector holds)
-ISA_FLAGS = {"avx2": ["-mavx2", "-mfma", "-mbmi", "-mbmi2", "-mpopcnt", "-DJACO_LANES=8"],
+ISA_FLAGS = {"avx512": ["-mavx512f", "-mavx512bw", "-mavx512vl", "-mavx512dq", "-mavx2", "-mfma", "-mbmi", "-mbmi2",
+                        "-mpopcnt", "-mprefer-vector-width=512", "-DJACO_LANES=16"],
+             "avx2": ["-mavx2", "-mfma", "-mbmi", "-mbmi2", "-mpopcnt", "-DJACO_LANES=8"],
              "baseline": ["-DJACO_LANES=4"]}
 
 
@@ -83,7 +85,7 @@ def write_inputs(cfg: dict, out: Path) -> dict:
 def build(revs: list[str], tmp: Path) -> tuple[Path, str]:
     """The driver with one variant per revision (v0, v1, ...); the instruction set it uses."""
     cxx = os.environ.get("CXX", "c++")
-    isa = kernel_isa()
+    isa = kernel_isa(tuple(ISA_FLAGS))
     flags = ["-std=c++17", "-O3", "-ffp-contract=off", *ISA_FLAGS[isa]]
     objects = []
     for i, rev in enumerate(revs):

@@ -116,9 +116,11 @@ def revision_labels(revs: list[str]) -> list[str]:
                                               text=True, check=True).stdout.strip() for r in revs]
 
 
-def kernel_isa() -> str:
-    """The widest lane set of jaco's kernel that a side-by-side build can use here: avx2 where the
-    installed kernel runs its AVX2 lanes on this CPU, else baseline."""
+def kernel_isa(built: tuple[str, ...] = ("avx2",)) -> str:
+    """The widest lane set of jaco's kernel that a side-by-side build can use here: the widest of
+    ``built`` (the sets the script has flags for) whose lanes the installed kernel runs on this CPU,
+    else baseline."""
     from jaco.engine import native
 
-    return "avx2" if native.isas().get("avx2") in ("active", "runs") else "baseline"
+    runs = [isa for isa, state in native.isas().items() if state in ("active", "runs") and isa in built]
+    return runs[-1] if runs else "baseline"

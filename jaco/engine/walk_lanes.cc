@@ -138,7 +138,31 @@ inline void transpose8(const float* W, int32_t i0, int32_t i1, int32_t i2, int32
 // The 8 move weights of every lane's cell as 8 vectors (w[k][l] = W[row[l] + k]): each row is 8
 // floats in a row, so where the set has them, L row loads and a transpose (no gathers).
 inline void move_weights(const float* W, vi row, vf w[8]) {
-#if defined(__AVX2__) && JACO_LANES % 8 == 0
+#if defined(__AVX512F__) && JACO_LANES == 16
+  // Rows l and l + 8 in the two halves of one register, so that the AVX2 transpose's steps take
+  // both halves at once; its last step (the 128-bit blocks) as one two-register permute. The
+  // result is built in registers: halves stored apart and read back whole stall the CPU.
+  __m512 r[8], t[8], q[8];
+  for (int i = 0; i < 8; ++i)
+    r[i] = _mm512_insertf32x8(_mm512_castps256_ps512(_mm256_loadu_ps(W + row[i])), _mm256_loadu_ps(W + row[i + 8]), 1);
+  for (int i = 0; i < 8; i += 2) {
+    t[i] = _mm512_unpacklo_ps(r[i], r[i + 1]);
+    t[i + 1] = _mm512_unpackhi_ps(r[i], r[i + 1]);
+  }
+  for (int i = 0; i < 8; i += 4) {
+    q[i] = _mm512_shuffle_ps(t[i], t[i + 2], 0x44);
+    q[i + 1] = _mm512_shuffle_ps(t[i], t[i + 2], 0xEE);
+    q[i + 2] = _mm512_shuffle_ps(t[i + 1], t[i + 3], 0x44);
+    q[i + 3] = _mm512_shuffle_ps(t[i + 1], t[i + 3], 0xEE);
+  }
+  const __m512i low = _mm512_setr_epi32(0, 1, 2, 3, 16, 17, 18, 19, 8, 9, 10, 11, 24, 25, 26, 27);
+  const __m512i high = _mm512_setr_epi32(4, 5, 6, 7, 20, 21, 22, 23, 12, 13, 14, 15, 28, 29, 30, 31);
+  for (int k = 0; k < 4; ++k) {
+    const __m512 a = _mm512_permutex2var_ps(q[k], low, q[k + 4]), b = _mm512_permutex2var_ps(q[k], high, q[k + 4]);
+    std::memcpy(&w[k], &a, sizeof a);
+    std::memcpy(&w[k + 4], &b, sizeof b);
+  }
+#elif defined(__AVX2__) && JACO_LANES % 8 == 0
   union Halves {  // lanes 8h .. 8h + 7 in part[h]
     vf whole;
     __m256 part[L / 8];
@@ -161,6 +185,27 @@ inline void move_weights(const float* W, vi row, vf w[8]) {
 // r·width + c], as three loads of 4 words per lane (one a row) and a transpose, where the per-move
 // look-up would take 8 gathers.
 inline void neighbourhood(const uint32_t* tabu, vi cell, int32_t width, vi marks[9]) {
+#if defined(__AVX512F__) && JACO_LANES == 16
+  // The 128-bit blocks of x[i] hold lanes i, i + 4, i + 8 and i + 12; the unpacks then work on all
+  // four blocks at once, and the result is built in registers (see move_weights).
+  for (int r = 0; r < 3; ++r) {
+    __m512i x[4];
+    for (int i = 0; i < 4; ++i) {
+      auto words = [&](int l) {
+        return _mm_loadu_si128(reinterpret_cast<const __m128i*>(tabu + cell[l] + (r - 1) * width - 1));
+      };
+      x[i] = _mm512_inserti32x4(_mm512_inserti32x4(_mm512_inserti32x4(_mm512_castsi128_si512(words(i)), words(i + 4), 1),
+                                                   words(i + 8), 2),
+                                words(i + 12), 3);
+    }
+    const __m512i t0 = _mm512_unpacklo_epi32(x[0], x[1]), t1 = _mm512_unpackhi_epi32(x[0], x[1]);
+    const __m512i t2 = _mm512_unpacklo_epi32(x[2], x[3]), t3 = _mm512_unpackhi_epi32(x[2], x[3]);
+    const __m512i m0 = _mm512_unpacklo_epi64(t0, t2), m1 = _mm512_unpackhi_epi64(t0, t2), m2 = _mm512_unpacklo_epi64(t1, t3);
+    std::memcpy(&marks[3 * r], &m0, sizeof m0);
+    std::memcpy(&marks[3 * r + 1], &m1, sizeof m1);
+    std::memcpy(&marks[3 * r + 2], &m2, sizeof m2);
+  }
+#else
   union Halves {
     vi whole;
     __m256i part[L / 8];
@@ -180,6 +225,7 @@ inline void neighbourhood(const uint32_t* tabu, vi cell, int32_t width, vi marks
       out[3 * r + 2].part[h] = _mm256_unpacklo_epi64(t1, t3);
     }
   for (int i = 0; i < 9; ++i) marks[i] = out[i].whole;
+#endif
 }
 #else
 #define JACO_ROWS 0
@@ -418,11 +464,25 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
     // and marks its own cell visited again (it is: the cell it stands on).
     int32_t edge_sink;
     uint32_t mark_sink;
+#if defined(__AVX512F__) && JACO_LANES == 16
+    {
+      __m512i to, value;
+      std::memcpy(&to, &slot, sizeof to);
+      std::memcpy(&value, &from_move, sizeof value);
+      _mm512_mask_i32scatter_epi32(c.edges, __mmask16(lanes_set(step)), to, value, 4);
+    }
+    (void)edge_sink;
+    for (int l = 0; l < L; ++l) {
+      c.visited[entered[l]] = true;
+      *(marking[l] ? tabu + marked[l] : &mark_sink) |= 1u << l;
+    }
+#else
     for (int l = 0; l < L; ++l) {
       *(stepped[l] ? c.edges + at[l] : &edge_sink) = edge[l];
       c.visited[entered[l]] = true;
       *(marking[l] ? tabu + marked[l] : &mark_sink) |= 1u << l;
     }
+#endif
     s.prev = pick(step, s.cur, s.prev);
     s.cur = cell;
     s.t -= step;
