@@ -34,7 +34,8 @@ _ISAS = {
     "avx512": (["-mavx512f", "-mavx512bw", "-mavx512vl", "-mavx512dq", "-mavx2", "-mfma", "-mbmi", "-mbmi2", "-mpopcnt",
                 "-mprefer-vector-width=512"], 16),
 }
-_LANES = ["jaco/engine/walk_lanes.cc", "jaco/planners/iaca_lanes.cc", "jaco/engine/weights_lanes.cc"]
+_LANES = ["jaco/engine/walk_lanes.cc", "jaco/planners/iaca_lanes.cc", "jaco/engine/weights_lanes.cc",
+          "jaco/engine/pheromone_lanes.cc"]
 
 
 def _isas() -> dict:
@@ -181,7 +182,7 @@ setup(
             # One kernel per file, next to the code it serves; one library.
             ["jaco/engine/walk.cc", "jaco/planners/iaca.cc", "jaco/engine/weights.cc", "jaco/engine/pheromone.cc", "jaco/engine/local_search.cc",
              "jaco/potential.cc"],
-            depends=[*_LANES, "jaco/engine/walk_lanes.h", "jaco/planners/iaca_lanes.h", "jaco/engine/weights_lanes.h", "jaco/engine/walk_shared.h", "jaco/engine/kernel_threads.h"],
+            depends=[*_LANES, "jaco/engine/walk_lanes.h", "jaco/planners/iaca_lanes.h", "jaco/engine/weights_lanes.h", "jaco/engine/pheromone_lanes.h", "jaco/engine/walk_shared.h", "jaco/engine/kernel_threads.h"],
             include_dirs=["jaco/engine"],
             language="c++",
             extra_compile_args=["-std=c++17", "-O3", "-ffp-contract=off"],

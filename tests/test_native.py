@@ -338,17 +338,20 @@ def _walk_targets(rng, R, C, M):
 @pytest.mark.parametrize("form", ["scalar", "per column", "per target"])
 @pytest.mark.parametrize("pheromone", ["plain", "signed zeros and NaN"])
 @pytest.mark.parametrize("colonies", [3, 19])
-def test_the_deposit_kernel_adds_as_xlas_scatter_add(shape, form, pheromone, colonies):
+def test_the_deposit_kernel_adds_as_xlas_scatter_add(shape, form, pheromone, colonies, isa_choice):
     """jaco.engine.native.deposit equals XLA's scatter-add bit for bit: few elements (many adds
     to one element, in order), amounts of +0.0 and -0.0 (skipped only where that changes no
     element), several colonies in one vmapped call: 3 (on two threads or more, each colony added
-    alone) or 19 (in groups whose adds interleave: 8, 8 and 3 colonies, lists of unequal lengths)."""
+    alone) or 19 (in groups whose adds interleave: 8, 8 and 3 colonies, lists of unequal lengths).
+    With every instruction set this CPU runs: the pheromone's copy and check is built per set, and
+    a -0.0 or NaN is found in a vector's first lanes and in the tail after the last whole vector."""
     R, C = shape
     M = 37
     rng = np.random.default_rng(R * 100 + C)
     tau = rng.uniform(0.01, 5.0, size=(colonies, M)).astype(np.float32)
     if pheromone != "plain":
         tau[0, 3], tau[1, 5], tau[2, 7] = -0.0, np.nan, 0.0
+        tau[-1, M - 2] = -0.0
     targets = np.stack([_walk_targets(rng, R, C, M) for _ in range(colonies)])
     size = {"scalar": (colonies,), "per column": (colonies, C), "per target": (colonies, R, C)}[form]
     amounts = rng.choice(np.array([0.0, -0.0, 1e-7, 0.37, 3.0, 1e30], np.float32), size=size)
@@ -359,8 +362,11 @@ def test_the_deposit_kernel_adds_as_xlas_scatter_add(shape, form, pheromone, col
         return t.at[g.ravel()].add(jnp.broadcast_to(a, g.shape).ravel(), mode="drop")
 
     want = jax.jit(jax.vmap(xla))(tau, targets, amounts)
-    got = jax.jit(jax.vmap(native.deposit))(tau, targets, amounts)
-    np.testing.assert_array_equal(np.asarray(got).view(np.uint32), np.asarray(want).view(np.uint32))
+    deposit = jax.jit(jax.vmap(native.deposit))
+    for isa in RUNNABLE:
+        isa_choice(isa)
+        got = deposit(tau, targets, amounts)
+        np.testing.assert_array_equal(np.asarray(got).view(np.uint32), np.asarray(want).view(np.uint32), err_msg=isa)
     assert not np.array_equal(np.asarray(want), tau) or form == "scalar"  # something was added
 
 

@@ -11,9 +11,12 @@
 #include <type_traits>
 #include <vector>
 
+#include "pheromone_lanes.h"
 #include "xla/ffi/api/ffi.h"
 
 namespace ffi = xla::ffi;
+
+extern "C" int jaco_isa_get();  // walk.cc: the instruction set in use, an index of JACO_ISA_LIST
 
 namespace {
 
@@ -27,16 +30,23 @@ namespace {
 // Adding +0.0 leaves every float as it is but -0.0 (it becomes +0.0) and a signalling NaN (it
 // is quieted): where the pheromone holds neither, the adds of a zero amount (a failed ant's, in
 // most rules about half the steps) are skipped, the same result with less work. The check is made
-// in the copy of the pheromone into the result, one pass (branch-free, so that it is vectorised).
+// in the copy of the pheromone into the result, one pass (pheromone_lanes.cc: vectorised with the
+// instruction set the walk uses).
 bool copy_and_check_zero_adds(const float* src, float* dst, int64_t M) {
-  uint32_t odd = 0;
-  for (int64_t i = 0; i < M; ++i) {
-    uint32_t bits;
-    std::memcpy(&bits, src + i, 4);
-    odd |= uint32_t(bits == 0x80000000u) | uint32_t((bits & 0x7fffffffu) > 0x7f800000u);
-    dst[i] = src[i];
-  }
-  return odd == 0;
+#ifdef JACO_HAVE_AVX2
+  constexpr auto kAvx2 = copy_and_check_zero_adds_avx2;
+#else
+  constexpr decltype(&copy_and_check_zero_adds_baseline) kAvx2 = nullptr;
+#endif
+#ifdef JACO_HAVE_AVX512
+  constexpr auto kAvx512 = copy_and_check_zero_adds_avx512;
+#else
+  constexpr decltype(&copy_and_check_zero_adds_baseline) kAvx512 = nullptr;
+#endif
+  constexpr decltype(&copy_and_check_zero_adds_baseline) kSets[] = {copy_and_check_zero_adds_baseline, kAvx2,
+                                                                    kAvx512};  // JACO_ISA_LIST's order
+  const int i = jaco_isa_get();  // only a set that was built and that this CPU runs
+  return (i > 0 && i < 3 && kSets[i] ? kSets[i] : kSets[0])(src, dst, M);
 }
 
 bool is_plus_zero(float x) {
