@@ -74,8 +74,9 @@ template <typename VU, typename VF>
 inline void draw_blocks(uint32_t k0, uint32_t k1, uint32_t ant, uint32_t block0, float* out) {
   constexpr int L = sizeof(VU) / sizeof(uint32_t);
   const uint32_t ks[3] = {k0, k1, k0 ^ k1 ^ 0x1BD11BDAu};
-  VU x1;
-  for (int l = 0; l < L; ++l) x1[l] = block0 + uint32_t(l);
+  VU x1 = {};
+  for (int l = 0; l < L; ++l) x1[l] = uint32_t(l);  // a constant: block0 is added to it whole
+  x1 += block0;
   VU x0 = x1 - x1 + (ant + ks[0]);
   x1 += ks[1];
 #define JACO_MIX(r)        \
