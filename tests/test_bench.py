@@ -174,7 +174,8 @@ def test_native_heuristic_matches_jaco():
     np.testing.assert_allclose(eta, want, rtol=1e-6)
     np.testing.assert_array_equal(nbr, problem.nbr)
     # the move targets' coordinates, which jaco computes as cell + move: those of the cells nbr holds
-    xy = jaco.engine.heuristics._targets_xy(jaco.engine.problem.to_device(problem))
+    on_device = jaco.engine.problem.to_device(problem)
+    xy = np.stack([jaco.engine.heuristics.target_coordinate(on_device, axis) for axis in (0, 1)], axis=-1)
     safe = np.where(nbr >= 0, nbr, np.arange(len(nbr))[:, None])
     np.testing.assert_array_equal(xy, np.stack(np.divmod(safe, grid.width), axis=-1).astype(np.float32))
 
