@@ -229,8 +229,10 @@ def report(R, command) -> str:
             f"Where the native iteration's {whole * ns:.0f} ns CPU per real step go: the walk {walk_ms * ns:.0f} "
             f"({walk_ms / whole:.0%}), the weights, tours and update {(named - walk_ms) * ns:.0f} "
             f"({(named - walk_ms) / whole:.0%}), {rest}. The walk's limit on this CPU: an ant-step is about 16 "
-            "loads and 40 lane operations (the roulette over 8 moves), a few cycles per ant-step at 8 lanes; "
-            "docs/native.md says what the lanes do and what did not pay.",
+            "loads and 40 lane operations (the roulette over 8 moves), a few cycles per ant-step at 8 or 16 "
+            "lanes; each lane's own stores, tabu bits and uniforms, and the steps of the lanes left walking "
+            "alone at a colony's end, make up most of the rest; docs/native.md says where a step's time goes, "
+            "what the lanes do and what did not pay.",
         ]
     lines += [
         "",
@@ -239,7 +241,8 @@ def report(R, command) -> str:
         "the batch's last ant stops, and XLA:CPU runs each operation of a step as its own kernel: "
         "microseconds per loop step and tens of ns per lane-step, most lanes idle. With the native walk, the "
         "weights and the deposit are kernels too: the weights with XLA's own log and exp, 8 cells at a time "
-        "in AVX2 lanes, over every move of every cell an ant can enter (the weights row also computes the "
+        "in AVX2 lanes (8 pairs of cells in AVX-512's 16), over every move of every cell an ant can enter "
+        "(the weights row also computes the "
         "factor β·log η, which a run computes once); the deposit adds the steps walked, not every step slot. "
         "The tours are elementwise XLA code over every step slot.",
     ]
