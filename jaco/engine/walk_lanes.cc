@@ -4,7 +4,8 @@
 // walk_lanes_<JACO_ISA>), JACO_LANES its lane count, and the compiler flags let it use the set's
 // vector registers (SSE2: 4 lanes, AVX2: 8, AVX-512: 16). The lanes are GCC/Clang vector types,
 // with the set's own instructions where they pay (row transposes, permutes, masks; gathers for
-// the uniforms); the arithmetic is the same source for every set, so every set takes the same moves.
+// the uniforms; with AVX-512 a scatter for the edges); the arithmetic is the same source for every
+// set, so every set takes the same moves.
 //
 // Every lane does its ant's float operations of the JAX walk in the same order (the running sums
 // added left to right, one multiply for the target, no fused multiply-add: -ffp-contract=off), so
@@ -461,8 +462,8 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
     std::memcpy(marking, &marks, sizeof marking);
     // Every lane's stores, with no branch on how many lanes stepped (a loop over the stepping
     // lanes mispredicted its exit at most steps): a lane that did not step stores into a sink,
-    // and marks its own cell visited again (it is: the cell it stands on).
-    int32_t edge_sink;
+    // and marks its own cell visited again (it is: the cell it stands on). With AVX-512 the edges
+    // are one masked scatter of the lanes that stepped.
     uint32_t mark_sink;
 #if defined(__AVX512F__) && JACO_LANES == 16
     {
@@ -471,12 +472,12 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
       std::memcpy(&value, &from_move, sizeof value);
       _mm512_mask_i32scatter_epi32(c.edges, __mmask16(lanes_set(step)), to, value, 4);
     }
-    (void)edge_sink;
     for (int l = 0; l < L; ++l) {
       c.visited[entered[l]] = true;
       *(marking[l] ? tabu + marked[l] : &mark_sink) |= 1u << l;
     }
 #else
+    int32_t edge_sink;
     for (int l = 0; l < L; ++l) {
       *(stepped[l] ? c.edges + at[l] : &edge_sink) = edge[l];
       c.visited[entered[l]] = true;
