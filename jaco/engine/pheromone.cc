@@ -33,18 +33,18 @@ namespace {
 // in the copy of the pheromone into the result, one pass (pheromone_lanes.cc: vectorised with the
 // instruction set the walk uses).
 bool copy_and_check_zero_adds(const float* src, float* dst, int64_t M) {
+  using CopyCheck = bool (*)(const float*, float*, int64_t);
 #ifdef JACO_HAVE_AVX2
-  constexpr auto kAvx2 = copy_and_check_zero_adds_avx2;
+  constexpr CopyCheck kAvx2 = copy_and_check_zero_adds_avx2;
 #else
-  constexpr decltype(&copy_and_check_zero_adds_baseline) kAvx2 = nullptr;
+  constexpr CopyCheck kAvx2 = nullptr;
 #endif
 #ifdef JACO_HAVE_AVX512
-  constexpr auto kAvx512 = copy_and_check_zero_adds_avx512;
+  constexpr CopyCheck kAvx512 = copy_and_check_zero_adds_avx512;
 #else
-  constexpr decltype(&copy_and_check_zero_adds_baseline) kAvx512 = nullptr;
+  constexpr CopyCheck kAvx512 = nullptr;
 #endif
-  constexpr decltype(&copy_and_check_zero_adds_baseline) kSets[] = {copy_and_check_zero_adds_baseline, kAvx2,
-                                                                    kAvx512};  // JACO_ISA_LIST's order
+  constexpr CopyCheck kSets[] = {copy_and_check_zero_adds_baseline, kAvx2, kAvx512};  // JACO_ISA_LIST's order
   const int i = jaco_isa_get();  // only a set that was built and that this CPU runs
   return (i > 0 && i < 3 && kSets[i] ? kSets[i] : kSets[0])(src, dst, M);
 }

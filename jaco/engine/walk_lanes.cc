@@ -452,13 +452,10 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
     const vi step = s.live & ok;
     const vi cell = pick(step, s.cur + move_offset(c.offsets, chosen), s.cur);
     const vi slot = s.t * int32_t(A) + s.ant;
-    int32_t marked[L], entered[L], at[L], edge[L], stepped[L], marking[L];
+    int32_t marked[L], entered[L], marking[L];
     const vi from_move = s.cur * 8 - s.first_edge + chosen, marks = step & (s.prev >= zero);
     std::memcpy(marked, &s.prev, sizeof marked);
     std::memcpy(entered, &cell, sizeof entered);
-    std::memcpy(at, &slot, sizeof at);
-    std::memcpy(edge, &from_move, sizeof edge);
-    std::memcpy(stepped, &step, sizeof stepped);
     std::memcpy(marking, &marks, sizeof marking);
     // Every lane's stores, with no branch on how many lanes stepped (a loop over the stepping
     // lanes mispredicted its exit at most steps): a lane that did not step stores into a sink,
@@ -477,7 +474,10 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
       *(marking[l] ? tabu + marked[l] : &mark_sink) |= 1u << l;
     }
 #else
-    int32_t edge_sink;
+    int32_t at[L], edge[L], stepped[L], edge_sink;
+    std::memcpy(at, &slot, sizeof at);
+    std::memcpy(edge, &from_move, sizeof edge);
+    std::memcpy(stepped, &step, sizeof stepped);
     for (int l = 0; l < L; ++l) {
       *(stepped[l] ? c.edges + at[l] : &edge_sink) = edge[l];
       c.visited[entered[l]] = true;

@@ -201,8 +201,10 @@ inline void store_rows(float* table, const int64_t* cell, V8 x) { _mm256_storeu_
 inline void load_moves(const WeightsColony& c, const int64_t* cell, M8& valid, V8& tau) {
   const __m256i to = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(c.nbr + cell[0] * 8));
   valid = _mm256_castsi256_ps(_mm256_cmpgt_epi32(to, _mm256_set1_epi32(-1)));
-  tau = c.cells ? _mm256_i32gather_ps(c.log_tau, _mm256_max_epi32(to, _mm256_setzero_si256()), 4)
-                : _mm256_loadu_ps(c.tau + cell[0] * 8);
+  if (c.cells)
+    tau = _mm256_i32gather_ps(c.log_tau, _mm256_max_epi32(to, _mm256_setzero_si256()), 4);
+  else
+    load_rows(c.tau, cell, tau);
 }
 
 #if defined(__AVX512F__)
