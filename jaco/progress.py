@@ -26,10 +26,11 @@ from __future__ import annotations
 import concurrent.futures
 import contextlib
 import logging
+import math
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from typing import Any, TypeVar
 
 from .engine import native
@@ -39,6 +40,7 @@ T = TypeVar("T")
 REPORTS = 25  # a compiled loop reports at most this often per run (every ceil(n / REPORTS) steps)
 SOLVE_DELAY = 2.0  # seconds: a solve shows its bar only once it has taken this long
 POLL = 0.05  # seconds between the looks at an interrupt, and at the kernel's count of iterations
+QUICK = 0.02  # seconds: a program whose last call took less runs on the calling thread (run_interruptibly)
 
 
 def enabled(progress: bool | None) -> bool:
@@ -149,7 +151,7 @@ logging.getLogger("jax._src.callback").addFilter(_QuietInterrupts())
 _WORKER = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="jaco-compute")
 
 
-def run_interruptibly(fn: Callable[..., T], *args: Any, **kwargs: Any) -> T:
+def run_interruptibly(fn: Callable[..., T], *args: Any, program: Hashable | None = None, **kwargs: Any) -> T:
     """``fn(*args, **kwargs)`` (compiling or running a compiled program, fetching its results) in a
     worker thread while the main thread waits in short steps, so that Ctrl-C (SIGINT) or SIGTERM is
     seen at once: only the main thread runs Python's signal handlers, and it would not run them
@@ -161,20 +163,37 @@ def run_interruptibly(fn: Callable[..., T], *args: Any, **kwargs: Any) -> T:
     runs normally. Called from any other thread, it just calls ``fn``.
 
     While a shown bar counts runs' iterations (:class:`listening` with ``runs``, :class:`reporting`),
-    a helper thread moves it to the native walk's count of finished iterations (:func:`_polling`)."""
+    a helper thread moves it to the native walk's count of finished iterations (:func:`_polling`).
+
+    ``program``: what the call runs (a compiled program and its shapes, e.g. a solve's). A program
+    whose last call took less than :data:`QUICK` seconds runs on the calling thread instead: the
+    hand-over to the worker and back costs two thread wake-ups, 0.1–0.5 ms of a 3–5 ms solve on
+    the 2-core machines here, where each wake-up can cross to the other core. An interrupt then
+    takes effect when the call returns, which a call of the same program takes a few times
+    :data:`QUICK` at most (the same shapes; a query or parameters that make its ants walk longer)."""
     listener = _LISTENER[0] if _RUNS[0] and getattr(_LISTENER[0], "show", True) else None  # a hidden bar: no polls
     polling = _polling(listener) if listener is not None else contextlib.nullcontext()
     if threading.current_thread() is not threading.main_thread():
         with polling:
             return fn(*args, **kwargs)
+    t0 = time.perf_counter()
+    if program is not None and _TOOK.get(program, math.inf) < QUICK:
+        with polling:
+            out = fn(*args, **kwargs)
+        _took(program, time.perf_counter() - t0)
+        return out
     future = _WORKER.submit(fn, *args, **kwargs)
     try:
         with polling:
             while True:
                 try:
-                    return future.result(timeout=POLL)
+                    out = future.result(timeout=POLL)
+                    break
                 except concurrent.futures.TimeoutError:
                     continue
+        if program is not None:
+            _took(program, time.perf_counter() - t0)
+        return out
     except BaseException:  # KeyboardInterrupt, the CLI's SIGTERM exception
         if not future.done():
             native.set_stop(True)
@@ -182,6 +201,17 @@ def run_interruptibly(fn: Callable[..., T], *args: Any, **kwargs: Any) -> T:
             with contextlib.suppress(BaseException):
                 future.result(timeout=1.0)  # a reporting loop ends at its next report
         raise
+
+
+_TOOK: dict = {}  # seconds the last call of each program took (run_interruptibly's ``program``)
+
+
+def _took(program: Hashable, seconds: float) -> None:
+    """Note how long a call of ``program`` took; the latest 256 programs are kept."""
+    _TOOK.pop(program, None)
+    if len(_TOOK) >= 256:
+        _TOOK.pop(next(iter(_TOOK)))
+    _TOOK[program] = seconds
 
 
 def _move(listener: Any, seen: int) -> int:

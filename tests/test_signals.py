@@ -17,6 +17,7 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import jaco
@@ -340,3 +341,43 @@ def test_without_a_cpu_backend_runs_skip_the_host_callback_and_say_so(monkeypatc
     assert "pure_callback" not in text and "cond" not in text
     assert not bool(jax.jit(lambda t: native._host_stopped(t))(jnp.int32(0)))
     monkeypatch.delitem(native._state, "host_callbacks")  # the next test asks again
+
+
+def test_quick_solves_run_on_the_main_thread_and_an_interrupt_still_stops_them(monkeypatch):
+    """A solve whose program's last call was quick runs on the calling thread (no hand-over to the
+    worker), with the same results as through the worker; a real SIGINT during a loop of such
+    solves raises KeyboardInterrupt at once and leaves no stop request behind."""
+    from jaco import progress
+
+    grid = jaco.maps.random_map(12, 0.2, seed=1)
+    solve = lambda seed: jaco.solve(grid, (0, 0), (11, 11), "as", seed=seed, n_ants=10, n_iters=10, progress=False)  # noqa: E731
+    handed = []
+    real_submit = progress._WORKER.submit
+    monkeypatch.setattr(progress._WORKER, "submit", lambda *a, **k: handed.append(1) or real_submit(*a, **k))
+    monkeypatch.setattr(progress, "_TOOK", {})  # no call of any program noted yet
+    first = solve(0)  # through the worker (and the compile, unless another test compiled the program)
+    assert handed == [1]
+    solve(0)  # the program's last call now took the run alone: quick
+    assert any(t < progress.QUICK for t in progress._TOOK.values())
+    handed.clear()
+    again = [solve(s) for s in (0, 1, 2)]
+    assert not handed  # quick now: on this thread
+    np.testing.assert_array_equal(again[0].path, first.path)
+    np.testing.assert_array_equal(again[0].history["best"], first.history["best"])
+    monkeypatch.setattr(progress, "QUICK", 0.0)  # every call through the worker: the same results
+    for s, r in zip((0, 1, 2), again):
+        w = solve(s)
+        np.testing.assert_array_equal(w.path, r.path)
+        for k in r.history:
+            np.testing.assert_array_equal(w.history[k], r.history[k])
+    assert handed
+    monkeypatch.undo()
+
+    timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
+    t0 = time.time()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        while time.time() - t0 < 60:
+            solve(3)
+    assert time.time() - t0 < 5 and not jaco.engine.native.stop_is_set()
+    assert solve(4).success

@@ -327,7 +327,9 @@ def solve(
     bar.start(n_iters)
     with _progress.listening(bar, runs=True):
         run = compiled_run(planner, shape, batched=False, report=show)
-        out = _progress.run_interruptibly(lambda: fetched(run(seed_key(seed), on_device, device_params(values))))
+        out = _progress.run_interruptibly(
+            lambda: fetched(run(seed_key(seed), on_device, device_params(values))), program=(run, grid.shape)
+        )
     return to_result(
         out,
         grid=grid,
