@@ -374,15 +374,23 @@ def run_benchmark(args) -> dict:
             timed(lambda: solve(True))
             # In rounds: the numba loop's run (with the first walk), the solve, and the solve with a
             # progress bar (the program a terminal or notebook runs; the bar itself opens only after
-            # two seconds, so none is drawn here), calls in a row each. The machines here switch
-            # between a fast and a slow state from one moment to the next (the numba run: 12 or 20
+            # two seconds, so none is drawn here), one call of each in turn, so that the three
+            # series of a round see the same state of the machine. The machines here switch
+            # between a fast and a slow state from one moment to the next (the numba run: 8 or 14
             # ms), so each series keeps its best round's median, as the sweeps keep their best.
             lat, lat_bar = [], []
             for _ in range(cfg["solve_rounds"]):
-                if walk == R["walks"][0]:
-                    native_run.append([timed(native_solve)[0] for _ in range(cfg["latency_calls"])])
-                lat.append([timed(solve)[0] for _ in range(cfg["latency_calls"])])
-                lat_bar.append([timed(lambda: solve(True))[0] for _ in range(cfg["latency_calls"])])
+                first = walk == R["walks"][0]
+                calls: dict = {"native": [], "solve": [], "bar": []}
+                for _ in range(cfg["latency_calls"]):
+                    if first:
+                        calls["native"].append(timed(native_solve)[0])
+                    calls["solve"].append(timed(solve)[0])
+                    calls["bar"].append(timed(lambda: solve(True))[0])
+                if first:
+                    native_run.append(calls["native"])
+                lat.append(calls["solve"])
+                lat_bar.append(calls["bar"])
             rounds_ms = {"solve": [1e3 * statistics.median(r) for r in lat],
                          "solve_bar": [1e3 * statistics.median(r) for r in lat_bar]}
             lat = min(lat, key=statistics.median)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -121,8 +122,8 @@ class Grid:
     def n_cells(self) -> int:
         return self.free.size
 
-    @property
-    def n_free(self) -> int:
+    @cached_property
+    def n_free(self) -> int:  # counted once: the cells cannot change
         return int(self.free.sum())
 
     def index(self, cell: Cell) -> int:
@@ -183,6 +184,9 @@ class Grid:
         return ["".join("." if f else "@" for f in row) for row in self.free]
 
     def replace(self, **changes: Any) -> Grid:
+        """A copy with ``changes``. The copy's meta holds this grid's own entries, not what jaco
+        keeps on the grid for its queries (keys starting with ``_``): another mask has other ones."""
+        changes.setdefault("meta", {k: v for k, v in self.meta.items() if not k.startswith("_")})
         return replace(self, **changes)
 
     # -- world coordinates (ROS maps) ----------------------------------------------------------

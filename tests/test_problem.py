@@ -121,3 +121,17 @@ def test_device_parameters_are_kept_by_their_bits():
     minus = device_params({"alpha": np.float32(1.0), "xi": np.float32(-0.0)})
     assert not np.signbit(np.asarray(plus.xi)) and np.signbit(np.asarray(minus.xi))
     assert device_params({"alpha": np.float32(1.0), "xi": np.float32(0.0)}) is plus
+
+
+def test_a_replaced_mask_gets_its_own_problems_not_the_old_grids():
+    """jaco keeps a grid's problems in its meta; ``grid.replace(free=...)`` keeps the user's meta
+    entries but not those: the new mask's query has its own optimum (here a wall makes the path
+    longer) and its own reachability."""
+    grid = jaco.Grid.from_rows(["....", "....", "...."], meta={"note": "kept"})
+    assert jaco.make_problem(grid, (0, 0), (0, 3)).optimal == 3.0
+    walled = grid.replace(free=np.array([[1, 1, 0, 1], [1, 1, 0, 1], [1, 1, 1, 1]], bool))
+    assert walled.meta == {"note": "kept"}
+    assert jaco.make_problem(walled, (0, 0), (0, 3)).optimal > 4.0
+    with pytest.raises(jaco.ProblemError, match="cannot be reached"):
+        jaco.make_problem(grid.replace(free=np.array([[1, 1, 0, 1], [1, 1, 0, 1], [1, 1, 0, 1]], bool)), (0, 0), (0, 3))
+    assert jaco.make_problem(grid, (0, 0), (0, 3)).optimal == 3.0  # the first grid's own, unchanged
