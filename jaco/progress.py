@@ -34,6 +34,7 @@ from collections.abc import Callable, Hashable
 from typing import Any, TypeVar
 
 from .engine import native
+from .engine.cache import keep
 
 T = TypeVar("T")
 
@@ -167,8 +168,8 @@ def run_interruptibly(fn: Callable[..., T], *args: Any, program: Hashable | None
 
     ``program``: what the call runs (a compiled program and its shapes, e.g. a solve's). A program
     whose last call took less than :data:`QUICK` seconds runs on the calling thread instead: the
-    hand-over to the worker and back costs two thread wake-ups, 0.1–0.5 ms of a 3–5 ms solve on
-    the 2-core machines here, where each wake-up can cross to the other core. An interrupt then
+    hand-over to the worker and back costs two thread wake-ups, each possibly on the other core (a
+    3 ms solve took 0.96 of the time without them on the 2-core machines here). An interrupt then
     takes effect when the call returns, which a call of the same program takes a few times
     :data:`QUICK` at most (the same shapes; a query or parameters that make its ants walk longer)."""
     listener = _LISTENER[0] if _RUNS[0] and getattr(_LISTENER[0], "show", True) else None  # a hidden bar: no polls
@@ -180,7 +181,7 @@ def run_interruptibly(fn: Callable[..., T], *args: Any, program: Hashable | None
     if program is not None and _TOOK.get(program, math.inf) < QUICK:
         with polling:
             out = fn(*args, **kwargs)
-        _took(program, time.perf_counter() - t0)
+        keep(_TOOK, program, time.perf_counter() - t0, 256)
         return out
     future = _WORKER.submit(fn, *args, **kwargs)
     try:
@@ -192,7 +193,7 @@ def run_interruptibly(fn: Callable[..., T], *args: Any, program: Hashable | None
                 except concurrent.futures.TimeoutError:
                     continue
         if program is not None:
-            _took(program, time.perf_counter() - t0)
+            keep(_TOOK, program, time.perf_counter() - t0, 256)
         return out
     except BaseException:  # KeyboardInterrupt, the CLI's SIGTERM exception
         if not future.done():
@@ -203,15 +204,7 @@ def run_interruptibly(fn: Callable[..., T], *args: Any, program: Hashable | None
         raise
 
 
-_TOOK: dict = {}  # seconds the last call of each program took (run_interruptibly's ``program``)
-
-
-def _took(program: Hashable, seconds: float) -> None:
-    """Note how long a call of ``program`` took; the latest 256 programs are kept."""
-    _TOOK.pop(program, None)
-    if len(_TOOK) >= 256:
-        _TOOK.pop(next(iter(_TOOK)))
-    _TOOK[program] = seconds
+_TOOK: dict = {}  # seconds the last call of each program took (run_interruptibly's ``program``), 256 kept
 
 
 def _move(listener: Any, seen: int) -> int:

@@ -51,8 +51,14 @@ def kept(store: dict, key: Hashable, build: Callable[[], Any], limit: int) -> An
         hit = store.pop(key, None)
     if hit is None:
         hit = build()
+    keep(store, key, hit, limit)
+    return hit
+
+
+def keep(store: dict, key: Hashable, value: Any, limit: int) -> None:
+    """``store[key] = value`` as :func:`kept` keeps it: the newest of the ``limit`` keys used last."""
     with _KEPT_LOCK:
+        store.pop(key, None)
         while len(store) >= limit:
             store.pop(next(iter(store)))  # the key used longest ago
-        store[key] = hit
-    return hit
+        store[key] = value
