@@ -430,6 +430,9 @@ def run_benchmark(args) -> dict:
             + [R["native_run_ms"] for w in R["walks"]],
             ["`solve` speed-up over the numba loop's run (median / median)"]
             + [R["native_run_ms"] / sv[w]["median_ms"] for w in R["walks"]],
+            ["the same in each round (the two series' medians of that round: the machine's state moves it)"]
+            + [" / ".join(f"{n / j:.2f}" for n, j in zip(R["native_run_rounds_ms"], sv[w]["rounds_ms"]["solve"]))
+               for w in R["walks"]],
         ],
     )
     print(R["solve_table"], flush=True)
