@@ -26,7 +26,6 @@ from __future__ import annotations
 import concurrent.futures
 import contextlib
 import logging
-import math
 import sys
 import threading
 import time
@@ -178,23 +177,27 @@ def run_interruptibly(fn: Callable[..., T], *args: Any, program: Hashable | None
         with polling:
             return fn(*args, **kwargs)
     t0 = time.perf_counter()
-    if program is not None and _TOOK.get(program, math.inf) < QUICK:
+    if program is not None and _TOOK.get(program, QUICK) < QUICK:
         with polling:
             out = fn(*args, **kwargs)
-        keep(_TOOK, program, time.perf_counter() - t0, 256)
-        return out
+    else:
+        out = _in_worker(polling, fn, *args, **kwargs)
+    if program is not None:
+        keep(_TOOK, program, time.perf_counter() - t0, PROGRAMS_TIMED)
+    return out
+
+
+def _in_worker(polling: Any, fn: Callable[..., T], *args: Any, **kwargs: Any) -> T:
+    """``fn(*args, **kwargs)`` in the worker thread while this (main) thread waits in steps of
+    :data:`POLL`; on an interrupt, the stop request (see :func:`run_interruptibly`)."""
     future = _WORKER.submit(fn, *args, **kwargs)
     try:
         with polling:
             while True:
                 try:
-                    out = future.result(timeout=POLL)
-                    break
+                    return future.result(timeout=POLL)
                 except concurrent.futures.TimeoutError:
                     continue
-        if program is not None:
-            keep(_TOOK, program, time.perf_counter() - t0, 256)
-        return out
     except BaseException:  # KeyboardInterrupt, the CLI's SIGTERM exception
         if not future.done():
             native.set_stop(True)
@@ -204,7 +207,8 @@ def run_interruptibly(fn: Callable[..., T], *args: Any, program: Hashable | None
         raise
 
 
-_TOOK: dict = {}  # seconds the last call of each program took (run_interruptibly's ``program``), 256 kept
+PROGRAMS_TIMED = 256  # programs whose last call's time is kept
+_TOOK: dict = {}  # seconds the last call of each program took (run_interruptibly's ``program``)
 
 
 def _move(listener: Any, seen: int) -> int:
