@@ -51,6 +51,9 @@ namespace {
 
 constexpr int L = JACO_LANES;
 constexpr int U = 2 * L;
+// A call's last ants step alone in scalar code once no more than kAlone lanes walk and no ant is
+// left to load (walk_alone): 2 of 16 lanes, 1 of 8 or 4 (measured on solves: docs/native.md).
+constexpr int kAlone = L >= 16 ? 2 : 1;
 static_assert(L <= 32, "the tabu bits of a cell are one uint32");
 
 // L lanes as one vector (GCC/Clang vector extensions: element-wise arithmetic, comparisons that
@@ -442,7 +445,61 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
   for (int l = 0; l < L; ++l) load(l);
 
   const int32_t group_cells = int32_t(n_colonies) * N;
+  // The last ants of a call (no ant left to load, at most kAlone lanes live) take their steps in
+  // scalar code, in turn (one step of each, so that their chains overlap): there a vector step
+  // costs as much for them as for L. Each step does its lane's float operations (the roulette of
+  // walk_shared.h is choose_lanes' for one lane).
+  auto walk_alone = [&]() {
+    int32_t cur[L], prev[L], t[L], drawn[L], diagonal[L];
+    std::memcpy(cur, &s.cur, sizeof cur);
+    std::memcpy(prev, &s.prev, sizeof prev);
+    std::memcpy(t, &s.t, sizeof t);
+    std::memcpy(drawn, &s.drawn, sizeof drawn);
+    std::memcpy(diagonal, &s.diagonal, sizeof diagonal);
+    for (unsigned live = lanes_set(s.live); live;) {
+      for (unsigned m = live; m; m &= m - 1) {
+        const int l = __builtin_ctz(m);
+        float w[8];
+        const float* row = c.weights + int64_t(cur[l]) * 8;
+        for (int k = 0; k < 8; ++k) {  // a forbidden move has weight 0: any cell will do for its tabu look-up
+          const int32_t nb = cur[l] + c.offsets[k], in = nb < 0 ? 0 : (nb > group_cells - 1 ? group_cells - 1 : nb);
+          w[k] = (tabu[in] & (1u << l)) == 0 && nb != prev[l] ? row[k] : 0.0f;
+        }
+        float total = w[0];
+        for (int k = 1; k < 8; ++k) total = total + w[k];
+        bool ended = !(total > 0.0f);  // a dead end: the ant dies
+        if (!ended) {
+          const int chosen = choose(w, s.uniform[l][t[l] - drawn[l]], s.q0[l], c.exploit);
+          const int32_t cell = cur[l] + c.offsets[chosen];
+          c.edges[int64_t(t[l]) * A + s.ant[l]] = cur[l] * 8 - s.first_edge[l] + chosen;
+          c.visited[cell] = true;
+          if (prev[l] >= 0) tabu[prev[l]] |= 1u << l;
+          prev[l] = cur[l];
+          cur[l] = cell;
+          diagonal[l] += chosen >= 4;
+          ++t[l];
+          ended = cell == s.goal[l] || t[l] == int32_t(S);
+          if (!ended && t[l] - drawn[l] == U) {
+            drawn[l] = t[l];
+            const LaneColony& k = colonies[colony_of[l]];
+            draw(k.k0, k.k1, uint32_t(ant_of[l]), uint32_t(t[l]) >> 1, s.uniform[l]);
+          }
+        }
+        if (ended) {
+          s.cur[l] = cur[l];
+          s.t[l] = t[l];
+          s.diagonal[l] = diagonal[l];
+          finish(l);
+          live &= ~(1u << l);
+        }
+      }
+    }
+  };
   while (n_live > 0) {
+    if (n_live <= kAlone && colony >= n_colonies) {  // no ant left to load: the last ones alone
+      walk_alone();
+      break;
+    }
     vi chosen, ok;
     if (c.exploit)
       choose_lanes<true>(s, c, group_cells, offset, chosen, ok);
