@@ -346,9 +346,10 @@ def gap(length: float | np.ndarray, optimal: float) -> float | np.ndarray:
     ``optimal`` must be finite and >= 0, ``length`` >= 0 or inf (a ParamError otherwise).
     """
     optimal = float(optimal)
-    if not (np.isfinite(optimal) and optimal >= 0):
+    if not (math.isfinite(optimal) and optimal >= 0):
         raise ParamError(f"optimal length must be finite and >= 0, got {optimal!r}")
-    if np.ndim(length):
+    # a Python number without numpy's calls: a solve's Result asks for one right after its run
+    if not isinstance(length, (float, int)) and np.ndim(length):
         lengths = np.asarray(length, np.float64)
         if np.any(np.isnan(lengths) | (lengths < 0)):
             raise ParamError("lengths must be >= 0 (or inf for a failed run)")

@@ -244,6 +244,12 @@ def test_gap():
     assert gap(1.0, 0.0) == math.inf
     with pytest.raises(ValueError):
         gap(1.0, -1.0)
+    # a Python number, a numpy scalar and a 0-d array give one gap; an array gives one per length
+    assert gap(12, 10) == gap(np.float32(12.0), 10.0) == gap(np.array(12.0), np.float64(10.0)) == pytest.approx(0.2)
+    assert gap(np.array([12.0, math.inf]), 10.0).tolist() == pytest.approx([0.2, math.inf])
+    for bad in (math.nan, -1.0, np.float32("nan")):
+        with pytest.raises(ValueError):
+            gap(bad, 10.0)
 
 
 def test_path_metrics_dict():

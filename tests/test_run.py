@@ -52,6 +52,15 @@ def test_result_fields_and_json():
     assert d["path"][-1] == [3, 5] and d["planner"] == "acs" and d["params"]["q0"] == pytest.approx(0.8)
 
 
+def test_a_path_is_the_start_then_the_cells_entered_until_the_padding():
+    from jaco.engine.result import path_cells
+
+    grid = jaco.Grid.from_rows(["....", "....", "...."])  # width 4: cell 6 is (1, 2)
+    path = path_cells(grid, (0, 1), np.array([6, 11, -1, -1], np.int32))
+    assert path.dtype == np.int64 and path.tolist() == [[0, 1], [1, 2], [2, 3]]
+    assert path_cells(grid, np.array([2, 0]), np.full(5, -1, np.int32)).tolist() == [[2, 0]]  # start on the goal
+
+
 def test_cell_size_scales_reported_lengths_only():
     big = GRID.replace(cell_size=10.0)
     a = jaco.solve(GRID, (0, 0), (3, 5), "as", seed=0, n_ants=10, n_iters=5)
