@@ -38,8 +38,8 @@ from report import publish, table  # noqa: E402 (the experiments' shared helpers
 SECTION = "bench_before_after"
 #: The workload (``side``: the random map's side, 25 % obstacles; ``values``: each of alpha, beta and
 #: rho takes the first ``values`` of its axis) and the repetitions.
-FULL = dict(rounds=2, sweep_reps=3, solve_calls=20, city=True, side=30, values=4, n_ants=50, n_iters=100)
-SMOKE = dict(rounds=1, sweep_reps=1, solve_calls=3, city=False, side=12, values=2, n_ants=10, n_iters=10)
+FULL = dict(rounds=2, sweep_reps=3, solve_calls=24, solve_seeds=8, city=True, side=30, values=4, n_ants=50, n_iters=100)
+SMOKE = dict(rounds=1, sweep_reps=1, solve_calls=4, solve_seeds=2, city=False, side=12, values=2, n_ants=10, n_iters=10)
 
 # Run in a child process pinned to one core, with the package to measure first on sys.path.
 CHILD = r"""
@@ -73,13 +73,16 @@ native = lambda: nr.sweep_native(cols, nbr, eta, s, g, q=1.0, tau0=0.1, n_ants=n
 table = sweep(); native()
 jaco_s, _ = timed(sweep, cfg["sweep_reps"])
 native_s, (lengths, steps) = timed(native, cfg["sweep_reps"])
-solve = lambda: jaco.solve(grid, start, goal, "as", n_ants=n_ants, n_iters=n_iters)
-solve()
-lat = [timed(solve, 1)[0] for _ in range(cfg["solve_calls"])]
+# both call seeds 0 .. solve_seeds - 1 in turn (their random numbers differ; one seed's can give one
+# side a quarter more steps than the other's)
+seed_of = lambda i: i % cfg["solve_seeds"]
+solve = lambda seed: jaco.solve(grid, start, goal, "as", seed=seed, n_ants=n_ants, n_iters=n_iters)
+solve(0)
+lat = [timed(lambda: solve(seed_of(i)), 1)[0] for i in range(cfg["solve_calls"])]
 p = jc.resolve_params(jaco.PLANNERS["as"], {}, where="as")
 one = [float(p[k]) for k in ("alpha", "beta", "rho", "q", "tau0")]
-nat = [timed(lambda: nr.as_colony(nbr, eta, s, g, *one, n_ants, n_iters, steplimit, 0), 1)[0]
-       for _ in range(cfg["solve_calls"])]
+nat = [timed(lambda: nr.as_colony(nbr, eta, s, g, *one, n_ants, n_iters, steplimit, seed_of(i)), 1)[0]
+       for i in range(cfg["solve_calls"])]
 out = dict(jaco_s=jaco_s, native_s=native_s, native_steps=int(np.sum(steps)), costs=table["cost"].tolist(),
            solve_ms=1e3 * statistics.median(lat), native_run_ms=1e3 * statistics.median(nat))
 if cfg["city"]:
@@ -162,7 +165,8 @@ def main(argv=None):
         "",
         f"Command: `{command}`: revision {rev} against {now}, {cfg['rounds']} alternating rounds, each a fresh process "
         "pinned to one core, best of each; the numba loop measured in the same process as the yardstick "
-        f"(the machine's speed changes from minute to minute). Native lane kernels now: "
+        f"(the machine's speed changes from minute to minute); the solve and the numba loop's run take seeds "
+        f"0–{cfg['solve_seeds'] - 1} in turn. Native lane kernels now: "
         + ", ".join(f"{k} ({v})" for k, v in native.isas().items()) + ".",
         "",
         table(header, rows),

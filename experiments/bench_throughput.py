@@ -59,14 +59,14 @@ SECTION = "bench_throughput"
 FULL = dict(
     side=30, p=0.25, map_seed=0, n_ants=50, n_iters=100,
     axes={"alpha": [0.5, 1.0, 2.0, 4.0], "beta": [1.0, 2.0, 4.0, 8.0], "rho": [0.1, 0.3, 0.5, 0.7]},
-    reps=5, latency_calls=20, solve_rounds=3, city="Berlin_1_256.map", city_reps=3,
+    reps=5, latency_calls=24, solve_rounds=3, solve_seeds=8, city="Berlin_1_256.map", city_reps=3,
     sides=[16, 32, 64, 128, 256, 384, 512], ants=[10, 50, 200, 800], batches=[1, 8, 64, 256],
     scale_iters=20, scale_reps=3,
 )
 SMOKE = dict(
     side=12, p=0.25, map_seed=0, n_ants=10, n_iters=5,
     axes={"alpha": [1.0, 2.0], "beta": [2.0, 4.0], "rho": [0.3, 0.5]},
-    reps=1, latency_calls=3, solve_rounds=1, city=None, city_reps=1,
+    reps=1, latency_calls=4, solve_rounds=1, solve_seeds=2, city=None, city_reps=1,
     sides=[8, 12], ants=[10], batches=[4],  # one row per table where a row needs no compile of its own
     scale_iters=3, scale_reps=1,
 )
@@ -360,18 +360,24 @@ def run_benchmark(args) -> dict:
     problem = jaco.make_problem(grid, start, goal)
     p1 = jc.params_from(base)
     one = [float(base[k]) for k in ("alpha", "beta", "rho", "q", "tau0")]
-    def native_solve():
-        return nr.as_colony(nbr, eta, s_idx, g_idx, *one, n_ants, n_iters, steplimit, 0)
+    # Both series call seeds 0 .. solve_seeds - 1 in turn: the two take different random numbers, and
+    # one seed's can make one side's ants walk a quarter more steps than the other's (seed 0 here:
+    # jaco 273,073 real steps, the numba loop 340,162), so a single seed would weigh the two unevenly.
+    seeds = list(range(cfg["solve_seeds"]))
+
+    def native_solve(seed):
+        return nr.as_colony(nbr, eta, s_idx, g_idx, *one, n_ants, n_iters, steplimit, seed)
 
     native_run: list = []
     R["solve"] = {}
+    R["solve_seeds"] = len(seeds)
     for walk in R["walks"]:
         with walking(walk):
-            def solve(progress=False):  # progress None would depend on whether stderr is a terminal
-                return jaco.solve(grid, start, goal, "as", n_ants=n_ants, n_iters=n_iters, progress=progress)
+            def solve(seed=0, progress=False):  # progress None would depend on whether stderr is a terminal
+                return jaco.solve(grid, start, goal, "as", seed=seed, n_ants=n_ants, n_iters=n_iters, progress=progress)
 
             w_first, _, _ = timed(solve)
-            timed(lambda: solve(True))
+            timed(lambda: solve(0, True))
             # In rounds: the numba loop's run (with the first walk), the solve, and the solve with a
             # progress bar (the program a terminal or notebook runs; the bar itself opens only after
             # two seconds, so none is drawn here), one call of each in turn, so that the three
@@ -382,11 +388,12 @@ def run_benchmark(args) -> dict:
             for _ in range(cfg["solve_rounds"]):
                 first = walk == R["walks"][0]
                 calls: dict = {"native": [], "solve": [], "bar": []}
-                for _ in range(cfg["latency_calls"]):
+                for i in range(cfg["latency_calls"]):
+                    seed = seeds[i % len(seeds)]
                     if first:
-                        calls["native"].append(timed(native_solve)[0])
-                    calls["solve"].append(timed(solve)[0])
-                    calls["bar"].append(timed(lambda: solve(True))[0])
+                        calls["native"].append(timed(lambda seed=seed: native_solve(seed))[0])
+                    calls["solve"].append(timed(lambda seed=seed: solve(seed))[0])
+                    calls["bar"].append(timed(lambda seed=seed: solve(seed, True))[0])
                 if first:
                     native_run.append(calls["native"])
                 lat.append(calls["solve"])
@@ -399,7 +406,13 @@ def run_benchmark(args) -> dict:
                 R["native_run_rounds_ms"] = [1e3 * statistics.median(r) for r in native_run]
                 R["native_run_ms"] = min(R["native_run_rounds_ms"])
             run_1 = jr.compiled_run(variant, RunShape(n_ants, n_iters, steplimit), batched=False)
-            raw = [timed(lambda run_1=run_1: run_1(jax.random.key(0), problem, p1))[0] for _ in range(cfg["latency_calls"])]
+            raw = [timed(lambda run_1=run_1, i=i: run_1(jax.random.key(seeds[i % len(seeds)]), problem, p1))[0]
+                   for i in range(cfg["latency_calls"])]
+            if walk == R["walks"][0]:  # the work behind the two series: real ant-steps a run, the mean over the seeds
+                R["solve_steps"] = {
+                    "jaco": statistics.mean(int(run_1(jax.random.key(sd), problem, p1).steps) for sd in seeds),
+                    "native": statistics.mean(int(native_solve(sd)[2]) for sd in seeds),
+                }
             t0 = time.perf_counter()
             lowered = jax.jit(jr.make_run(variant, n_ants=n_ants, n_iters=n_iters, steplimit=steplimit)).lower(
                 jax.random.key(0), problem, p1)
@@ -420,7 +433,7 @@ def run_benchmark(args) -> dict:
             ["compile time (first call − median call), s"] + [sv[w]["compile_s"] for w in R["walks"]],
             ["  of which tracing + lowering, s"] + [sv[w]["trace_s"] for w in R["walks"]],
             ["  of which XLA compile, s"] + [sv[w]["xla_compile_s"] for w in R["walks"]],
-            [f"`solve` latency after compile, median of {cfg['latency_calls']} (best of {cfg['solve_rounds']} rounds), ms"] + [sv[w]["median_ms"] for w in R["walks"]],
+            [f"`solve` latency after compile, median of {cfg['latency_calls']} calls, seeds 0–{len(seeds) - 1} in turn (best of {cfg['solve_rounds']} rounds), ms"] + [sv[w]["median_ms"] for w in R["walks"]],
             ["`solve` latency, min / max, ms"] + [f"{sv[w]['min_ms']:.1f} / {sv[w]['max_ms']:.1f}" for w in R["walks"]],
             ["`solve` latency with a progress bar (`progress=True`, as in a terminal or notebook), median, ms"]
             + [sv[w]["bar_median_ms"] for w in R["walks"]],
@@ -428,6 +441,8 @@ def run_benchmark(args) -> dict:
             + [sv[w]["compiled_run_median_ms"] for w in R["walks"]],
             ["the numba loop's run of the same problem and parameters, median (best round), ms"]
             + [R["native_run_ms"] for w in R["walks"]],
+            ["real ant-steps a run, mean over the seeds: jaco / the numba loop"]
+            + [f"{R['solve_steps']['jaco']:,.0f} / {R['solve_steps']['native']:,.0f}" for w in R["walks"]],
             ["`solve` speed-up over the numba loop's run (median / median)"]
             + [R["native_run_ms"] / sv[w]["median_ms"] for w in R["walks"]],
             ["the same in each round (the two series' medians of that round: the machine's state moves it)"]
@@ -650,7 +665,9 @@ def report(R: dict, command: str) -> str:
         "",
         f"`jaco.solve(grid, (0, 0), ({w['side'] - 1}, {w['side'] - 1}), \"as\", n_ants={w['n_ants']}, "
         f"n_iters={w['n_iters']}, progress=False)` on the same map, 1 device (with `progress=True` in the row "
-        "that says so: the program that keeps a bar moving, as a terminal or a notebook runs by default).",
+        "that says so: the program that keeps a bar moving, as a terminal or a notebook runs by default). "
+        f"Each series calls seeds 0–{R['solve_seeds'] - 1} in turn, the numba loop too: the two draw different "
+        "random numbers, and one seed's can make one side's ants walk a quarter more steps than the other's.",
         "",
         R["solve_table"],
         "",

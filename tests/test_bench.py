@@ -134,6 +134,8 @@ def test_smoke_json_figures(smoke):
     assert R["equal"] == {"native, 2 devices": True, "jax, 2 devices": True, "native walk, JAX walk": True, **lanes}
     assert R["machine"]["xla_devices"] == 2 and R["walks"] == ["native", "jax"]
     assert all(R["solve"][w]["median_ms"] > 0 for w in R["walks"]) and R["rss_peak_mib"] > 0
+    # the solve's two series ran the same seeds, and the steps behind them are counted on both sides
+    assert R["solve_seeds"] == 2 and R["solve_steps"]["jaco"] > 0 and R["solve_steps"]["native"] > 0
 
 
 # -- the native reference -------------------------------------------------------------------------
