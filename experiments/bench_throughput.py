@@ -377,33 +377,35 @@ def run_benchmark(args) -> dict:
 
             w_first, _, _ = timed(solve)
             timed(lambda: solve(0, True))
-            # In rounds: the numba loop's run, the solve, and the solve with a progress bar (the
-            # program a terminal or notebook runs; the bar itself opens only after two seconds, so
-            # none is drawn here), one call of each in turn with the same seed. The machines here
+            # In rounds: the numba loop's run, the solve, the solve with a progress bar (the program a
+            # terminal or notebook runs; the bar itself opens only after two seconds, so none is
+            # drawn here) and the compiled run alone, one call of each in turn with the same seed. The machines here
             # switch between a fast and a slow state from one moment to the next (the numba run: 8
             # or 14 ms; rounds of one run 1.9 and 2.7 apart in their ratio), so the speed-up is the
             # median over the pairs of calls made one after the other (the same seed, the same
             # state), and each series also keeps its best round's median, as the sweeps keep their best.
-            lat, lat_bar, native_run, pairs = [], [], [], []
+            # The compiled run alone (no validation, problem or Result), the fourth call of each turn.
+            run_1 = jr.compiled_run(variant, RunShape(n_ants, n_iters, steplimit), batched=False)
+            lat, lat_bar, native_run, raw, pairs = [], [], [], [], []
             for _ in range(cfg["solve_rounds"]):
-                calls: dict = {"native": [], "solve": [], "bar": []}
+                calls: dict = {"native": [], "solve": [], "bar": [], "raw": []}
                 for i in range(cfg["latency_calls"]):
                     seed = seeds[i % len(seeds)]
                     calls["native"].append(timed(lambda seed=seed: native_solve(seed))[0])
                     calls["solve"].append(timed(lambda seed=seed: solve(seed))[0])
                     calls["bar"].append(timed(lambda seed=seed: solve(seed, True))[0])
+                    calls["raw"].append(timed(lambda seed=seed, run_1=run_1: run_1(jax.random.key(seed), problem, p1))[0])
                 native_run.append(calls["native"])
                 lat.append(calls["solve"])
                 lat_bar.append(calls["bar"])
+                raw.append(calls["raw"])
                 pairs += [n / j for n, j in zip(calls["native"], calls["solve"])]
             rounds_ms = {"solve": [1e3 * statistics.median(r) for r in lat],
                          "solve_bar": [1e3 * statistics.median(r) for r in lat_bar],
                          "native": [1e3 * statistics.median(r) for r in native_run]}
             lat = min(lat, key=statistics.median)
             lat_bar = min(lat_bar, key=statistics.median)
-            run_1 = jr.compiled_run(variant, RunShape(n_ants, n_iters, steplimit), batched=False)
-            raw = [timed(lambda run_1=run_1, i=i: run_1(jax.random.key(seeds[i % len(seeds)]), problem, p1))[0]
-                   for i in range(cfg["latency_calls"])]
+            raw = min(raw, key=statistics.median)
             if walk == R["walks"][0]:  # the work behind the two series: real ant-steps a run, the mean over the seeds
                 R["solve_steps"] = {
                     "jaco": statistics.mean(int(run_1(jax.random.key(sd), problem, p1).steps) for sd in seeds),
@@ -435,7 +437,7 @@ def run_benchmark(args) -> dict:
             ["`solve` latency, min / max, ms"] + [f"{sv[w]['min_ms']:.1f} / {sv[w]['max_ms']:.1f}" for w in R["walks"]],
             ["`solve` latency with a progress bar (`progress=True`, as in a terminal or notebook), median, ms"]
             + [sv[w]["bar_median_ms"] for w in R["walks"]],
-            ["compiled run alone (no problem building / result), median, ms"]
+            ["compiled run alone (no validation, problem or result), median (best round), ms"]
             + [sv[w]["compiled_run_median_ms"] for w in R["walks"]],
             ["the numba loop's run of the same problem and parameters, median (best round), ms"]
             + [sv[w]["native_run_ms"] for w in R["walks"]],
