@@ -379,12 +379,12 @@ def run_benchmark(args) -> dict:
             timed(lambda: solve(0, True))
             # In rounds: the numba loop's run, the solve, the solve with a progress bar (the program a
             # terminal or notebook runs; the bar itself opens only after two seconds, so none is
-            # drawn here) and the compiled run alone, one call of each in turn with the same seed. The machines here
-            # switch between a fast and a slow state from one moment to the next (the numba run: 8
-            # or 14 ms; rounds of one run 1.9 and 2.7 apart in their ratio), so the speed-up is the
-            # median over the pairs of calls made one after the other (the same seed, the same
-            # state), and each series also keeps its best round's median, as the sweeps keep their best.
-            # The compiled run alone (no validation, problem or Result), the fourth call of each turn.
+            # drawn here) and the compiled run alone (no validation, problem or Result), one call of
+            # each in turn with the same seed. The machines here switch between a fast and a slow
+            # state from one moment to the next (the numba run: 8 or 14 ms; rounds of one run 1.9 and
+            # 2.7 apart in their ratio), so the speed-up is the median over the pairs of calls made
+            # one after the other (the same seed, the same state), and each series also keeps its
+            # best round's median, as the sweeps keep their best.
             run_1 = jr.compiled_run(variant, RunShape(n_ants, n_iters, steplimit), batched=False)
             lat, lat_bar, native_run, raw, pairs = [], [], [], [], []
             for _ in range(cfg["solve_rounds"]):

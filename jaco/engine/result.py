@@ -193,7 +193,7 @@ def path_cells(grid: Grid, start: Any, best_cells: Any) -> np.ndarray:
     cells = np.asarray(best_cells)
     entered = cells[cells >= 0]
     path = np.empty((entered.size + 1, 2), np.int64)
-    path[0] = grid.cell(grid.index(start))
+    path[0] = start
     np.divmod(entered, grid.width, out=(path[1:, 0], path[1:, 1]))
     return path
 
