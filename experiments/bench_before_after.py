@@ -137,9 +137,12 @@ def main(argv=None):
     try:
         before = build_revision(rev, tmp)
         runs = {"before": [], "after": []}
-        for _ in range(cfg["rounds"]):  # alternating, so that both see the machine's slow and fast minutes
-            runs["before"].append(measure(before, cfg))
-            runs["after"].append(measure(None, cfg))
+        # Alternating, so that both see the machine's slow and fast minutes, and each round in the
+        # other order than the round before (the same code twice measured ±9 % apart, one process to
+        # the next): neither revision always runs first.
+        for r in range(cfg["rounds"]):
+            for side in ("before", "after") if r % 2 == 0 else ("after", "before"):
+                runs[side].append(measure(before if side == "before" else None, cfg))
     finally:
         subprocess.run(["git", "worktree", "remove", "--force", str(tmp / "before")], cwd=ROOT, capture_output=True)
         shutil.rmtree(tmp, ignore_errors=True)
@@ -166,7 +169,8 @@ def main(argv=None):
     text = "\n".join([
         "## Before and after, per core (`experiments/bench_before_after.py`)",
         "",
-        f"Command: `{command}`: revision {rev} against {now}, {cfg['rounds']} alternating rounds, each a fresh process "
+        f"Command: `{command}`: revision {rev} against {now}, {cfg['rounds']} alternating rounds (each in the other "
+        "order than the one before), each a fresh process "
         "pinned to one core, best of each; the numba loop measured in the same process as the yardstick "
         f"(the machine's speed changes from minute to minute); the solve and the numba loop's run are called in "
         f"turn, seeds 0–{cfg['solve_seeds'] - 1}, and their speed-up is the median over those pairs of calls. "
