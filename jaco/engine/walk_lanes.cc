@@ -445,6 +445,11 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
   for (int l = 0; l < L; ++l) load(l);
 
   const int32_t group_cells = int32_t(n_colonies) * N;
+  // Lane l's ant has used its uniforms: the next U, from its step t on.
+  auto draw_from = [&](int l, int32_t t) {
+    const LaneColony& k = colonies[colony_of[l]];
+    draw(k.k0, k.k1, uint32_t(ant_of[l]), uint32_t(t) >> 1, s.uniform[l]);
+  };
   // The last ants of a call (no ant left to load, at most kAlone lanes live) take their steps in
   // scalar code, in turn (one step of each, so that their chains overlap): there a vector step
   // costs as much for them as for L. Each step does its lane's float operations (the roulette of
@@ -479,11 +484,7 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
           diagonal[l] += chosen >= 4;
           ++t[l];
           ended = cell == s.goal[l] || t[l] == int32_t(S);
-          if (!ended && t[l] - drawn[l] == U) {
-            drawn[l] = t[l];
-            const LaneColony& k = colonies[colony_of[l]];
-            draw(k.k0, k.k1, uint32_t(ant_of[l]), uint32_t(t[l]) >> 1, s.uniform[l]);
-          }
+          if (!ended && t[l] - drawn[l] == U) draw_from(l, drawn[l] = t[l]);
         }
         if (ended) {
           s.cur[l] = cur[l];
@@ -554,9 +555,7 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
     const vi refill = s.live & ~ended & ((s.t - s.drawn) == U);
     for (unsigned m = lanes_set(refill); m; m &= m - 1) {
       const int l = __builtin_ctz(m);
-      s.drawn[l] = s.t[l];
-      const LaneColony& k = colonies[colony_of[l]];
-      draw(k.k0, k.k1, uint32_t(ant_of[l]), uint32_t(s.t[l]) >> 1, s.uniform[l]);
+      draw_from(l, s.drawn[l] = s.t[l]);
     }
   }
 }
