@@ -116,6 +116,9 @@ def test_smoke_reports_solve_scaling_and_targets(smoke):
     for cell in table_row(md, "`solve` speed-up over the numba loop's run")[1:]:  # "median (lower–upper quartile)"
         median, low, high = map(float, re.fullmatch(r"([\d.]+) \(([\d.]+)–([\d.]+)\)", cell).groups())
         assert 0 < low <= median <= high, cell
+    for cell in table_row(md, "the same in blocks")[1:]:  # "median (lowest–highest)" over the block rounds
+        median, low, high = map(float, re.fullmatch(r"([\d.]+) \(([\d.]+)–([\d.]+)\)", cell).groups())
+        assert 0 < low <= median <= high, cell
 
 
 @pytest.mark.slow  # the benchmark at --smoke size still takes ~15 s
@@ -138,6 +141,7 @@ def test_smoke_json_figures(smoke):
     assert all(R["solve"][w]["median_ms"] > 0 for w in R["walks"]) and R["rss_peak_mib"] > 0
     # the solve's two series ran the same seeds, and the steps behind them are counted on both sides
     assert R["solve_seeds"] == 2 and R["solve_steps"]["jaco"] > 0 and R["solve_steps"]["native"] > 0
+    assert all(R["solve"][w]["blocks"] == 2 and R["solve"][w]["speedup_blocks"] > 0 for w in R["walks"])
 
 
 # -- the native reference -------------------------------------------------------------------------
