@@ -423,7 +423,7 @@ def run_benchmark(args) -> dict:
             raw = min(raw, key=statistics.median)
             if walk == R["walks"][0]:  # the work behind the two series: real ant-steps a run, the mean over the seeds
                 R["solve_steps"] = {
-                    "jaco": statistics.mean(int(run_1(jax.random.key(sd), problem, p1).steps) for sd in seeds),
+                    "jaco": statistics.mean(int(run_1(keys[sd], on_device, p1_device).steps) for sd in seeds),
                     "native": statistics.mean(int(native_solve(sd)[2]) for sd in seeds),
                 }
             t0 = time.perf_counter()

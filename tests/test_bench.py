@@ -113,12 +113,11 @@ def test_smoke_reports_solve_scaling_and_targets(smoke):
         assert len(vals) == 13 and all(math.isfinite(v) and v > 0 for v in vals), label
     assert "### Targets (native walk)" in md and "Peak memory" in md
     assert md.count("**met**") + md.count("**not met**") == 4  # per core, its milestone, solve, compile
-    for cell in table_row(md, "`solve` speed-up over the numba loop's run")[1:]:  # "median (lower–upper quartile)"
-        median, low, high = map(float, re.fullmatch(r"([\d.]+) \(([\d.]+)–([\d.]+)\)", cell).groups())
-        assert 0 < low <= median <= high, cell
-    for cell in table_row(md, "the same in blocks")[1:]:  # "median (lowest–highest)" over the block rounds
-        median, low, high = map(float, re.fullmatch(r"([\d.]+) \(([\d.]+)–([\d.]+)\)", cell).groups())
-        assert 0 < low <= median <= high, cell
+    # "median (lower–upper quartile)" of the pairs, "median (lowest–highest)" of the block rounds
+    for label in ("`solve` speed-up over the numba loop's run", "the same in blocks"):
+        for cell in table_row(md, label)[1:]:
+            median, low, high = map(float, re.fullmatch(r"([\d.]+) \(([\d.]+)–([\d.]+)\)", cell).groups())
+            assert 0 < low <= median <= high, (label, cell)
 
 
 @pytest.mark.slow  # the benchmark at --smoke size still takes ~15 s
