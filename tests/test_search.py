@@ -152,7 +152,8 @@ def test_best_so_far_never_worsens_and_best_params_solve():
     with pytest.warns(DeprecationWarning, match="best_params\\['variant'\\]"):
         assert best["variant"] == "acs"  # the former key still reads the planner
     old = {("variant" if k == "planner" else k): v for k, v in best.items()}  # params of an older jaco
-    again = jaco.solve(GRID, *ENDS, seed=0, n_ants=6, n_iters=8, progress=False, **old)
+    with pytest.warns(DeprecationWarning, match="variant= is the former name of planner="):
+        again = jaco.solve(GRID, *ENDS, seed=0, n_ants=6, n_iters=8, progress=False, **old)
     assert again.length == r.length and again.variant == r.planner == "acs"
 
 
