@@ -25,6 +25,14 @@ auto set_places(C& c, int) -> decltype(c.row_of[0], void()) {
 }
 template <typename C>
 void set_places(C&, long) {}
+// Revisions with tabu planes: each ant its own bit, ceil(A / 32) planes of the group's cells, as
+// walk.cc gives the benchmark's colonies.
+template <typename C>
+auto set_planes(C& c, int) -> decltype(c.tabu_planes, void()) {
+  c.tabu_planes = int32_t((c.n_ants + 31) / 32);
+}
+template <typename C>
+void set_planes(C&, long) {}
 
 template <typename Walk>
 void walk_group(Walk* walk, const LaneColony* c, int64_t n) {
@@ -53,6 +61,7 @@ extern "C" void JACO_CAT(run_, JACO_ISA)(const float* weights, const int32_t* of
       c[j].n_steps = n_steps + b * A, c[j].n_diagonal = n_diagonal + b * A, c[j].arrived = arrived + b * A;
       c[j].visited = visited + b * N, c[j].tabu = tabu, c[j].width = width;
       set_places(c[j], 0);
+      set_planes(c[j], 0);
     }
     walk_group(JACO_CAT(walk_lanes_, JACO_ISA), c, n);
   }
@@ -115,7 +124,7 @@ int main(int argc, char** argv) {
   } out[kN];
   for (auto& o : out) {
     o.edges.resize(size_t(B * S * A)), o.n_steps.resize(size_t(B * A)), o.n_diagonal.resize(size_t(B * A));
-    o.arrived.resize(size_t(B * A)), o.visited.resize(size_t(B * N)), o.tabu.assign(size_t(std::min<int64_t>(B, 64) * N + 2 * pad), 0u);
+    o.arrived.resize(size_t(B * A)), o.visited.resize(size_t(B * N)), o.tabu.assign(size_t((A + 31) / 32 * std::min<int64_t>(B, 64) * N + 2 * pad), 0u);
   }
   auto walk_all = [&](int v) {
     Out& o = out[v];

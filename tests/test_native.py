@@ -46,6 +46,13 @@ def isa_choice():
 
 
 @pytest.fixture
+def tabu_choice():
+    """Restore the kernel's choice of tabu layout after a test that forces one."""
+    yield native.set_tabu
+    native.set_tabu(None)
+
+
+@pytest.fixture
 def walk_choice():
     """Restore the walk choice after a test that changes it."""
     yield native.set_walk
@@ -187,27 +194,33 @@ _EDGES = [dict(h=1, w=1, shape=(1, 1), density=0.0, seed=0, n_ants=4, steplimit=
 @example(_EDGES[1])
 @example(_EDGES[2])
 def test_native_dying_walk_takes_the_jax_walks_moves(case):
-    """Every instruction set this CPU runs (the lane kernels' widths differ: 4, 8, 16 ants at once)."""
+    """Every instruction set this CPU runs (the lane kernels' widths differ: 4, 8, 16 ants at once),
+    with each tabu layout (a bit a lane, a bit an ant)."""
     args = _arrays(case)
     key = (case["n_ants"], case["steplimit"], case["exploit"])
     expected = _dying("jax", *key)(*args)
     try:
         for isa in RUNNABLE:
             native.set_isa(isa)
-            _same(expected, _dying("native", *key)(*args))
+            for layout in native.TABU_LAYOUTS:
+                native.set_tabu(layout)
+                _same(expected, _dying("native", *key)(*args))
     finally:
         native.set_isa(None)
+        native.set_tabu(None)
 
 
 
 @pytest.mark.parametrize("exploit", [False, True])
 @pytest.mark.parametrize("shape", [(12, 12), (9, 2)])  # width 2: each neighbour looked up on its own
-def test_colonies_walked_in_groups_of_one_pool_of_lanes_take_the_jax_walks_moves(shape, exploit, isa_choice):
+def test_colonies_walked_in_groups_of_one_pool_of_lanes_take_the_jax_walks_moves(shape, exploit, isa_choice,
+                                                                                 tabu_choice):
     """A call of 37 colonies (a sweep's chunk): the kernel walks them in groups of consecutive
     colonies that share one pool of lanes (4 colonies a group on two threads: 9 groups of 4 and one
     of 1), a lane taking the next colony's ant when its colony has none left. Each colony has its
     own start, goal (some equal, some cut off), key and q0, and 13 ants (not a multiple of any lane
-    count); every instruction set this CPU runs gives each colony the JAX walk's results."""
+    count); every instruction set this CPU runs, with each tabu layout, gives each colony the JAX
+    walk's results."""
     case = dict(h=shape[0], w=shape[1], shape=shape, density=0.25, seed=4, n_ants=13, steplimit=60,
                 exploit=exploit, connectivity=8)
     args = _arrays(case, colonies=37)
@@ -220,7 +233,9 @@ def test_colonies_walked_in_groups_of_one_pool_of_lanes_take_the_jax_walks_moves
     assert steps.sum() > 37 * 13 * 2 and arrived.any() and not arrived.all()  # ants walk, arrive and fail
     for isa in RUNNABLE:
         isa_choice(isa)
-        _same(expected, _dying("native", *key)(*args))
+        for layout in native.TABU_LAYOUTS:
+            tabu_choice(layout)
+            _same(expected, _dying("native", *key)(*args))
 
 
 @pytest.mark.slow  # the normal run compares IACA's whole runs with both walks (below)
@@ -401,19 +416,31 @@ def _runs(variant):
     return solves, jaco.sweep(GRID, start, goal, variant, params={"rho": [0.1, 0.3]}, seeds=2, **kw)
 
 
-def test_one_colony_split_between_threads_takes_the_jax_walks_moves(walk_choice):
+def test_one_colony_split_between_threads_takes_the_jax_walks_moves(walk_choice, tabu_choice):
     # One solve is one colony: with more threads than colonies the kernel splits a colony's ants
     # between threads (at least 100 ants a part, walk.cc's kPartAnts: 200 ants on this 196-cell
-    # map make two parts), and merges the cells each part visited.
-    runs = {}
-    for walk in ("native", "jax"):
-        walk_choice(walk)
-        runs[walk] = [jaco.solve(GRID, (0, 0), (13, 13), planner, seed=5, n_ants=200, n_iters=6) for planner in ("as", "acs")]
-    for a, b in zip(runs["native"], runs["jax"], strict=True):
-        np.testing.assert_array_equal(a.path, b.path)
-        assert a.length == b.length and a.coverage == b.coverage
-        for k in a.history:
-            np.testing.assert_array_equal(a.history[k], b.history[k])
+    # map make two parts), and merges the cells each part visited. Each part numbers its ants'
+    # tabu bits from its first ant (4 planes of 32 ants), or gives each lane a bit.
+    def solves():
+        return [jaco.solve(GRID, (0, 0), (13, 13), planner, seed=5, n_ants=200, n_iters=6) for planner in ("as", "acs")]
+
+    walk_choice("jax")
+    runs = {"jax": solves()}
+    walk_choice("native")
+    for layout in native.TABU_LAYOUTS:
+        tabu_choice(layout)
+        runs[layout] = solves()
+    for a, b, c in zip(runs["lanes"], runs["planes"], runs["jax"], strict=True):
+        _same_run(a, b)
+        _same_run(a, c)
+
+
+def _same_run(a, b):
+    """Two Results of one solve alike: path, length, coverage and every history row."""
+    np.testing.assert_array_equal(a.path, b.path)
+    assert a.length == b.length and a.coverage == b.coverage
+    for k in a.history:
+        np.testing.assert_array_equal(a.history[k], b.history[k])
 
 
 @pytest.mark.parametrize("variant", _QUICK)
@@ -444,9 +471,10 @@ _LANE_CASES = [
 
 
 @pytest.mark.parametrize("case", _LANE_CASES)
-def test_each_instruction_set_this_cpu_runs_takes_the_jax_walks_moves(case, isa_choice):
+def test_each_instruction_set_this_cpu_runs_takes_the_jax_walks_moves(case, isa_choice, tabu_choice):
     """The lane kernels of every set built and supported here (baseline always), forced one by one,
-    against the JAX walk; the same compiled program serves all (the set is chosen at run time)."""
+    with each tabu layout, against the JAX walk; the same compiled program serves all (the set and
+    the layout are chosen at run time)."""
     args = _arrays(case, colonies=4)
     key = (case["n_ants"], case["steplimit"], case["exploit"])
     expected = _dying("jax", *key)(*args)
@@ -454,7 +482,21 @@ def test_each_instruction_set_this_cpu_runs_takes_the_jax_walks_moves(case, isa_
     for isa in RUNNABLE:
         isa_choice(isa)
         assert native.isa() == isa
-        _same(expected, _dying("native", *key)(*args))
+        for layout in native.TABU_LAYOUTS:
+            tabu_choice(layout)
+            assert native.tabu() == layout
+            _same(expected, _dying("native", *key)(*args))
+
+
+def test_a_tabu_layout_is_chosen_by_name_or_refused(tabu_choice):
+    assert native.tabu() is None  # the kernel's choice
+    tabu_choice("lanes")
+    assert native.tabu() == "lanes"
+    with pytest.raises(jaco.JacoError, match="unknown tabu layout 'bits'.*lanes, planes"):
+        tabu_choice("bits")
+    assert native.tabu() == "lanes"
+    tabu_choice(None)
+    assert native.tabu() is None
 
 
 #: Each wider set's compiler flags (setup.py) and an intrinsic of that set, for the check below.

@@ -74,8 +74,9 @@ def _bind_isa(lib) -> JacoError | None:
     """Declare the kernel's instruction-set functions and apply ``JACO_NATIVE_ISA`` if set (the
     error, if it names a set this kernel cannot run)."""
     lib.jaco_isa_name.restype = ctypes.c_char_p
-    for name in ("jaco_isa_count", "jaco_isa_built", "jaco_isa_runs", "jaco_isa_get", "jaco_isa_set"):
+    for name in ("jaco_isa_count", "jaco_isa_built", "jaco_isa_runs", "jaco_isa_get", "jaco_isa_set", "jaco_tabu_get"):
         getattr(lib, name).restype = ctypes.c_int
+    lib.jaco_tabu_set.restype, lib.jaco_tabu_set.argtypes = ctypes.c_int, [ctypes.c_int]
     lib.jaco_stop_set.restype, lib.jaco_stop_set.argtypes = None, [ctypes.c_int]
     lib.jaco_iterations_done.restype, lib.jaco_iterations_done.argtypes = ctypes.c_int, [ctypes.c_int]
     choice = os.environ.get("JACO_NATIVE_ISA")
@@ -134,6 +135,34 @@ def _set_isa(lib, choice: str, where: str) -> None:
         state = "was not built" if not lib.jaco_isa_built(names.index(choice)) else "is not supported by this CPU"
         runs = ", ".join(n for i, n in enumerate(names) if lib.jaco_isa_runs(i))
         raise JacoError(f"{where}: instruction set {choice!r} {state}; this kernel runs {runs} (or auto)")
+
+
+#: The dying-ant lane walk's ways of keeping its tabu lists (:func:`set_tabu`), by the kernel's codes.
+TABU_LAYOUTS = ("lanes", "planes")
+
+
+def set_tabu(choice: str | None) -> None:
+    """How the dying-ant lane walk keeps its ants' tabu lists: ``"lanes"``, a bit for each lane,
+    cleared along an ant's path when it stops; ``"planes"``, a bit for each ant, all cleared by
+    one scan once the walk ends (wherever the planes fit in 16 MiB a thread); or with ``None`` the
+    kernel's choice (the default: planes where a colony's take at most 16 KiB, lanes beyond).
+    Every layout takes the same moves bit for bit; this changes speed only, for calls from now on
+    (for tests and measurements; docs/native.md, "Tabu lists as bits")."""
+    lib = _load()[0]
+    if lib is None:
+        raise JacoError(f"no native kernel to choose a tabu layout for: {_state['why']}")
+    if choice is not None and choice not in TABU_LAYOUTS:
+        raise JacoError(
+            f"set_tabu: unknown tabu layout {choice!r}; the kernel knows {', '.join(TABU_LAYOUTS)} (or None)"
+        )
+    lib.jaco_tabu_set(-1 if choice is None else TABU_LAYOUTS.index(choice))
+
+
+def tabu() -> str | None:
+    """The tabu layout :func:`set_tabu` chose (None: the kernel's choice, or no kernel)."""
+    lib = _load()[0]
+    code = -1 if lib is None else lib.jaco_tabu_get()
+    return None if code < 0 else TABU_LAYOUTS[code]
 
 
 def available() -> bool:

@@ -116,6 +116,24 @@ int64_t group_size(int64_t colonies, int64_t threads, int64_t cells, int64_t slo
   return std::max<int64_t>(1, std::min<int64_t>({8, colonies / (4 * threads), limit}));
 }
 
+// How the lane walk keeps its tabu lists (walk_lanes.h): -1 its choice (tabu_planes), 0 a bit a
+// lane, 1 tabu planes wherever they fit (jaco.engine.native.set_tabu, for tests and measurements;
+// every choice takes the same moves).
+std::atomic<int32_t> tabu_choice{-1};
+// Tabu planes for a group of `colonies` colony parts of `ants` ants on `cells` cells: each ant its
+// own bit, so that an ant that stops clears nothing and no step stores its cell visited; one scan
+// of the planes after the walk does both. They pay while a colony's planes are small against the
+// steps its ants take (one solve on the benchmark's 30x30 map 0.93-0.96 of the time; on 48x48 to
+// 128x128 random maps, where the ants die within about 20 steps, 1.02-1.11: docs/native.md). 0: a
+// bit a lane.
+constexpr int64_t kPlaneWords = 4096;                      // a colony's planes (16 KiB)
+constexpr int64_t kPlaneWordsForced = int64_t(1) << 22;    // a group's, where tests force planes (16 MiB)
+int32_t tabu_planes(int32_t choice, int64_t cells, int64_t ants, int64_t colonies) {
+  const int64_t planes = (ants + 31) / 32;
+  const bool fit = choice == 1 ? planes * cells * colonies <= kPlaneWordsForced : planes * cells <= kPlaneWords;
+  return choice != 0 && fit ? int32_t(planes) : 0;
+}
+
 ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Buffer<ffi::U32> words,
                     ffi::Buffer<ffi::S32> start, ffi::Buffer<ffi::S32> goal, ffi::Buffer<ffi::F32> q0,
                     ffi::Buffer<ffi::S32> offsets, ffi::ResultBuffer<ffi::S32> edges,
@@ -152,6 +170,7 @@ ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Bu
   for (int64_t b = 1; b < B; ++b) same_offsets &= std::memcmp(off0 + b * 8, off0, 8 * sizeof(int32_t)) == 0;
   const int64_t per_group = parts > 1 || !same_offsets ? 1 : group_size(B, n_threads, N, S * A);
   const int64_t tasks = parts > 1 ? B * parts : (B + per_group - 1) / per_group;
+  const int32_t planes = tabu_planes(tabu_choice.load(), N, (A + parts - 1) / parts, per_group);
 
   for_each_colony(pool, tasks, [=, &part_visited]() {
     return [=, &part_visited, tabu = std::vector<uint32_t>(), group = std::vector<LaneColony>()](int64_t task) mutable {
@@ -162,9 +181,9 @@ ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Bu
         bool* vis = parts > 1 ? reinterpret_cast<bool*>(part_visited.data() + task * N) : vis0 + b * N;
         group.push_back(LaneColony{W0 + b * N * 8, off0 + b * 8, st[b], gl[b], int32_t(N), q[b], K[2 * b],
                                    K[2 * b + 1], A, S, A * p / parts, A * (p + 1) / parts, exploit, ed0 + b * S * A,
-                                   ns0 + b * A, nd0 + b * A, arr0 + b * A, vis, nullptr, width});
+                                   ns0 + b * A, nd0 + b * A, arr0 + b * A, vis, nullptr, planes, width});
       }
-      const int64_t pad = int64_t(width) + 2, cells = int64_t(group.size()) * N;
+      const int64_t pad = int64_t(width) + 2, cells = std::max<int32_t>(planes, 1) * int64_t(group.size()) * N;
       if (int64_t(tabu.size()) < cells + 2 * pad) tabu.assign(cells + 2 * pad, 0u);  // zero between groups
       for (LaneColony& colony : group) colony.tabu = tabu.data() + pad;
       walk(group.data(), int64_t(group.size()));
@@ -269,6 +288,13 @@ __attribute__((visibility("default"))) void jaco_stop_set(int on) { stop_request
 // The iterations finished (see iterations_done), set back to 0 when `reset`.
 __attribute__((visibility("default"))) int jaco_iterations_done(int reset) {
   return reset ? iterations_done.exchange(0) : iterations_done.load();
+}
+// The lane walk's tabu lists (tabu_choice): -1 its choice, 0 a bit a lane, 1 tabu planes.
+__attribute__((visibility("default"))) int jaco_tabu_get() { return tabu_choice.load(); }
+__attribute__((visibility("default"))) int jaco_tabu_set(int choice) {
+  if (choice < -1 || choice > 1) return -1;
+  tabu_choice.store(choice);
+  return 0;
 }
 // -1: the widest set this CPU runs; another set is taken only where it was built and the CPU runs it.
 __attribute__((visibility("default"))) int jaco_isa_set(int i) {

@@ -15,9 +15,10 @@
 // indices into the group's tables (colony j's cell i is j·N + i: its weights row, tabu word and
 // visited flag), so a step reads every lane's row from one base whatever colony each lane walks.
 //
-// Tabu lists are bits: tabu[cell] has bit l set once the ant of lane l has left the cell after it
-// (the cell it just left is compared in a register); the bits of an ant are cleared along its path
-// when it stops, so nothing is cleared per colony. Uniforms: each lane holds U = 2L uniforms of its
+// Tabu lists are bits, set once the ant has left the cell after it (the cell it just left is
+// compared in a register). With tabu planes (small maps) each ant has its own bit, and one scan at
+// the end gives the cells visited and clears them; else tabu[cell] has bit l for the ant of lane l,
+// cleared along the ant's path when it stops, and every step stores the cells entered. Uniforms: each lane holds U = 2L uniforms of its
 // ant, L Threefry blocks drawn together (one vector pass) when the ant starts and whenever it has
 // used them all.
 //
@@ -248,6 +249,7 @@ inline vf pick(vi mask, vf a, vf b) { return float_of(pick(mask, bits_of(a), bit
 // (j·N·8) and q0 (with 1 − q0 as the wheel's scale) are per lane too; they are read, not carried.
 struct Lanes {
   vi cur, prev, t, drawn, diagonal, ant, live;  // live: -1 while the lane walks an ant
+  vi plane, bit;  // the ant's tabu plane (word offset) and bit, with tabu planes
   vi goal, first_edge;
   vf q0, q_scale;
   float uniform[L][U];
@@ -257,7 +259,7 @@ struct Lanes {
 // jaco.engine.walk.choose over the weights of the moves into cells not tabu. A lane's tabu cells
 // are the marked ones and its previous cell, which is marked only when the ant leaves the cell
 // after it (so the gathers of a step never wait for the marks of the step before).
-template <bool Exploit>
+template <bool Exploit, bool Planes>
 inline void choose_lanes(const Lanes& s, const LaneColony& c, int32_t n_cells, const vi offset[8], vi& chosen,
                          vi& ok) {
   const uint32_t* tabu = c.tabu;
@@ -267,13 +269,15 @@ inline void choose_lanes(const Lanes& s, const LaneColony& c, int32_t n_cells, c
     bit[l] = int32_t(1u << l);
     at[l] = l * U;
   }
+  if (Planes) bit = s.bit;
+  const vi plane = Planes ? s.plane : zero;
   vf u = gather(&s.uniform[0][0], at + s.t - s.drawn);
   vf w[8];
   move_weights(c.weights, row, w);
   vi around[9];
 #if JACO_ROWS
   const bool rows = c.width > 0;
-  if (rows) neighbourhood(tabu, s.cur, c.width, around);
+  if (rows) neighbourhood(tabu, s.cur + plane, c.width, around);
 #else
   const bool rows = false;
 #endif
@@ -283,7 +287,7 @@ inline void choose_lanes(const Lanes& s, const LaneColony& c, int32_t n_cells, c
       marks = around[kAround[k]];
     } else {
       const vi in = pick(nb < zero, zero, pick(nb > top_cell, top_cell, nb));
-      marks = gather(reinterpret_cast<const int32_t*>(tabu), in);
+      marks = gather(reinterpret_cast<const int32_t*>(tabu), in + plane);
     }
     const vi free = ((marks & bit) == zero) & (nb != s.prev);
     w[k] = float_of(bits_of(w[k]) & free);  // 0.0f where tabu
@@ -363,11 +367,24 @@ void clear_columns(const LaneColony& c) {
   }
   std::memset(c.visited, 0, c.n_cells);
 }
-}  // namespace
+
+// Once a group's walks end: its colonies' cells visited from their tabu planes (the cells the ants
+// left; finish stores the last two of each ant), and the planes zero again.
+void clear_planes(const LaneColony& c, int64_t n_colonies) {
+  const int64_t cells = n_colonies * c.n_cells;
+  bool* __restrict visited = c.visited;  // the group's colonies' flags, one after another
+  for (int64_t p = 0; p < c.tabu_planes; ++p) {
+    uint32_t* __restrict plane = c.tabu + p * cells;
+    for (int64_t i = 0; i < cells; ++i) visited[i] = visited[i] | (plane[i] != 0);
+    std::memset(plane, 0, size_t(cells) * sizeof *plane);
+  }
+}
 
 // One function for the lanes' loop and its two per-lane steps (load, finish): longer than the
 // rest of jaco's functions, but the lane state stays in registers and the loop reads as one.
-void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colonies) {
+// Planes: each ant its own tabu bit (LaneColony::tabu_planes), else each lane.
+template <bool Planes>
+void walk_group(const LaneColony* colonies, int64_t n_colonies) {
   const LaneColony& c = colonies[0];  // the group's tables start at colony 0's (walk_lanes.h)
   const int64_t A = c.n_ants, S = c.steplimit;
   const int32_t N = c.n_cells;
@@ -389,7 +406,7 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
   s.cur = zero + c.start;  // an idle lane marks its cell visited at every step: colony 0's start is
   s.goal = s.first_edge = zero;
   s.prev = zero - 1;
-  s.t = s.drawn = s.diagonal = s.ant = s.live = zero;
+  s.t = s.drawn = s.diagonal = s.ant = s.live = s.plane = s.bit = zero;
   s.q0 = s.q_scale = float_of(zero);
   int64_t colony = 0, next = c.ant_begin;
   int32_t ant_of[L], colony_of[L];  // the lane's ant and colony, for its results
@@ -418,6 +435,11 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
         s.prev[l] = -1;
         s.t[l] = s.diagonal[l] = s.drawn[l] = 0;
         s.live[l] = -1;
+        if (Planes) {  // ant r of the call's part: bit r % 32 of plane r / 32
+          const int64_t r = ant_of[l] - k.ant_begin;
+          s.plane[l] = int32_t(r >> 5) * int32_t(n_colonies) * N;
+          s.bit[l] = int32_t(1u << (r & 31));
+        }
         draw(k.k0, k.k1, uint32_t(ant_of[l]), 0, s.uniform[l]);
         ++n_live;
         return;
@@ -439,7 +461,12 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
     k.n_steps[a] = n;
     k.n_diagonal[a] = s.diagonal[l];
     k.arrived[a] = s.cur[l] == s.goal[l];
-    for (int32_t i = 0; i < n; ++i) tabu[cells + (k.edges[int64_t(i) * A + a] >> 3)] &= clear;
+    if (Planes) {  // the cells it left are in its plane, but for the last (and the one it stands on)
+      c.visited[s.cur[l]] = true;
+      if (s.prev[l] >= 0) c.visited[s.prev[l]] = true;
+    } else {
+      for (int32_t i = 0; i < n; ++i) tabu[cells + (k.edges[int64_t(i) * A + a] >> 3)] &= clear;
+    }
     --n_live;
   };
   for (int l = 0; l < L; ++l) load(l);
@@ -468,7 +495,7 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
         const float* row = c.weights + int64_t(cur[l]) * 8;
         for (int k = 0; k < 8; ++k) {  // a forbidden move has weight 0: any cell will do for its tabu look-up
           const int32_t nb = cur[l] + c.offsets[k], in = nb < 0 ? 0 : (nb > group_cells - 1 ? group_cells - 1 : nb);
-          w[k] = (tabu[in] & (1u << l)) == 0 && nb != prev[l] ? row[k] : 0.0f;
+          w[k] = (tabu[in + (Planes ? s.plane[l] : 0)] & (Planes ? uint32_t(s.bit[l]) : 1u << l)) == 0 && nb != prev[l] ? row[k] : 0.0f;
         }
         float total = w[0];
         for (int k = 1; k < 8; ++k) total = total + w[k];
@@ -477,8 +504,8 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
           const int chosen = choose(w, s.uniform[l][t[l] - drawn[l]], s.q0[l], c.exploit);
           const int32_t cell = cur[l] + c.offsets[chosen];
           c.edges[int64_t(t[l]) * A + s.ant[l]] = cur[l] * 8 - s.first_edge[l] + chosen;
-          c.visited[cell] = true;
-          if (prev[l] >= 0) tabu[prev[l]] |= 1u << l;
+          if (!Planes) c.visited[cell] = true;
+          if (prev[l] >= 0) tabu[prev[l] + (Planes ? s.plane[l] : 0)] |= Planes ? uint32_t(s.bit[l]) : 1u << l;
           prev[l] = cur[l];
           cur[l] = cell;
           diagonal[l] += chosen >= 4;
@@ -488,6 +515,7 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
         }
         if (ended) {
           s.cur[l] = cur[l];
+          s.prev[l] = prev[l];
           s.t[l] = t[l];
           s.diagonal[l] = diagonal[l];
           finish(l);
@@ -503,16 +531,18 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
     }
     vi chosen, ok;
     if (c.exploit)
-      choose_lanes<true>(s, c, group_cells, offset, chosen, ok);
+      choose_lanes<true, Planes>(s, c, group_cells, offset, chosen, ok);
     else
-      choose_lanes<false>(s, c, group_cells, offset, chosen, ok);
+      choose_lanes<false, Planes>(s, c, group_cells, offset, chosen, ok);
     // The step of every walking lane with a move (the others keep their cell).
     const vi step = s.live & ok;
     const vi cell = pick(step, s.cur + move_offset(c.offsets, chosen), s.cur);
     const vi slot = s.t * int32_t(A) + s.ant;
-    int32_t marked[L], entered[L], marking[L];
+    int32_t marked[L], entered[L], marking[L], bits[L];
     const vi from_move = s.cur * 8 - s.first_edge + chosen, marks = step & (s.prev >= zero);
-    std::memcpy(marked, &s.prev, sizeof marked);
+    const vi marked_at = Planes ? s.prev + s.plane : s.prev;
+    std::memcpy(marked, &marked_at, sizeof marked);
+    std::memcpy(bits, &s.bit, sizeof bits);
     std::memcpy(entered, &cell, sizeof entered);
     std::memcpy(marking, &marks, sizeof marking);
     // Every lane's stores, with no branch on how many lanes stepped (a loop over the stepping
@@ -528,8 +558,8 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
       _mm512_mask_i32scatter_epi32(c.edges, __mmask16(lanes_set(step)), to, value, 4);
     }
     for (int l = 0; l < L; ++l) {
-      c.visited[entered[l]] = true;
-      *(marking[l] ? tabu + marked[l] : &mark_sink) |= 1u << l;
+      if (!Planes) c.visited[entered[l]] = true;
+      *(marking[l] ? tabu + marked[l] : &mark_sink) |= Planes ? uint32_t(bits[l]) : 1u << l;
     }
 #else
     int32_t at[L], edge[L], stepped[L], edge_sink;
@@ -538,8 +568,8 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
     std::memcpy(stepped, &step, sizeof stepped);
     for (int l = 0; l < L; ++l) {
       *(stepped[l] ? c.edges + at[l] : &edge_sink) = edge[l];
-      c.visited[entered[l]] = true;
-      *(marking[l] ? tabu + marked[l] : &mark_sink) |= 1u << l;
+      if (!Planes) c.visited[entered[l]] = true;
+      *(marking[l] ? tabu + marked[l] : &mark_sink) |= Planes ? uint32_t(bits[l]) : 1u << l;
     }
 #endif
     s.prev = pick(step, s.cur, s.prev);
@@ -558,4 +588,13 @@ void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colon
       draw_from(l, s.drawn[l] = s.t[l]);
     }
   }
+  if (Planes) clear_planes(c, n_colonies);
+}
+}  // namespace
+
+void JACO_CAT(walk_lanes_, JACO_ISA)(const LaneColony* colonies, int64_t n_colonies) {
+  if (colonies[0].tabu_planes > 0)
+    walk_group<true>(colonies, n_colonies);
+  else
+    walk_group<false>(colonies, n_colonies);
 }

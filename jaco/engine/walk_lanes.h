@@ -21,9 +21,14 @@ struct LaneColony {
   int32_t* n_diagonal;    // (A,)
   bool* arrived;          // (A,)
   bool* visited;          // (N,): the cells this call's ants visited
-  uint32_t* tabu;         // (N,) scratch of the thread, all zero on entry and on return; valid
-                          // from tabu[-pad] to tabu[N - 1 + pad], pad = width + 2 (the rows above
-                          // the first and below the last, always zero)
+  uint32_t* tabu;         // (N,) scratch of the thread (P·N with P tabu planes), all zero on entry and
+                          // on return; valid from tabu[-pad] to its last word + pad, pad = width + 2
+                          // (the rows above the first and below the last, always zero)
+  int32_t tabu_planes;    // 0: the ant of lane l has bit l of tabu[cell], cleared along its path when
+                          // it stops. P > 0: ant a (counted from ant_begin) has bit a % 32 of plane
+                          // a / 32 (P planes of n·N words one after another, n the group's colonies),
+                          // so an ant that stops clears nothing; once the group's walks end, one
+                          // scan of the planes gives the cells visited and zeroes them
   int32_t width;          // row length when the offsets are jaco.moves.MOVES on a grid of that width
                           // (at least 3), so a cell's 3x3 neighbourhood is 3 runs of 3 cells;
                           // 0 otherwise (each neighbour is looked up on its own)
@@ -37,7 +42,8 @@ struct LaneColony {
 // end. For n > 1 the colonies are consecutive slices of one call: they share n_cells, offsets,
 // n_ants, steplimit and exploit, walk all their ants, and colony j's weights, edges and visited
 // cells lie j·N·8, j·S·A and j·N elements after colony 0's; colonies[0].tabu is the group's
-// scratch, n·N cells (plus the pads), and the other colonies' tabu is not read.
+// scratch, n·N cells (P·n·N with tabu planes, plus the pads), and the other colonies' tabu is not
+// read.
 #define JACO_DECLARE_WALK(isa) void walk_lanes_##isa(const LaneColony* colonies, int64_t n_colonies);
 JACO_ISA_LIST(JACO_DECLARE_WALK)
 #undef JACO_DECLARE_WALK
