@@ -18,9 +18,9 @@
 // Tabu lists are bits, set once the ant has left the cell after it (the cell it just left is
 // compared in a register). With tabu planes (small maps) each ant has its own bit, and one scan at
 // the end gives the cells visited and clears them; else tabu[cell] has bit l for the ant of lane l,
-// cleared along the ant's path when it stops, and every step stores the cells entered. Uniforms: each lane holds U = 2L uniforms of its
-// ant, L Threefry blocks drawn together (one vector pass) when the ant starts and whenever it has
-// used them all.
+// cleared along the ant's path when it stops, and every step stores the cells entered. Uniforms:
+// each lane holds U = 2L uniforms of its ant, L Threefry blocks drawn together (one vector pass)
+// when the ant starts and whenever it has used them all.
 //
 // Nothing here may be shared with the other objects (see walk_shared.h): everything has internal
 // linkage but the one entry point.
@@ -403,7 +403,7 @@ void walk_group(const LaneColony* colonies, int64_t n_colonies) {
 
   Lanes s;
   const vi zero = offset[0] - offset[0];
-  s.cur = zero + c.start;  // an idle lane marks its cell visited at every step: colony 0's start is
+  s.cur = zero + c.start;  // an idle lane marks its cell visited at every step (a bit a lane): colony 0's start is
   s.goal = s.first_edge = zero;
   s.prev = zero - 1;
   s.t = s.drawn = s.diagonal = s.ant = s.live = s.plane = s.bit = zero;
@@ -491,11 +491,13 @@ void walk_group(const LaneColony* colonies, int64_t n_colonies) {
     for (unsigned live = lanes_set(s.live); live;) {
       for (unsigned m = live; m; m &= m - 1) {
         const int l = __builtin_ctz(m);
+        const int32_t plane = Planes ? s.plane[l] : 0;  // the lane's tabu words and bit
+        const uint32_t bit = Planes ? uint32_t(s.bit[l]) : 1u << l;
         float w[8];
         const float* row = c.weights + int64_t(cur[l]) * 8;
         for (int k = 0; k < 8; ++k) {  // a forbidden move has weight 0: any cell will do for its tabu look-up
           const int32_t nb = cur[l] + c.offsets[k], in = nb < 0 ? 0 : (nb > group_cells - 1 ? group_cells - 1 : nb);
-          w[k] = (tabu[in + (Planes ? s.plane[l] : 0)] & (Planes ? uint32_t(s.bit[l]) : 1u << l)) == 0 && nb != prev[l] ? row[k] : 0.0f;
+          w[k] = (tabu[in + plane] & bit) == 0 && nb != prev[l] ? row[k] : 0.0f;
         }
         float total = w[0];
         for (int k = 1; k < 8; ++k) total = total + w[k];
@@ -505,7 +507,7 @@ void walk_group(const LaneColony* colonies, int64_t n_colonies) {
           const int32_t cell = cur[l] + c.offsets[chosen];
           c.edges[int64_t(t[l]) * A + s.ant[l]] = cur[l] * 8 - s.first_edge[l] + chosen;
           if (!Planes) c.visited[cell] = true;
-          if (prev[l] >= 0) tabu[prev[l] + (Planes ? s.plane[l] : 0)] |= Planes ? uint32_t(s.bit[l]) : 1u << l;
+          if (prev[l] >= 0) tabu[prev[l] + plane] |= bit;
           prev[l] = cur[l];
           cur[l] = cell;
           diagonal[l] += chosen >= 4;
