@@ -206,13 +206,17 @@ class Grid:
             rc = np.asarray(cells, dtype=float)
         except (TypeError, ValueError):
             rc = np.empty(0)
-        if rc.ndim < 1 or rc.shape[-1] != 2:
-            raise ProblemError(f"cells are (row, col) pairs of numbers, got {cells!r}")
+        if rc.ndim < 1 or rc.shape[-1] != 2 or not np.isfinite(rc).all():
+            raise ProblemError(f"cells are (row, col) pairs of finite numbers, got {cells!r}")
         r, c = rc[..., 0], rc[..., 1]
-        lx = (c + 0.5) * res
-        ly = (self.height - 1 - r + 0.5) * res
         cs, sn = np.cos(yaw), np.sin(yaw)
-        return np.stack([ox + cs * lx - sn * ly, oy + sn * lx + cs * ly], axis=-1)
+        with np.errstate(over="ignore", invalid="ignore"):
+            lx = (c + 0.5) * res
+            ly = (self.height - 1 - r + 0.5) * res
+            xy = np.stack([ox + cs * lx - sn * ly, oy + sn * lx + cs * ly], axis=-1)
+        if not np.isfinite(xy).all():  # cells so far off that their metres overflow a float
+            raise ProblemError(f"cells {cells!r} are too far from map {self.name!r} for world coordinates")
+        return xy
 
     def world_to_cell(self, xy: ArrayLike) -> np.ndarray:
         """The ``(row, col)`` cell containing world point(s) ``(x, y)``; may be out of bounds."""

@@ -680,6 +680,17 @@ def test_absurd_world_point_is_one_line_without_a_numpy_warning(capsys):
         assert row > 307 and col > 604
 
 
+@pytest.mark.parametrize("cells", [(math.inf, 0), (0, math.nan), [(1, 1), (-math.inf, 2)], (1e308, -1e308)])
+def test_cells_without_world_coordinates_are_one_error_without_a_numpy_warning(cells):
+    depot = maps.load_bundled("depot.yaml")
+    depot = depot.replace(resolution=100.0)  # metres a cell: 1e308 cells overflow a float
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(jaco.ProblemError, match="finite numbers|too far from map 'depot'"):
+            depot.cell_to_world(cells)
+        np.testing.assert_allclose(depot.world_to_cell(depot.cell_to_world([(3, 4), (10, 20)])), [(3, 4), (10, 20)])
+
+
 def test_internal_errors_are_one_line_and_exit_3(capsys, monkeypatch):
     def broken(args):
         raise RuntimeError("boom\nsecond line")
