@@ -450,11 +450,8 @@ def test_a_planner_of_each_walk_gives_the_same_runs_with_both_walks(variant, wal
     walk_choice("jax")
     jax_solves, jax_table = _runs(variant)
     for a, b in zip(native_solves, jax_solves, strict=True):
-        np.testing.assert_array_equal(a.path, b.path)
-        assert a.length == b.length and a.cost == b.cost and a.coverage == b.coverage
-        for k in a.history:
-            np.testing.assert_array_equal(a.history[k], b.history[k])
-        assert a.success
+        _same_run(a, b)
+        assert a.cost == b.cost and a.success
     if native_table is not None:
         pd.testing.assert_frame_equal(native_table, jax_table, check_exact=True)
         assert native_table.success.any()
