@@ -56,6 +56,9 @@ class Grid:
             raise ProblemError(
                 f"cell_size must be a positive number (float), got {type(self.cell_size).__name__} {self.cell_size!r}"
             )
+        # a Python int past int64 is no number numpy computes with (and np.isfinite refuses it)
+        if isinstance(self.cell_size, int) and not 0 < self.cell_size < 2**63:
+            raise ProblemError(f"cell_size must be a positive number below 2**63, got {self.cell_size}")
         if not np.isfinite(self.cell_size) or self.cell_size <= 0:
             raise ProblemError(f"cell_size must be a positive number, got {self.cell_size}")
         if not isinstance(self.name, str):
@@ -186,8 +189,16 @@ class Grid:
     def replace(self, **changes: Any) -> Grid:
         """A copy with ``changes``. The copy's meta holds this grid's own entries, not what jaco
         keeps on the grid for its queries (keys starting with ``_``): another mask has other ones."""
-        changes.setdefault("meta", {k: v for k, v in self.meta.items() if not k.startswith("_")})
+        changes.setdefault("meta", self._own_meta())
         return replace(self, **changes)
+
+    def __getstate__(self) -> dict:
+        """A pickled grid (a Result's, sent to another process) holds its own meta entries, not
+        jaco's caches: those hold device arrays and planners, which need not pickle."""
+        return {**self.__dict__, "meta": self._own_meta()}
+
+    def _own_meta(self) -> dict:
+        return {k: v for k, v in self.meta.items() if not k.startswith("_")}
 
     # -- world coordinates (ROS maps) ----------------------------------------------------------
     def _frame(self):

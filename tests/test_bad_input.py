@@ -581,6 +581,7 @@ def test_deeply_nested_record(tmp_path):
 @pytest.mark.parametrize("call, needle", [
     (lambda: jaco.Grid.from_array([[1, 0], [1]]), "rows have different lengths"),
     (lambda: jaco.Grid.from_array(np.ones((2, 2), bool), cell_size="2"), "cell_size must be a positive number"),
+    (lambda: jaco.Grid.from_array(np.ones((2, 2), bool), cell_size=2**64), "below 2**63"),  # np.isfinite raised
     (lambda: jaco.Grid.from_rows([1, 2]), "list of str rows"),
     (lambda: jaco.Grid.from_rows(None), "a str or a list of str rows"),
     (lambda: jaco.solve("demo", (0, 0), (1, 1)), "expected a jaco.Grid, got str"),

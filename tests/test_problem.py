@@ -1,6 +1,7 @@
 """Grid -> problem: neighbour table, no corner cutting, and validation errors before any compile."""
 
 import math
+import pickle
 
 import numpy as np
 import pytest
@@ -121,6 +122,48 @@ def test_device_parameters_are_kept_by_their_bits():
     minus = device_params({"alpha": np.float32(1.0), "xi": np.float32(-0.0)})
     assert not np.signbit(np.asarray(plus.xi)) and np.signbit(np.asarray(minus.xi))
     assert device_params({"alpha": np.float32(1.0), "xi": np.float32(0.0)}) is plus
+
+
+def test_a_solve_checks_a_repeated_call_once_and_only_its_seed_again(monkeypatch):
+    """A grid keeps the solves' checked calls (jaco.engine.run.prepared_solve): the same call with
+    another seed runs no check but the seed's and gives the result of an unkept call. The key
+    tells apart what equality does not (1 and True, 0.0 and -0.0) and holds the memory budget,
+    so a call that the first one does not cover is checked in full."""
+    import jaco.engine.checks as checks
+    import jaco.engine.run as run
+
+    grid = jaco.maps.random_map(12, 0.2, seed=1)
+    kw = dict(n_ants=8, n_iters=5, beta=1.0)
+    first = jaco.solve(grid, (0, 0), (11, 11), "as", seed=0, **kw)
+    calls = []
+    monkeypatch.setattr(run, "prepare", lambda *a, **k: calls.append(k) or checks.prepare(*a, **k))
+    again = jaco.solve(grid, (0, 0), (11, 11), "as", seed=3, **kw)
+    assert calls == []
+    fresh = jaco.solve(grid.replace(), (0, 0), (11, 11), "as", seed=3, **kw)  # a copy keeps no checked calls
+    assert len(calls) == 1 and again.path.tolist() == fresh.path.tolist() and again.history.keys() == fresh.history.keys()
+    for name, row in again.history.items():
+        np.testing.assert_array_equal(row, fresh.history[name])
+    assert first.seed == 0 and again.seed == 3
+    with pytest.raises(jaco.JacoError, match="seed"):
+        jaco.solve(grid, (0, 0), (11, 11), "as", seed=-1, **kw)
+    jaco.solve(grid, (0, 0), (11, 11), "as", seed=0, n_ants=1, n_iters=5)
+    with pytest.raises(jaco.JacoError, match="got bool True"):  # n_ants=True is not n_ants=1
+        jaco.solve(grid, (0, 0), (11, 11), "as", seed=0, n_ants=True, n_iters=5)
+    monkeypatch.setenv("JACO_MEMORY_BUDGET", "1000")
+    with pytest.raises(jaco.ResourceError):
+        jaco.solve(grid, (0, 0), (11, 11), "as", seed=0, **kw)
+    monkeypatch.delenv("JACO_MEMORY_BUDGET")
+    ready = dict(seed=0, n_ants=8, n_iters=5, steplimit=None, connectivity=8, keep_pheromone=False)
+    plus = run.prepared_solve(grid, (0, 0), (11, 11), jaco.PLANNERS["as"], params={"alpha": 0.0}, **ready)[-1]
+    minus = run.prepared_solve(grid, (0, 0), (11, 11), jaco.PLANNERS["as"], params={"alpha": -0.0}, **ready)[-1]
+    assert not np.signbit(np.asarray(plus.alpha)) and np.signbit(np.asarray(minus.alpha))
+    calls.clear()
+    jaco.solve(grid, [0, 0], (11, 11), "as", seed=0, **kw)  # a list cannot be a key: checked in full
+    assert len(calls) == 1
+    grid.meta["note"] = "mine"
+    copy = pickle.loads(pickle.dumps(again)).grid  # a Result pickles: its grid without jaco's caches
+    assert copy.meta["note"] == "mine" and "_solves" in grid.meta and np.array_equal(copy.free, grid.free)
+    assert copy.meta == {k: v for k, v in grid.meta.items() if not k.startswith("_")}
 
 
 def test_a_replaced_mask_gets_its_own_problems_not_the_old_grids():
