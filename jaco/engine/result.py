@@ -216,7 +216,7 @@ def to_result(
         optimal=opt,
         gap=gap(length, opt),
         best_iteration=int(out.best_iteration),
-        history=dict(zip(out.history._fields, map(np.asarray, out.history))),
+        history={k: np.asarray(v) for k, v in out.history._asdict().items()},
         coverage=int(out.covered) / grid.n_free,
         seed=int(seed),
         params={k: float(params[k]) for k in planner.params},
