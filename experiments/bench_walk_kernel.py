@@ -3,6 +3,7 @@
 
     python experiments/bench_walk_kernel.py --revs 98f3010 HEAD     # updates BENCHMARKS.md
     python experiments/bench_walk_kernel.py --revs HEAD . --smoke --out DIR/x.md
+    python experiments/bench_walk_kernel.py --revs HEAD . --side 128 --group 1 --out DIR/x.md  # one solve's colony on a large map
 
 The machines here switch between a fast and a slow state from one minute to the next (the same
 sweep 1.5x apart), so two runs minutes apart cannot show a 5 % change in the walk. This script
@@ -109,9 +110,15 @@ def main(argv=None):
     ap.add_argument("--rounds", type=int, default=None, help="rounds (default 300; 3 with --smoke)")
     ap.add_argument("--group", type=int, default=8,
                     help="colonies a group, for revisions whose walk takes groups (walk.cc's size for this sweep)")
+    ap.add_argument("--side", type=int, default=None,
+                    help="the random map's side (default 30, the benchmark's; larger maps have longer step limits)")
     ap.add_argument("--out", default=None, help="markdown file to update (default BENCHMARKS.md; nothing with --smoke)")
     args = ap.parse_args(argv)
-    cfg = SMOKE if args.smoke else FULL
+    cfg = dict(SMOKE if args.smoke else FULL)
+    if args.side is not None:
+        if args.side < 2:
+            raise SystemExit(f"--side must be at least 2, got {args.side}")
+        cfg["side"] = args.side
     rounds = args.rounds or cfg["rounds"]
     labels = revision_labels(args.revs)
     tmp = Path(tempfile.mkdtemp(prefix="jaco-walk-kernel-"))
@@ -133,12 +140,16 @@ def main(argv=None):
     steps = int(results[0][3])
     header = ["revision", "walk ms CPU (median)", "walk ms CPU (best)", "ns a step (median)", "ns a step (best)",
               f"per-round time ÷ {rows[0][0]}'s: median (quartiles)"]
-    command = "python experiments/bench_walk_kernel.py --revs " + " ".join(args.revs) + (" --smoke" if args.smoke else "")
+    options = [f"--{k} {v}" for k, v in (("side", args.side), ("group", args.group if args.group != 8 else None),
+                                         ("rounds", args.rounds)) if v is not None]
+    command = " ".join(["python experiments/bench_walk_kernel.py --revs", *args.revs, *options] +
+                       (["--smoke"] if args.smoke else []))
     text = "\n".join([
         "## The dying-ant lane walk alone (`experiments/bench_walk_kernel.py`)",
         "",
         f"Command: `{command}`. The walks of {work['colonies']} AS colonies, {work['ants']} ants each, on the "
-        f"{work['side']}×{work['side']} benchmark map (step limit {work['steplimit']}), from the pheromone of a "
+        f"{work['side']}×{work['side']} {'benchmark' if work['side'] == FULL['side'] else 'random'} map, 25 % obstacles "
+        f"(step limit {work['steplimit']}), from the pheromone of a "
         f"{cfg['train_iters']}-iteration solve: {steps:,} steps a round. Each revision's walk ({isa} lanes) in one "
         f"program on one pinned core, {rounds} rounds, each round starting with the next revision. Every revision "
         "took the same steps.",

@@ -476,6 +476,9 @@ def test_each_instruction_set_this_cpu_runs_takes_the_jax_walks_moves(case, isa_
     key = (case["n_ants"], case["steplimit"], case["exploit"])
     expected = _dying("jax", *key)(*args)
     assert RUNNABLE[0] == "baseline" and (np.asarray(expected[2]).sum() > 0 or case["h"] * case["w"] <= 2)
+    # A run's walk writes over the last iteration's steps: here another key's walks, longer for
+    # some ants and shorter for others, whose old steps past each new walk must be cleared.
+    other = (args[0], args[1][:, ::-1]) + args[2:]
     for isa in RUNNABLE:
         isa_choice(isa)
         assert native.isa() == isa
@@ -483,6 +486,10 @@ def test_each_instruction_set_this_cpu_runs_takes_the_jax_walks_moves(case, isa_
             tabu_choice(layout)
             assert native.tabu() == layout
             _same(expected, _dying("native", *key)(*args))
+            previous = _dying("native", *key)(*other)
+            _same(expected, _dying("native", *key)(*args, previous[0]))
+    if case["steplimit"] > 1 and case["h"] * case["w"] > 2:
+        assert np.any(np.asarray(previous[2]) > np.asarray(expected[2]))  # the old steps went past the new
 
 
 def test_a_tabu_layout_is_chosen_by_name_or_refused(tabu_choice):

@@ -200,6 +200,48 @@ def test_a_solves_loop_has_no_fusion_that_xla_splits_between_threads(planner):
     assert split == [], f"fusions of the loop that XLA splits between threads: {split}"
 
 
+def _loop_bodies(text: str) -> list[str]:
+    """The computations of a compiled program's while loops' bodies (what runs every iteration)."""
+    blocks = re.split(r"\n(?=%|ENTRY )", text)
+    bodies = set(re.findall(r"body=%([\w.\-]+)", text))
+    return [block for block in blocks if block.split(" ", 1)[0].lstrip("%") in bodies]
+
+
+@pytest.mark.parametrize("planner", ["as", "idaca"])
+def test_a_runs_walks_write_over_the_last_iterations_steps_in_place(planner):
+    """No iteration fills the ``steplimit × ants`` step slots: the walk takes the last
+    iteration's step buffer (``Trail.steps``) straight from the loop's carry, aliased to its own
+    edges, and nothing else in the loop makes a buffer of that shape (no fill, no copy). One
+    colony (AS) and two (IDACA, both colonies' buffers in one)."""
+    import jax
+
+    import jaco.engine.checks as jc
+    from jaco.engine import native
+    from jaco.engine.run import make_run
+
+    if native.active_walk() != "native":
+        pytest.skip("the native walk was not built")
+    grid = jaco.maps.random_map(30, 0.25, seed=0)
+    problem = jaco.make_problem(grid, (0, 0), (29, 29))
+    variant = jaco.PLANNERS[planner]
+    params = jc.params_from(jc.resolve_params(variant, {}, where=planner))
+    steplimit = jc.default_steplimit(grid)
+    run = jax.jit(make_run(variant, n_ants=50, n_iters=10, steplimit=steplimit))
+    bodies = _loop_bodies(run.lower(jax.random.key(0), problem, params).compile().as_text())
+    walks = [(body, line) for body in bodies for line in body.splitlines() if '"jaco_walk"' in line]
+    assert len(walks) == 1
+    body, line = walks[0]
+    assert "output_to_operand_aliasing={{0}: (6, {})}" in line
+    operands = re.sub(r"/\*index=\d+\*/", "", line.split("custom-call(", 1)[1].split(")", 1)[0]).split(",")
+    previous = operands[6].strip()
+    parameter = re.search(r"%([\w.\-]+) = [^\n]*? parameter\(0\)", body).group(1)
+    assert re.search(rf"{re.escape(previous)} = \S+ get-tuple-element\(%{re.escape(parameter)}\)", body)
+    shape = rf"s32\[(2,)?{steplimit},50\]"
+    made = [ln.split("=", 1)[1].split("(", 1)[0].split()[-1] for b in bodies for ln in b.splitlines()
+            if re.match(rf"\s*(ROOT )?%\S+ = {shape}", ln)]  # fmt: skip
+    assert made and set(made) <= {"get-tuple-element"}, made
+
+
 def test_a_runs_outputs_are_fetched_as_jax_device_get_gives_them():
     """``fetched`` (what a solve reads its run's outputs with) skips ``jax.device_get``'s
     asynchronous copies on the CPU; it must give the same values, dtypes, shapes and structure,

@@ -148,6 +148,22 @@ def test_the_cells_follow_from_the_steps_pheromone_elements(rows):
             np.testing.assert_array_equal(step_cells(layout, targets, p.offsets, n), tours.cells)
 
 
+def test_a_walk_over_the_last_walks_steps_takes_the_same_walks():
+    """``previous`` (a run's Trail.steps) changes no walk, with whichever walk is active: the native
+    walk writes over it and clears the rows it used (here another key's walks, some longer), the
+    JAX walk does not read it. A buffer of another shape is refused before any compile."""
+    p = to_device(make_problem(jaco.maps.random_map(12, 0.3, seed=1), (0, 0), (11, 11)))
+    weights = jnp.where(p.nbr >= 0, 1.0, 0.0)
+    fresh = _walk(p, weights, 20, 40, seed=4)
+    last = _walk(p, weights, 20, 40, seed=5)
+    assert (np.asarray(last.n_steps) > np.asarray(fresh.n_steps)).any()
+    again = walk(p, weights, jax.random.key(4), 0.0, n_ants=20, steplimit=40, exploit=False, previous=last.edges)
+    for a, b in zip(fresh, again, strict=True):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    with pytest.raises(jaco.JacoError, match=r"previous must be the \(steplimit, n_ants\) = \(40, 20\)"):
+        walk(p, weights, jax.random.key(4), 0.0, n_ants=20, steplimit=40, exploit=False, previous=last.edges[:, :5])
+
+
 def test_key_words_are_two_words_of_any_key():
     words = key_words(jax.random.key(0))
     assert words.shape == (2,) and words.dtype == jnp.uint32

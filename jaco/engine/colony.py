@@ -102,21 +102,18 @@ def single_colony(
     n_ants: int,
     steplimit: int,
 ) -> tuple[Trail, Colony]:
-    """One colony walks start → goal with the random-proportional (or q0) rule; dead ants fail."""
+    """One colony walks start → goal with the random-proportional (or q0) rule; dead ants fail.
+    Its steps are written over the last iteration's (``trail.steps``)."""
     weights = move_weights(planner, trail, problem, params, t, n_iters)
-    return trail, walk_colony(planner, problem, weights, params, key, n_ants=n_ants, steplimit=steplimit)
-
-
-def walk_colony(
-    planner: Any, problem: Any, weights: jax.Array, params: Params, key: jax.Array, *, n_ants: int, steplimit: int
-) -> Colony:
-    """The :class:`Colony` of ``n_ants`` ants walking start → goal on the move weights ``weights``
-    (``(N, 8)``, 0 exactly on forbidden moves), with the planner's transition rule and cost."""
     exploit = planner.transition == "pseudo-random"
     # q0 is read only by the q0 rule (a roulette planner has no q0; the walk ignores the value then)
-    tours = walk(
-        problem, weights, key, params.q0 if exploit else 0.0, n_ants=n_ants, steplimit=steplimit, exploit=exploit
-    )
+    q0 = params.q0 if exploit else 0.0
+    tours = walk(problem, weights, key, q0, n_ants=n_ants, steplimit=steplimit, exploit=exploit, previous=trail.steps)
+    return trail._replace(steps=tours.edges), colony_of(planner, problem, params, tours)
+
+
+def colony_of(planner: Any, problem: Any, params: Params, tours: Any) -> Colony:
+    """The :class:`Colony` of one colony's walks start → goal, with the planner's cost."""
     cost = jnp.where(tours.arrived, planner.cost(tours, problem, params), jnp.inf)
     targets = step_targets(
         planner.pheromone_on, tours.cells, tours.moves, problem.start, problem.nbr.shape[0], tours.edges

@@ -300,6 +300,7 @@ def walk(
     goal: Any,
     q0: jax.Array | float,
     offsets: Any,
+    previous: jax.Array | None = None,
     *,
     n_ants: int,
     steplimit: int,
@@ -309,9 +310,12 @@ def walk(
 
     The kernel writes each step's ``from·8 + move`` only; the cell it entered, ``from +
     offsets[move]``, is computed here, so a program that never reads the cells (a sweep without
-    paths) neither fills nor writes an ``(S, A)`` buffer for them."""
+    paths) neither fills nor writes an ``(S, A)`` buffer for them. It writes the steps over
+    ``previous`` in place (XLA aliases the two) and clears only the rows the last walks used."""
     _load()
     n = weights.shape[-2]
+    if previous is None:
+        previous = no_steps(weights.shape[:-2], steplimit, n_ants, n)
     out = (
         jax.ShapeDtypeStruct((steplimit, n_ants), jnp.int32),
         jax.ShapeDtypeStruct((n_ants,), jnp.int32),
@@ -319,9 +323,16 @@ def walk(
         jax.ShapeDtypeStruct((n_ants,), jnp.bool_),
         jax.ShapeDtypeStruct((n,), jnp.bool_),
     )
-    call = jax.ffi.ffi_call("jaco_walk", out, vmap_method="broadcast_all")
-    edges, *rest = call(weights, words, start, goal, q0, offsets, steplimit=np.int64(steplimit), exploit=bool(exploit))
+    call = jax.ffi.ffi_call("jaco_walk", out, vmap_method="broadcast_all", input_output_aliases={6: 0})
+    edges, *rest = call(
+        weights, words, start, goal, q0, offsets, previous, steplimit=np.int64(steplimit), exploit=bool(exploit)
+    )
     return edges, entered_cells(edges, offsets, n), *rest
+
+
+def no_steps(batch: tuple[int, ...], steplimit: int, n_ants: int, n_cells: int) -> jax.Array:
+    """Step buffers ``batch + (steplimit, n_ants)`` of walks that took no step: every edge ``8N``."""
+    return jnp.full((*batch, steplimit, n_ants), 8 * n_cells, jnp.int32)
 
 
 def entered_cells(edges: jax.Array, offsets: Any, n_cells: int) -> jax.Array:

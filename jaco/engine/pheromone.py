@@ -51,12 +51,17 @@ class Trail(NamedTuple):
     the components' own state by slot (pg-aco's rule: its logits and optimiser state; apf-aco's
     heuristic: a potential-field table). The composition gives each stateful component its slot
     (:func:`jaco.planners.compose.slot`) and refuses two in one, so that components with state
-    combine: each reads and writes only its own entry (:func:`own`, :func:`with_own`)."""
+    combine: each reads and writes only its own entry (:func:`own`, :func:`with_own`).
+
+    ``steps``: the step buffers of the construct's last walks (``edges``, 8N where no step, as
+    :func:`jaco.engine.walk.walk` takes them back), None before a run's loop sets them: the native
+    walk writes over them in place rather than clearing every step slot each iteration."""
 
     tau: jax.Array
     lo: jax.Array
     hi: jax.Array
     state: Mapping[str, Any] = {}  # never mutated: with_own builds a new dict
+    steps: Any = None
 
 
 def own(trail: Trail, key: str) -> Any:

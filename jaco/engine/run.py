@@ -184,8 +184,12 @@ def make_run(
             )
             return p, trail, colony
 
+        shapes = jax.eval_shape(construct, trail, jnp.int32(0), key)
         # The candidates' path buffer length is the construct step's own (two colonies: longer).
-        path_len = jax.eval_shape(construct, trail, jnp.int32(0), key)[2].cells.shape[0]
+        path_len = shapes[2].cells.shape[0]
+        # The walks write over the last iteration's steps (Trail.steps); the first over none.
+        empty = lambda s: native.no_steps(s.shape[:-2], s.shape[-2], s.shape[-1], n)  # noqa: E731
+        trail = trail._replace(steps=jax.tree.map(empty, shapes[1].steps))
 
         def iteration(carry, xs):
             trail, best, seen, steps = carry

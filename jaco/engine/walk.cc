@@ -136,7 +136,7 @@ int32_t tabu_planes(int32_t choice, int64_t cells, int64_t ants, int64_t colonie
 
 ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Buffer<ffi::U32> words,
                     ffi::Buffer<ffi::S32> start, ffi::Buffer<ffi::S32> goal, ffi::Buffer<ffi::F32> q0,
-                    ffi::Buffer<ffi::S32> offsets, ffi::ResultBuffer<ffi::S32> edges,
+                    ffi::Buffer<ffi::S32> offsets, ffi::Buffer<ffi::S32> previous, ffi::ResultBuffer<ffi::S32> edges,
                     ffi::ResultBuffer<ffi::S32> n_steps,
                     ffi::ResultBuffer<ffi::S32> n_diagonal, ffi::ResultBuffer<ffi::PRED> arrived,
                     ffi::ResultBuffer<ffi::PRED> visited, int64_t steplimit, bool exploit) {
@@ -149,6 +149,10 @@ ffi::Error WalkImpl(ffi::ThreadPool pool, ffi::Buffer<ffi::F32> weights, ffi::Bu
   const int32_t *st = start.typed_data(), *gl = goal.typed_data(), *off0 = offsets.typed_data();
   const float* q = q0.typed_data();
   int32_t* ed0 = edges->typed_data();
+  // The steps are written over the last walks' (each column: steps, then 8N), and only the rows
+  // those used are cleared (walk_lanes.cc, clear_columns). XLA hands the buffer over in place
+  // (input_output_aliases); a copy where it did not.
+  if (previous.typed_data() != ed0) std::memcpy(ed0, previous.typed_data(), previous.size_bytes());
   int32_t *ns0 = n_steps->typed_data(), *nd0 = n_diagonal->typed_data();
   bool *arr0 = arrived->typed_data(), *vis0 = visited->typed_data();
   const LaneWalk walk = lane_walk();
@@ -250,6 +254,7 @@ XLA_FFI_DEFINE_HANDLER_SYMBOL(JacoWalk, WalkImpl,
                                   .Arg<ffi::Buffer<ffi::S32>>()   // goal (...)
                                   .Arg<ffi::Buffer<ffi::F32>>()   // q0 (...)
                                   .Arg<ffi::Buffer<ffi::S32>>()   // move offsets (..., 8)
+                                  .Arg<ffi::Buffer<ffi::S32>>()   // the last walks' edges (..., S, A), aliased to:
                                   .Ret<ffi::Buffer<ffi::S32>>()   // edges (..., S, A): from·8 + move, 8N where none
                                   .Ret<ffi::Buffer<ffi::S32>>()   // steps (..., A)
                                   .Ret<ffi::Buffer<ffi::S32>>()   // diagonal steps (..., A)

@@ -25,6 +25,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..errors import JacoError
 from ..moves import MOVE_LENGTHS
 from . import native
 
@@ -130,6 +131,7 @@ def walk(
     n_ants: int,
     steplimit: int,
     exploit: bool,
+    previous: jax.Array | None = None,
 ) -> Tours:
     """Walk ``n_ants`` ants from ``problem.start`` with move weights ``weights (N, 8)``.
 
@@ -137,8 +139,21 @@ def walk(
     iteration's key. An ant stops on the goal, on a dead end (it dies: no allowed move), or at
     ``steplimit``. The native kernel walks when it is active (:func:`jaco.engine.native.active_walk`)
     and the program runs on CPU; the JAX walk everywhere else.
+
+    ``previous``: the ``edges`` of this walk's last call (a run's loop keeps them in
+    :attr:`Trail.steps <jaco.engine.pheromone.Trail>`), or None (:func:`jaco.engine.native.no_steps`). The native
+    walk writes its steps over them in place, so no iteration clears all ``steplimit × n_ants``
+    step slots; the JAX walk writes a new buffer. The moves are the same either way.
     """
-    args = (weights, key_words(key), problem.start, problem.goal, jnp.asarray(q0, jnp.float32), problem.offsets)
+    if previous is None:
+        previous = native.no_steps((), steplimit, n_ants, weights.shape[-2])
+    elif jnp.shape(previous) != (steplimit, n_ants):
+        raise JacoError(
+            f"walk: previous must be the (steplimit, n_ants) = {(steplimit, n_ants)} edges of the last walk, "
+            f"got shape {jnp.shape(previous)}"
+        )
+    q0 = jnp.asarray(q0, jnp.float32)
+    args = (weights, key_words(key), problem.start, problem.goal, q0, problem.offsets, previous)
     kw: dict[str, Any] = dict(n_ants=n_ants, steplimit=steplimit, exploit=bool(exploit))
     return _tours(*native.dispatch(functools.partial(native.walk, **kw), functools.partial(jax_walk, **kw), *args))
 
@@ -150,12 +165,14 @@ def jax_walk(
     goal: Any,
     q0: jax.Array | float,
     offsets: Any,
+    previous: jax.Array | None = None,
     *,
     n_ants: int,
     steplimit: int,
     exploit: bool,
 ) -> tuple[jax.Array, ...]:
-    """The walk in JAX, every ant on its own lane until the last one stops.
+    """The walk in JAX, every ant on its own lane until the last one stops (``previous`` is not
+    read: the native walk's buffer to write over, :func:`walk`).
 
     Returns ``edges (steplimit, A)``, ``from·8 + move`` of every step (``8N`` where no step), and
     ``cells (steplimit, A)``, the cell entered (-1 where no step), ``n_steps (A,)``, ``n_diagonal (A,)`` (its diagonal steps), ``arrived (A,)``

@@ -16,7 +16,8 @@ struct LaneColony {
   int64_t ant_begin, ant_end;  // the ants this call walks (the colony's ants may be split between threads)
   bool exploit;
   int32_t* edges;         // (S, A), S = steplimit: from·8 + move of each step, 8N where no step
-                          // (the cells entered follow from it: jaco.engine.native.walk)
+                          // (the cells entered follow from it: jaco.engine.native.walk); on entry
+                          // the last walks' edges, each column its steps and then 8N
   int32_t* n_steps;       // (A,)
   int32_t* n_diagonal;    // (A,)
   bool* arrived;          // (A,)

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..engine import pheromone as ph
 from ..engine.colony import ALPHA, Colony, move_weights, step_targets
+from ..engine.native import no_steps
 from ..engine.walk import Tours, walk
 from ..moves import MOVES
 from .compose import component, compose
@@ -185,6 +186,7 @@ class Crossed(NamedTuple):
     candidates: Tours  # (2S, 3A): colony 1, colony 2 reversed, splices, in this order
     cost: jax.Array  # (3, A)
     population: jax.Array  # the chosen one: COLONY1, COLONY2 or SPLICED
+    steps: jax.Array  # (2, S, A): both colonies' edges, for the next iteration's walks (Trail.steps)
 
 
 def double_walk(
@@ -206,17 +208,18 @@ def double_walk(
     still refers to the original goal and must not be used by a double-colony heuristic."""
     exploit = planner.transition == "pseudo-random"
 
-    def colony(start, goal, k):
+    def colony(start, goal, k, previous):
         prob = dataclasses.replace(problem, start=start, goal=goal)
         weights = move_weights(planner, trail, prob, params, t, n_iters)
-        return walk(
-            prob, weights, k, params.q0 if exploit else 0.0, n_ants=n_ants, steplimit=steplimit, exploit=exploit
-        )
+        q0 = params.q0 if exploit else 0.0
+        return walk(prob, weights, k, q0, n_ants=n_ants, steplimit=steplimit, exploit=exploit, previous=previous)
 
     # Both colonies in one vmapped walk (one loop, one compiled body): colony 1 start → goal,
-    # colony 2 goal → start, each with its own key and its heuristic toward its own goal.
+    # colony 2 goal → start, each with its own key and its heuristic toward its own goal, each
+    # writing over its own last steps (trail.steps, (2, S, A)).
     ends = jnp.stack([problem.start, problem.goal])
-    both = jax.vmap(colony)(ends, ends[::-1], jax.random.split(key))
+    previous = trail.steps if trail.steps is not None else no_steps((2,), steplimit, n_ants, problem.nbr.shape[0])
+    both = jax.vmap(colony)(ends, ends[::-1], jax.random.split(key), previous)
     tours1, tours2 = (jax.tree.map(lambda v, i=i: v[i], both) for i in range(2))
     n_cells = problem.nbr.shape[0]
     sp = crossover(tours1.cells, tours1.moves, tours2.cells, tours2.moves, problem.start, problem.goal, n_cells)
@@ -237,7 +240,7 @@ def double_walk(
     walked = tours1.n_steps + tours2.n_steps
     cand = _candidates(cells, moves, arrived, jnp.tile(walked, 3), tours1.visited | tours2.visited)
     cost = jnp.where(arrived, planner.cost(cand, problem, params), jnp.inf).reshape(3, n_ants)
-    return Crossed(tours1, tours2, sp, cand, cost, best_population(cost))
+    return Crossed(tours1, tours2, sp, cand, cost, best_population(cost), both.edges)
 
 
 def double_colony(
@@ -264,7 +267,8 @@ def double_colony(
     cells, moves = pick(c.cells), pick(c.moves)
     targets = step_targets(planner.pheromone_on, cells, moves, problem.start, problem.nbr.shape[0])
     cost = x.cost[x.population]
-    return trail, Colony(cells, targets, pick(c.step_len), cost, pick(c.length), pick(c.n_steps), c.visited)
+    colony = Colony(cells, targets, pick(c.step_len), cost, pick(c.length), pick(c.n_steps), c.visited)
+    return trail._replace(steps=x.steps), colony
 
 
 # -- pheromone pieces of IDACA --------------------------------------------------------------
