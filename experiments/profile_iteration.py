@@ -13,7 +13,8 @@ jitted and timed alone (process CPU time and wall time, best of ``reps``), once 
 * weights: τ^α η^β for every move (:func:`jaco.engine.colony.move_weights`: the native kernel with
   the native walk, XLA with the JAX walk; jitted alone, β·log η is computed every call);
 * walk: the ants' walks alone — the C++ kernel (:func:`jaco.engine.native.walk`) or the JAX walk
-  (:func:`jaco.engine.walk.jax_walk`), the same moves;
+  (:func:`jaco.engine.walk.jax_walk`), the same moves; called alone, the kernel's step buffer is a
+  new one filled with "no step" every call (in a run it writes over the last iteration's);
 * tours: step lengths, path lengths and the pheromone element of every step (the walk gives the
   latter as its edges: what remains is the lengths);
 * pheromone update: evaporation and the ant-cycle deposit (the kernel's deposit with the native
