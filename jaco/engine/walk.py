@@ -145,9 +145,7 @@ def walk(
     walk writes its steps over them in place, so no iteration clears all ``steplimit × n_ants``
     step slots; the JAX walk writes a new buffer. The moves are the same either way.
     """
-    if previous is None:
-        previous = native.no_steps((), steplimit, n_ants, weights.shape[-2])
-    elif jnp.shape(previous) != (steplimit, n_ants):
+    if previous is not None and jnp.shape(previous) != (steplimit, n_ants):
         raise JacoError(
             f"walk: previous must be the (steplimit, n_ants) = {(steplimit, n_ants)} edges of the last walk, "
             f"got shape {jnp.shape(previous)}"

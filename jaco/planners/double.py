@@ -20,7 +20,6 @@ import numpy as np
 
 from ..engine import pheromone as ph
 from ..engine.colony import ALPHA, Colony, move_weights, step_targets
-from ..engine.native import no_steps
 from ..engine.walk import Tours, walk
 from ..moves import MOVES
 from .compose import component, compose
@@ -218,8 +217,7 @@ def double_walk(
     # colony 2 goal → start, each with its own key and its heuristic toward its own goal, each
     # writing over its own last steps (trail.steps, (2, S, A)).
     ends = jnp.stack([problem.start, problem.goal])
-    previous = trail.steps if trail.steps is not None else no_steps((2,), steplimit, n_ants, problem.nbr.shape[0])
-    both = jax.vmap(colony)(ends, ends[::-1], jax.random.split(key), previous)
+    both = jax.vmap(colony)(ends, ends[::-1], jax.random.split(key), trail.steps)
     tours1, tours2 = (jax.tree.map(lambda v, i=i: v[i], both) for i in range(2))
     n_cells = problem.nbr.shape[0]
     sp = crossover(tours1.cells, tours1.moves, tours2.cells, tours2.moves, problem.start, problem.goal, n_cells)
